@@ -1,0 +1,112 @@
+"""Index constants of the flat float64 arrays the kernels take (MODEL.md §6.4).
+
+Three arrays travel between Python and the jitted kernels:
+
+* ``kp``  — physical constants (primary and derived), built by :meth:`spine_gym.params.ModelParams.to_kernel`.
+* ``ks``  — solver options, built by :meth:`spine_gym.params.SolverOptions.to_kernel`.
+* ``state`` — the full model state of one spine (dynamic states, last mechanical solution,
+  Newton sensitivity and energy accumulators). Its length depends on the segment count N.
+
+Flat arrays (rather than structs) make a batch of spines a 2-D array, one row per environment,
+which is what the vector environment and the design sweeps need.
+"""
+
+from __future__ import annotations
+
+# ---------------------------------------------------------------- kp: physical constants
+(
+    K_EA,  # [Pa] austenite modulus
+    K_EM,  # [Pa] martensite modulus
+    K_EPST,  # [-] transformation strain eps_T
+    K_DSIG,  # [Pa] gap between the instability stresses, Δσ
+    K_KE,  # [1/Pa] k_E = 1/E_M - 1/E_A
+    K_DETA,  # [J/(m^3 K)] entropy jump Δη
+    K_DU,  # [J/m^3] internal-energy jump Δu
+    K_VLKB,  # [K m^3/J] V_L / k_B   (λ = V_L/(k_B T))
+    K_INVTAU,  # [1/s] 1/τ
+    K_RHOC,  # [J/(m^3 K)] ρ c
+    K_LAMA,  # [Ω m] resistivity of austenite
+    K_LAMP,  # [Ω m] resistivity of M+
+    K_LAMM,  # [Ω m] resistivity of M-
+    K_ASV,  # [W/(m^3 K)] α S_V, S_V = 4/d
+    K_TE,  # [K] ambient temperature
+    K_L0,  # [m] wire length in the straight spine
+    K_LREF,  # [m] stress-free wire length L0/(1+eps0)
+    K_EPS0,  # [-] pre-strain
+    K_AW,  # [m^2] cross-section of one wire
+    K_NW,  # [-] wires per side (float)
+    K_A,  # [m] wire offset a
+    K_LS,  # [m] segment arc length
+    K_EI,  # [N m^2] tube bending stiffness E_t I
+    K_MSEG,  # [kg] mass per segment
+    K_MTOP,  # [kg] top-disk mass
+    K_G,  # [m/s^2] gravity
+    K_NSEG,  # [-] segment count N (float)
+    K_TMAX,  # [K] temperature above which the kernel declares a failure (sanity bound)
+    KP_SIZE,
+) = range(29)
+
+# ---------------------------------------------------------------- ks: solver options
+(
+    S_C,  # [-] adaptive criterion c: r·h <= c (MODEL.md §6.1 b)
+    S_HMIN,  # [s] smallest adaptive sub-step
+    S_HMAX,  # [s] largest sub-step (inf: the output step)
+    S_TOLM,  # [N m] moment tolerance of the composite solve
+    S_TOLTH,  # [rad] shape-iteration tolerance (max |ΔΔθ_n|)
+    S_MAXSHAPE,  # [-] cap on shape passes per shape solve
+    S_MAXROOT,  # [-] cap on outer iterations of the composite solve
+    S_METHOD,  # [-] 0 bisection (seed), 1 Illinois (bracketed), 2 coupled Newton (default)
+    S_MAXSUB,  # [-] cap on sub-steps per output step
+    KS_SIZE,
+) = range(10)
+
+METHOD_BISECT = 0
+METHOD_ILLINOIS = 1
+METHOD_NEWTON = 2
+METHODS = {"bisect": METHOD_BISECT, "illinois": METHOD_ILLINOIS, "newton": METHOD_NEWTON}
+
+# ---------------------------------------------------------------- state vector
+(
+    X_PR,  # x+ right wire
+    X_MR,  # x- right wire
+    X_PL,  # x+ left wire
+    X_ML,  # x- left wire
+    X_TR,  # [K] temperature right
+    X_TL,  # [K] temperature left
+    X_MW,  # [N m] wire moment of the last mechanical solution
+    X_SR,  # [Pa] stress right
+    X_SL,  # [Pa] stress left
+    X_ER,  # [-] strain right
+    X_EL,  # [-] strain left
+    X_TIME,  # [s] model time
+    X_QJR,  # [J/m^3] accumulated Joule heat, right wire (per unit volume)
+    X_QJL,  # [J/m^3] accumulated Joule heat, left wire
+    X_QCR,  # [J/m^3] accumulated convective loss, right
+    X_QCL,  # [J/m^3] accumulated convective loss, left
+    X_QLR,  # [J/m^3] accumulated latent heat released into the wire, right
+    X_QLL,  # [J/m^3] accumulated latent heat released into the wire, left
+    X_HEAD,  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
+) = range(19)
+
+
+def state_size(n_seg: int) -> int:
+    """Length of the state vector for ``n_seg`` segments."""
+    return X_HEAD + 2 * n_seg
+
+
+# ---------------------------------------------------------------- status codes
+OK = 0
+ERR_SHAPE = 1  # shape iteration did not converge (e.g. beyond buckling)
+ERR_ROOT = 2  # composite solve did not converge
+ERR_NONFINITE = 3  # a non-finite number appeared
+ERR_SUBSTEPS = 4  # more sub-steps than allowed in one output step
+ERR_TEMPERATURE = 5  # wire temperature outside the model's range
+
+STATUS_TEXT = {
+    OK: "ok",
+    ERR_SHAPE: "shape iteration did not converge (load beyond buckling or iteration cap too small)",
+    ERR_ROOT: "composite constitutive/bending solve did not converge",
+    ERR_NONFINITE: "a non-finite value appeared in the model state",
+    ERR_SUBSTEPS: "more adaptive sub-steps than allowed in one output step",
+    ERR_TEMPERATURE: "a wire temperature left the model's valid range",
+}

@@ -1,0 +1,169 @@
+"""Müller–Achenbach–Seelecke (MAS) wire model, per unit volume (MODEL.md §3).
+
+Pure jitted kernels: scalars and the constant array ``kp`` in, scalars out. Energies and stresses
+are in J/m^3 ≡ Pa. Nothing here knows about the spine; :mod:`spine_gym.physics.solver` couples it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import jit
+from .layout import (
+    K_DETA,
+    K_DSIG,
+    K_DU,
+    K_EA,
+    K_EM,
+    K_EPST,
+    K_INVTAU,
+    K_KE,
+    K_LAMA,
+    K_LAMM,
+    K_LAMP,
+    K_VLKB,
+)
+
+EXP_CLAMP = 700.0  # MODEL.md §6.3.1: exp(-min(λΔG, 700)); never exp of a huge argument
+
+
+@jit
+def landscape(T, kp):
+    """Temperature-dependent free-energy landscape (MODEL.md §3.1).
+
+    Args:
+        T: wire temperature [K].
+        kp: kernel constants.
+
+    Returns:
+        (σ_A, σ_M, ε_A, ε_M, Δβ): instability stresses [Pa], branch strains [-], energy lift [J/m^3].
+    """
+    E_A = kp[K_EA]
+    E_M = kp[K_EM]
+    eps_T = kp[K_EPST]
+    dsig = kp[K_DSIG]
+    k_E = kp[K_KE]
+    dbeta = kp[K_DU] - T * kp[K_DETA]
+    B = 2.0 * eps_T - k_E * dsig
+    C = 2.0 * dbeta - eps_T * dsig
+    # root of k_E s^2 + B s + C = 0 in its cancellation-free form
+    sig_A = -2.0 * C / (B + math.sqrt(B * B - 4.0 * k_E * C))
+    if sig_A < 0.0:  # low-temperature clamp (MODEL.md §3.1, §6.3.2)
+        sig_A = 0.0
+        dbeta = 0.5 * eps_T * dsig
+    sig_M = sig_A - dsig
+    eps_A = sig_A / E_A
+    eps_M = eps_T + sig_M / E_M
+    return sig_A, sig_M, eps_A, eps_M, dbeta
+
+
+@jit
+def helmholtz(eps, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta):
+    """Helmholtz free energy ψ(ε) of §3.2 (even in ε), in the numerically friendly branch form."""
+    u = abs(eps)
+    if u <= eps_A:
+        return 0.5 * E_A * u * u + dbeta
+    if u < eps_M:
+        du = u - eps_A
+        return 0.5 * E_A * eps_A * eps_A + dbeta + sig_A * du - dsig * du * du / (2.0 * (eps_M - eps_A))
+    dm = u - eps_T
+    return 0.5 * E_M * dm * dm
+
+
+@jit
+def barriers(sigma, T, kp):
+    """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3).
+
+    Returns:
+        (ΔG₊A, ΔG_A₊, ΔG₋A, ΔG_A₋) [J/m^3], all >= 0.
+    """
+    E_A = kp[K_EA]
+    E_M = kp[K_EM]
+    eps_T = kp[K_EPST]
+    dsig = kp[K_DSIG]
+    sig_A, sig_M, eps_A, eps_M, dbeta = landscape(T, kp)
+    w = eps_M - eps_A
+    e1 = min(-eps_T + sigma / E_M, -eps_M)
+    e2 = min(max(-eps_A - (sigma + sig_A) * w / dsig, -eps_M), -eps_A)
+    e3 = min(max(sigma / E_A, -eps_A), eps_A)
+    e4 = min(max(eps_A + (sig_A - sigma) * w / dsig, eps_A), eps_M)
+    e5 = max(eps_T + sigma / E_M, eps_M)
+    g1 = helmholtz(e1, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e1
+    g2 = helmholtz(e2, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e2
+    g3 = helmholtz(e3, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e3
+    g4 = helmholtz(e4, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e4
+    g5 = helmholtz(e5, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e5
+    # roundoff must never make a barrier negative (MODEL.md §6.3.1)
+    return max(g4 - g5, 0.0), max(g4 - g3, 0.0), max(g2 - g1, 0.0), max(g2 - g3, 0.0)
+
+
+@jit
+def rates(sigma, T, kp):
+    """Thermally activated transition probabilities (MODEL.md §3.4).
+
+    Returns:
+        (p₊A, p_A₊, p₋A, p_A₋) [1/s], each in [0, 1/τ].
+    """
+    dGpA, dGAp, dGmA, dGAm = barriers(sigma, T, kp)
+    lam = kp[K_VLKB] / T
+    inv_tau = kp[K_INVTAU]
+    return (
+        inv_tau * math.exp(-min(lam * dGpA, EXP_CLAMP)),
+        inv_tau * math.exp(-min(lam * dGAp, EXP_CLAMP)),
+        inv_tau * math.exp(-min(lam * dGmA, EXP_CLAMP)),
+        inv_tau * math.exp(-min(lam * dGAm, EXP_CLAMP)),
+    )
+
+
+@jit
+def latent_heats(sigma, kp):
+    """Transformation enthalpies L± = h_A − h_M± (MODEL.md §3.8) [J/m^3], > 0 in the working range."""
+    base = kp[K_DU] + 0.5 * kp[K_KE] * sigma * sigma
+    se = sigma * kp[K_EPST]
+    return base + se, base - se
+
+
+@jit
+def compliance(xp, xm, kp):
+    """Phase-mixed compliance (x₊ + x₋)/E_M + x_A/E_A [1/Pa] of the constitutive law (§3.6)."""
+    xa = 1.0 - xp - xm
+    return (xp + xm) / kp[K_EM] + xa / kp[K_EA]
+
+
+@jit
+def stress(eps, xp, xm, kp):
+    """Constitutive law with slack (MODEL.md §3.6): σ = max((ε − ε_T(x₊−x₋)) / compliance, 0) [Pa]."""
+    s = (eps - kp[K_EPST] * (xp - xm)) / compliance(xp, xm, kp)
+    return s if s > 0.0 else 0.0
+
+
+@jit
+def resistivity(xp, xm, kp):
+    """Resistivity mixing ρ_e = λ_A x_A + λ_M₊ x₊ + λ_M₋ x₋ [Ω m] (MODEL.md §3.7)."""
+    return kp[K_LAMA] * (1.0 - xp - xm) + kp[K_LAMP] * xp + kp[K_LAMM] * xm
+
+
+@jit
+def phase_step(xp, xm, h, ppA, pAp, pmA, pAm):
+    """Implicit Euler of the phase kinetics §3.5 with rates frozen over h (MODEL.md §6.1 c).
+
+    Solves the 2x2 system exactly (Cramer). (I − hK)^{-1} of a rate generator is non-negative, so
+    the update is unconditionally stable and keeps the fractions in [0, 1] up to roundoff, which is
+    clipped (§6.3.5).
+    """
+    a11 = 1.0 + h * (ppA + pAp)
+    a12 = h * pAp
+    a21 = h * pAm
+    a22 = 1.0 + h * (pmA + pAm)
+    b1 = xp + h * pAp
+    b2 = xm + h * pAm
+    det = a11 * a22 - a12 * a21
+    xp_new = (b1 * a22 - a12 * b2) / det
+    xm_new = (a11 * b2 - a21 * b1) / det
+    xp_new = min(max(xp_new, 0.0), 1.0)
+    xm_new = min(max(xm_new, 0.0), 1.0)
+    s = xp_new + xm_new
+    if s > 1.0:  # roundoff: x_A would be a tiny negative
+        xp_new /= s
+        xm_new /= s
+    return xp_new, xm_new

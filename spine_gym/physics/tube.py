@@ -1,0 +1,133 @@
+"""Segmented-line quasi-static bending of the tube (MODEL.md §4).
+
+Segment n = 1 … N is stored at index n−1 (index 0 is the top segment, next to the top disk).
+Vertex k = 0 … N is the ring centre P_k (P_0 the top-disk vertex, P_N the clamped base at (0, 0)).
+Loads: ``vforce[k]`` is an external force (global x, y) [N] acting at vertex P_k, k = 0 … N−1;
+``vforce[0]`` is the tip force. Gravity acts on each segment at its chord midpoint and on the
+top disk at P_0. Angles are clockwise-positive, i.e. positive = bending toward +x (the right wire).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import jit
+from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
+
+
+@jit
+def chord(dth, ls):
+    """Chord length of an arc of length ls bent by dth [rad] (MODEL.md §4.3)."""
+    if abs(dth) < 1e-8:
+        return ls * (1.0 - dth * dth / 24.0)
+    return 2.0 * ls / dth * math.sin(0.5 * dth)
+
+
+@jit
+def shape_pass(dth, m_w, vforce, kp, out):
+    """One pass of the iterative shape algorithm (MODEL.md §4.3–4.7).
+
+    From the current angles ``dth`` (N,) compute inclinations and vertices bottom-up, then forces
+    and moments top-down, and write the new segment angles into ``out`` (N,).
+
+    Returns:
+        max_n |out_n − dth_n| [rad].
+    """
+    n = dth.shape[0]
+    ls = kp[K_LS]
+    ei = kp[K_EI]
+    g = kp[K_G]
+    w_seg = kp[K_MSEG] * g
+    # Inclination of segment n: φ_n = Σ_{k>n} Δθ_k + ½Δθ_n, the closed form of the bottom-up
+    # recursion φ_N = ½Δθ_N, φ_n = φ_{n+1} + ½(Δθ_{n+1} + Δθ_n). Written top-down it lets one
+    # loop build the chord vectors r_n = P_{n-1} − P_n and the moments without work arrays.
+    below = 0.0
+    for i in range(n):
+        below += dth[i]
+    fx = 0.0
+    fy = -kp[K_MTOP] * g
+    m_prev = m_w
+    err = 0.0
+    k_ang = 0.5 * ls / ei
+    for i in range(n):
+        below -= dth[i]
+        phi = below + 0.5 * dth[i]
+        c = chord(dth[i], ls)
+        rx = c * math.sin(phi)
+        ry = c * math.cos(phi)
+        fx += vforce[i, 0]
+        fy += vforce[i, 1]
+        # §4.6: (P_{n-1}-P_n) ⊗ F + (Q_n-P_n) ⊗ W_n, r ⊗ F = r_y F_x − r_x F_y, W_n = (0, −m g)
+        m_next = m_prev + (ry * fx - rx * fy) + 0.5 * rx * w_seg
+        new = k_ang * (m_prev + m_next)  # §4.7 trapezoid of the end moments
+        d = abs(new - dth[i])
+        if d > err:
+            err = d
+        out[i] = new
+        fy -= w_seg
+        m_prev = m_next
+    return err
+
+
+@jit
+def solve_shape(dth, m_w, vforce, kp, tol, max_iter):
+    """Fixed-point shape iteration for a given wire moment (MODEL.md §4.9), in place on ``dth``.
+
+    Warm-started from the incoming ``dth``. If the update grows (near buckling) the iteration
+    under-relaxes, Δθ ← Δθ + ω (Δθ_new − Δθ), halving ω each time (§6.3.7).
+
+    Returns:
+        (status, iterations): status is OK or ERR_SHAPE when ``max_iter`` passes were not enough.
+    """
+    n = dth.shape[0]
+    new = np.empty(n)
+    omega = 1.0
+    err_prev = np.inf
+    for it in range(1, max_iter + 1):
+        err = shape_pass(dth, m_w, vforce, kp, new)
+        if not math.isfinite(err):
+            return ERR_SHAPE, it
+        if err > err_prev and it > 2 and omega > 0.05:
+            omega *= 0.5
+        for i in range(n):
+            dth[i] += omega * (new[i] - dth[i])
+        if err < tol:
+            return OK, it
+        err_prev = err
+    return ERR_SHAPE, max_iter
+
+
+@jit
+def wire_lengths(dth, kp):
+    """Right and left wire lengths [m] from the segment angles (MODEL.md §4.8)."""
+    ls = kp[K_LS]
+    a2 = 2.0 * kp[K_A]
+    n = dth.shape[0]
+    lr = kp[K_L0] - kp[K_NSEG] * ls
+    ll = lr
+    for i in range(n):
+        c = chord(dth[i], ls)
+        s = a2 * math.sin(0.5 * dth[i])
+        lr += c - s
+        ll += c + s
+    return lr, ll
+
+
+@jit
+def vertices(dth, kp):
+    """Vertex coordinates P_0 … P_N (rows, global x/y in m) of the bent spine (MODEL.md §4.3)."""
+    n = dth.shape[0]
+    ls = kp[K_LS]
+    p = np.zeros((n + 1, 2))
+    phi = 0.0
+    for i in range(n - 1, -1, -1):
+        if i == n - 1:
+            phi = 0.5 * dth[i]
+        else:
+            phi += 0.5 * (dth[i + 1] + dth[i])
+        c = chord(dth[i], ls)
+        p[i, 0] = p[i + 1, 0] + c * math.sin(phi)
+        p[i, 1] = p[i + 1, 1] + c * math.cos(phi)
+    return p
