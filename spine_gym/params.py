@@ -266,11 +266,11 @@ class SolverOptions:
     """
 
     method: str = "newton"
-    step_c: float = 0.02
+    step_c: float = 0.01
     h_min: float = 1e-5
     h_max: float = _INF
     tol_moment: float = 1e-8
-    tol_theta: float = 1e-10
+    tol_theta: float = 1e-9
     max_shape_iter: int = 500
     max_root_iter: int = 200
     max_substeps: int = 100_000

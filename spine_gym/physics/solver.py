@@ -213,7 +213,7 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     """Coupled Newton composite solve: one shape pass per iteration (see the module docstring).
 
     Returns:
-        (status, M, passes); on failure ``dth`` is left as on entry.
+        (status, M, passes, ε_R, ε_L, σ_R, σ_L) with the mechanics of the converged shape.
     """
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
@@ -226,9 +226,9 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
         slope = 1.0 - moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp)  # = −g'(M) >= 1
         dm = (gm - m) / slope
         if e < tol_th and abs(dm) < tol_m:
-            return OK, m, passes
+            return OK, m, passes, er, el, sr, sl
         if not math.isfinite(dm):
-            return ERR_NONFINITE, m, passes
+            return ERR_NONFINITE, m, passes, er, el, sr, sl
         m += dm
         for i in range(n):
             dth[i] += s[i] * dm
@@ -236,7 +236,7 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
         passes += 1
         for i in range(n):
             dth[i] = work[i]
-    return ERR_ROOT, m, passes
+    return ERR_ROOT, m, passes, 0.0, 0.0, 0.0, 0.0
 
 
 @jit
@@ -258,19 +258,22 @@ def composite(state, vforce, kp, ks, work, saved):
     if method == METHOD_NEWTON:
         for i in range(n):
             saved[i] = dth[i]
-        st, m, passes = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+        st, m, passes, er, el, sr, sl = composite_newton(
+            dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work
+        )
         if st != OK:  # safeguard: the bracketed solve from the untouched starting point
             for i in range(n):
                 dth[i] = saved[i]
             st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
             passes += p2
+            er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     else:
         st, m, passes = composite_bracketed(
             dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
         )
+        er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     if st != OK:
         return st, passes
-    er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     state[X_MW] = m
     state[X_ER] = er
     state[X_EL] = el
@@ -293,7 +296,7 @@ def _step_rate(xp, xm, ppA, pAp, pmA, pAm):
 
 
 @jit
-def advance(state, kp, ks, v_r, v_l, vforce, dt):
+def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     """Advance one spine by one output step ``dt`` with voltages and loads held (MODEL.md §6.1).
 
     Args:
@@ -302,6 +305,8 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt):
         v_r, v_l: voltage on each wire of the right / left side [V].
         vforce: (N, 2) external forces at the vertices P_0 … P_{N−1} [N], global x/y.
         dt: output step [s].
+        resolve: solve the mechanics first (needed when the loads changed since the last call;
+            callers that know the loads are unchanged pass False to save a solve).
 
     Returns:
         (status, sub-steps, shape passes).
@@ -313,9 +318,11 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt):
     dth = state[X_HEAD : X_HEAD + n]
     s = state[X_HEAD + n : X_HEAD + 2 * n]
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
-    st, passes = composite(state, vforce, kp, ks, work, saved)
-    if st != OK:
-        return st, 0, passes
+    passes = 0
+    if resolve:
+        st, passes = composite(state, vforce, kp, ks, work, saved)
+        if st != OK:
+            return st, 0, passes
     c_crit = ks[S_C]
     h_min = ks[S_HMIN]
     h_max = ks[S_HMAX]

@@ -103,15 +103,16 @@ def solve_shape(dth, m_w, vforce, kp, tol, max_iter):
 def wire_lengths(dth, kp):
     """Right and left wire lengths [m] from the segment angles (MODEL.md §4.8)."""
     ls = kp[K_LS]
-    a2 = 2.0 * kp[K_A]
+    a = kp[K_A]
     n = dth.shape[0]
     lr = kp[K_L0] - kp[K_NSEG] * ls
     ll = lr
     for i in range(n):
-        c = chord(dth[i], ls)
-        s = a2 * math.sin(0.5 * dth[i])
-        lr += c - s
-        ll += c + s
+        x = dth[i]
+        sh = math.sin(0.5 * x)  # one sine serves the chord and the lever term
+        c = ls * (1.0 - x * x / 24.0) if abs(x) < 1e-8 else 2.0 * ls * sh / x
+        lr += c - 2.0 * a * sh
+        ll += c + 2.0 * a * sh
     return lr, ll
 
 
@@ -131,3 +132,19 @@ def vertices(dth, kp):
         p[i, 0] = p[i + 1, 0] + c * math.sin(phi)
         p[i, 1] = p[i + 1, 1] + c * math.cos(phi)
     return p
+
+
+@jit
+def tip_position(dth, kp):
+    """Position (x, y) [m] of the top-disk vertex P_0 (no allocation; same geometry as vertices)."""
+    n = dth.shape[0]
+    ls = kp[K_LS]
+    x = 0.0
+    y = 0.0
+    phi = 0.0
+    for i in range(n - 1, -1, -1):
+        phi = 0.5 * dth[i] if i == n - 1 else phi + 0.5 * (dth[i + 1] + dth[i])
+        c = chord(dth[i], ls)
+        x += c * math.sin(phi)
+        y += c * math.cos(phi)
+    return x, y

@@ -1,0 +1,19 @@
+"""spine_gym: a physically faithful SMA-actuated robotic spine for control and RL research.
+
+``spine_gym.simulate`` runs the jitted model (MODEL.md); ``import spine_gym`` also registers the
+Gymnasium environment ``SmaSpine-v0``.
+"""
+
+from .params import ModelParams, SolverOptions, alternative, baseline
+from .simulate import SimulationError, SimulationResult, simulate
+
+__all__ = [
+    "ModelParams",
+    "SolverOptions",
+    "SimulationError",
+    "SimulationResult",
+    "alternative",
+    "baseline",
+    "simulate",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,251 @@
+"""``simulate()``: run the spine model over a voltage and load programme (MODEL.md §6).
+
+The time loop runs inside numba (:func:`spine_gym.physics.batch.run`); this module only turns
+user inputs (constants, arrays sampled at ``dt`` or callables of time) into arrays, validates them,
+and wraps the record in a :class:`SimulationResult`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .params import ModelParams, SolverOptions
+from .physics import batch
+from .physics import layout as L
+from .physics.solver import init_state
+
+__all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
+
+V_MAX_ALLOWED = 100.0  # [V] sanity bound on a wire voltage
+
+
+class SimulationError(RuntimeError):
+    """The model could not advance (a solver did not converge, a non-finite value appeared…)."""
+
+    def __init__(self, status: int, time: float):
+        self.status = int(status)
+        self.time = float(time)
+        super().__init__(f"simulation failed at t = {time:.4f} s: {L.STATUS_TEXT.get(status, status)}")
+
+
+@dataclass
+class SimulationResult:
+    """Trajectory of one simulation, sampled every ``dt`` (row 0 is t = 0).
+
+    Per side (``_right`` / ``_left``): temperature [K], stress [Pa], strain [-], phase fractions
+    x+, x-, x_A [-], resistance of one wire [Ω], applied voltage [V], electrical power of the side
+    [W], cumulative Joule energy of the side [J]. Spine: bending angle [deg] (positive toward the
+    right wire), wire moment [N m], tip position [m].
+    """
+
+    time: np.ndarray
+    angle_deg: np.ndarray
+    moment: np.ndarray
+    tip_x: np.ndarray
+    tip_y: np.ndarray
+    temperature_right: np.ndarray
+    temperature_left: np.ndarray
+    stress_right: np.ndarray
+    stress_left: np.ndarray
+    strain_right: np.ndarray
+    strain_left: np.ndarray
+    x_plus_right: np.ndarray
+    x_minus_right: np.ndarray
+    x_austenite_right: np.ndarray
+    x_plus_left: np.ndarray
+    x_minus_left: np.ndarray
+    x_austenite_left: np.ndarray
+    resistance_right: np.ndarray
+    resistance_left: np.ndarray
+    voltage_right: np.ndarray
+    voltage_left: np.ndarray
+    power_right: np.ndarray
+    power_left: np.ndarray
+    joule_energy_right: np.ndarray
+    joule_energy_left: np.ndarray
+    convective_loss_right: np.ndarray
+    convective_loss_left: np.ndarray
+    latent_heat_right: np.ndarray
+    latent_heat_left: np.ndarray
+    params: ModelParams = field(repr=False)
+    substeps: int = 0
+    shape_passes: int = 0
+    final_state: np.ndarray = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, np.ndarray]:
+        """The trajectories as a dict of numpy arrays (scalars and params left out)."""
+        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray) and k != "final_state"}
+
+    def at(self, t: float) -> int:
+        """Row index of the sample nearest to time ``t`` [s]."""
+        return int(np.argmin(np.abs(self.time - t)))
+
+    def __len__(self) -> int:
+        return self.time.shape[0]
+
+
+def _as_series(name: str, value, n: int, dt: float, shape: tuple[int, ...]) -> np.ndarray:
+    """Constant, array sampled at dt (n rows), or callable of t → array of shape (n, *shape)."""
+    if callable(value):
+        arr = np.array([np.asarray(value(k * dt), dtype=float) for k in range(n)], dtype=float)
+        if arr.shape != (n, *shape):
+            raise ValueError(f"{name}(t) must return shape {shape or 'scalar'}, got {arr.shape[1:]}")
+    else:
+        arr = np.asarray(value, dtype=float)
+        if arr.shape == shape:
+            arr = np.broadcast_to(arr, (n, *shape))
+        elif arr.shape != (n, *shape):
+            raise ValueError(
+                f"{name} must be a constant of shape {shape or '()'}, an array of shape {(n, *shape)} "
+                f"sampled at dt, or a callable of time; got shape {arr.shape}"
+            )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got NaN or inf")
+    return np.ascontiguousarray(arr)
+
+
+def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=None) -> np.ndarray:
+    """Vertex-force programme (n or 1, N, 2) [N] from a tip force and/or forces at every vertex.
+
+    ``tip_force``: None, (2,), (n, 2) or callable t → (2,) — global (x, y) force on the top disk.
+    ``vertex_forces``: None, (N, 2), (n, N, 2) or callable t → (N, 2) — force at vertex P_k,
+    k = 0 (top) … N−1 (the base P_N is clamped).
+    """
+    constant = (tip_force is None or np.shape(tip_force) == (2,)) and (
+        vertex_forces is None or np.shape(vertex_forces) == (n_seg, 2)
+    )
+    rows = 1 if constant else n
+    loads = np.zeros((rows, n_seg, 2))
+    if vertex_forces is not None:
+        loads += _as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 2))
+    if tip_force is not None:
+        loads[:, 0, :] += _as_series("tip_force", tip_force, rows, dt, (2,))
+    return loads
+
+
+def initial_state(params: ModelParams, solver: SolverOptions | None = None, loads=None) -> np.ndarray:
+    """The MODEL.md §3.10 initial state, solved under ``loads`` ((N, 2) vertex forces; default none)."""
+    solver = solver or SolverOptions()
+    state = np.zeros(L.state_size(params.n_seg))
+    vf = np.zeros((params.n_seg, 2)) if loads is None else np.asarray(loads, dtype=float)
+    st = init_state(state, params.to_kernel(), solver.to_kernel(), vf)
+    if st != L.OK:
+        raise SimulationError(st, 0.0)
+    return state
+
+
+def simulate(
+    duration: float,
+    voltage_right: float | np.ndarray | Callable[[float], float],
+    voltage_left: float | np.ndarray | Callable[[float], float],
+    *,
+    dt: float = 0.01,
+    tip_force=None,
+    vertex_forces=None,
+    params: ModelParams | None = None,
+    solver: SolverOptions | None = None,
+    state: np.ndarray | None = None,
+) -> SimulationResult:
+    """Simulate the SMA spine for ``duration`` seconds.
+
+    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
+
+    Args:
+        duration: simulated time [s], > 0; rounded to a whole number of steps.
+        voltage_right, voltage_left: voltage on each wire of a side [V], in [0, 100]: a constant,
+            an array of ``round(duration/dt)`` samples, or a callable of time.
+        dt: output step [s], in (0, 1].
+        tip_force: force on the top disk, global (x, y) [N] (see :func:`build_loads`).
+        vertex_forces: forces at the ring vertices (see :func:`build_loads`).
+        params: model parameters (default: MODEL.md §7 baseline).
+        solver: numerical options (default :class:`SolverOptions`).
+        state: start from this state (e.g. ``previous.final_state``) instead of §3.10.
+
+    Returns:
+        A :class:`SimulationResult`.
+
+    Raises:
+        ValueError: an input out of range (the message names it).
+        SimulationError: the model could not advance; never returns NaN.
+    """
+    params = params or ModelParams()
+    solver = solver or SolverOptions()
+    if not isinstance(params, ModelParams):
+        raise ValueError(f"params must be a ModelParams, got {type(params).__name__}")
+    if not isinstance(solver, SolverOptions):
+        raise ValueError(f"solver must be a SolverOptions, got {type(solver).__name__}")
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
+        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
+    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
+        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
+    n = max(1, int(round(duration / dt)))
+    v_r = _as_series("voltage_right", voltage_right, n, dt, ())
+    v_l = _as_series("voltage_left", voltage_left, n, dt, ())
+    for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
+        if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
+            raise ValueError(f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]")
+    loads = build_loads(params.n_seg, n, dt, tip_force, vertex_forces)
+    kp = params.to_kernel()
+    ks = solver.to_kernel()
+    if state is None:
+        state = initial_state(params, solver, loads[0])
+    else:
+        state = np.array(state, dtype=float)
+        if state.shape != (L.state_size(params.n_seg),):
+            raise ValueError(f"state must have shape ({L.state_size(params.n_seg)},), got {state.shape}")
+    t0 = state[L.X_TIME]
+    out = batch.empty_record(n)
+    st, k, nsub, npass = batch.run(state, kp, ks, v_r, v_l, loads, dt, out)
+    if st != L.OK:
+        raise SimulationError(st, t0 + k * dt)
+    return _result(out, v_r, v_l, dt, t0, params, nsub, npass, state)
+
+
+def _result(out, v_r, v_l, dt, t0, params: ModelParams, nsub, npass, state) -> SimulationResult:
+    n = v_r.shape[0]
+    vol = params.wire_volume * params.n_w  # [m^3] of one side
+    r_wire = out[:, batch.OUT_RES_R] * params.L0 / params.wire_area
+    l_wire = out[:, batch.OUT_RES_L] * params.L0 / params.wire_area
+    # voltage of a sample = the one applied over the step that ends there (row 0: the first one)
+    vr = np.concatenate([v_r[:1], v_r])
+    vl = np.concatenate([v_l[:1], v_l])
+    x = out
+    return SimulationResult(
+        time=t0 + dt * np.arange(n + 1),
+        angle_deg=np.degrees(x[:, batch.OUT_ANGLE]),
+        moment=x[:, L.X_MW].copy(),
+        tip_x=x[:, batch.OUT_TIP_X].copy(),
+        tip_y=x[:, batch.OUT_TIP_Y].copy(),
+        temperature_right=x[:, L.X_TR].copy(),
+        temperature_left=x[:, L.X_TL].copy(),
+        stress_right=x[:, L.X_SR].copy(),
+        stress_left=x[:, L.X_SL].copy(),
+        strain_right=x[:, L.X_ER].copy(),
+        strain_left=x[:, L.X_EL].copy(),
+        x_plus_right=x[:, L.X_PR].copy(),
+        x_minus_right=x[:, L.X_MR].copy(),
+        x_austenite_right=1.0 - x[:, L.X_PR] - x[:, L.X_MR],
+        x_plus_left=x[:, L.X_PL].copy(),
+        x_minus_left=x[:, L.X_ML].copy(),
+        x_austenite_left=1.0 - x[:, L.X_PL] - x[:, L.X_ML],
+        resistance_right=r_wire,
+        resistance_left=l_wire,
+        voltage_right=vr,
+        voltage_left=vl,
+        power_right=params.n_w * vr**2 / r_wire,
+        power_left=params.n_w * vl**2 / l_wire,
+        joule_energy_right=x[:, L.X_QJR] * vol,
+        joule_energy_left=x[:, L.X_QJL] * vol,
+        convective_loss_right=x[:, L.X_QCR] * vol,
+        convective_loss_left=x[:, L.X_QCL] * vol,
+        latent_heat_right=x[:, L.X_QLR] * vol,
+        latent_heat_left=x[:, L.X_QLL] * vol,
+        params=params,
+        substeps=int(nsub),
+        shape_passes=int(npass),
+        final_state=state,
+    )
