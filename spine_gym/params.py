@@ -118,6 +118,8 @@ class ModelParams:
             _check(f.name, v, lo, hi)
         if self.D_i >= self.D_o:
             raise ValueError(f"D_i must be < D_o = {self.D_o:g} m, got {self.D_i!r}")
+        if self.E_M > self.E_A:  # keeps k_E >= 0, so σ_A(T) of §3.1 is a real root at every T
+            raise ValueError(f"E_M must be <= E_A = {self.E_A:g} Pa, got {self.E_M!r}")
         if self.T_high <= self.T_low:
             raise ValueError(f"T_high must be > T_low = {self.T_low:g} K, got {self.T_high!r}")
         if self.eps_T <= self.dsigma / self.E_M:  # MODEL.md §3.1 requirement, §6.3.3

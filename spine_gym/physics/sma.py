@@ -46,11 +46,14 @@ def landscape(T, kp):
     dbeta = kp[K_DU] - T * kp[K_DETA]
     B = 2.0 * eps_T - k_E * dsig
     C = 2.0 * dbeta - eps_T * dsig
-    # root of k_E s^2 + B s + C = 0 in its cancellation-free form
-    sig_A = -2.0 * C / (B + math.sqrt(B * B - 4.0 * k_E * C))
-    if sig_A < 0.0:  # low-temperature clamp (MODEL.md §3.1, §6.3.2)
+    if C >= 0.0:
+        # σ_A = −2C/(B + …) would be <= 0: low-temperature clamp (MODEL.md §3.1, §6.3.2). Testing C
+        # first also avoids the negative discriminant that very low temperatures would give.
         sig_A = 0.0
         dbeta = 0.5 * eps_T * dsig
+    else:
+        # root of k_E s^2 + B s + C = 0 in its cancellation-free form (C < 0: real and positive)
+        sig_A = -2.0 * C / (B + math.sqrt(B * B - 4.0 * k_E * C))
     sig_M = sig_A - dsig
     eps_A = sig_A / E_A
     eps_M = eps_T + sig_M / E_M
