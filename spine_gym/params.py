@@ -28,7 +28,11 @@ def _check(name: str, value, lo: float, hi: float, *, lo_open: bool = False, hi_
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a real number, got {value!r}") from None
     infinite_ok = v == _INF and hi == _INF and not hi_open
-    bad = (not math.isfinite(v) and not infinite_ok) or (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi)
+    bad = (
+        (not math.isfinite(v) and not infinite_ok)
+        or (v <= lo if lo_open else v < lo)
+        or (v >= hi if hi_open else v > hi)
+    )
     if bad:
         lb = "(" if lo_open else "["
         rb = ")" if hi_open else "]"
@@ -219,13 +223,11 @@ class ModelParams:
         kp[L.K_TMAX] = 2000.0
         return kp
 
-    def replace(self, **changes) -> "ModelParams":
+    def replace(self, **changes) -> ModelParams:
         """A validated copy with ``changes`` applied (``dataclasses.replace``)."""
         unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
         if unknown:
-            raise ValueError(
-                f"unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}"
-            )
+            raise ValueError(f"unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}")
         return dataclasses.replace(self, **changes)
 
 
@@ -303,6 +305,6 @@ class SolverOptions:
         ks[L.S_MAXSUB] = self.max_substeps
         return ks
 
-    def replace(self, **changes) -> "SolverOptions":
+    def replace(self, **changes) -> SolverOptions:
         """A validated copy with ``changes`` applied."""
         return dataclasses.replace(self, **changes)

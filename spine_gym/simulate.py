@@ -187,7 +187,9 @@ def simulate(
     v_l = _as_series("voltage_left", voltage_left, n, dt, ())
     for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
         if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
-            raise ValueError(f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]")
+            raise ValueError(
+                f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]"
+            )
     loads = build_loads(params.n_seg, n, dt, tip_force, vertex_forces)
     kp = params.to_kernel()
     ks = solver.to_kernel()

@@ -32,7 +32,15 @@ def test_alternative_preset():
 
 @pytest.mark.parametrize(
     "field, value",
-    [("E_t", -1.0), ("alpha", float("nan")), ("a", 0.0), ("n_w", 0), ("n_w", 1.5), ("tau", math.inf), ("d", "thick")],
+    [
+        ("E_t", -1.0),
+        ("alpha", float("nan")),
+        ("a", 0.0),
+        ("n_w", 0),
+        ("n_w", 1.5),
+        ("tau", math.inf),
+        ("d", "thick"),
+    ],
 )
 def test_bad_model_values_name_the_field_and_range(field, value):
     with pytest.raises(ValueError) as exc:

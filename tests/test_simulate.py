@@ -170,7 +170,10 @@ def test_composite_solvers_give_the_same_trajectory():
     # the seed's bisection and the default coupled Newton agree to within the time-discretisation
     # error (both converge to the same fine-step limit; MODEL.md §5.2)
     opts = dict(step_c=0.003)
-    runs = {m: simulate(25.0, HYST_V, 0.0, solver=SolverOptions(method=m, **opts)) for m in ("newton", "illinois", "bisect")}
+    runs = {
+        m: simulate(25.0, HYST_V, 0.0, solver=SolverOptions(method=m, **opts))
+        for m in ("newton", "illinois", "bisect")
+    }
     a = runs["newton"].angle_deg
     for m in ("illinois", "bisect"):
         assert np.max(np.abs(a - runs[m].angle_deg)) < 0.12, m
@@ -191,7 +194,11 @@ def test_tip_force_capacity_load_reproduces_reference():
 
 @pytest.mark.parametrize(
     "params, stable, ability",
-    [(ModelParams(a=0.006), 79.03, 0.057), (ModelParams(a=0.010), 64.80, 0.112), (ModelParams(n_w=3), 55.59, 0.355)],
+    [
+        (ModelParams(a=0.006), 79.03, 0.057),
+        (ModelParams(a=0.010), 64.80, 0.112),
+        (ModelParams(n_w=3), 55.59, 0.355),
+    ],
 )
 def test_design_study_reference_rows(params, stable, ability):
     m = capacity_metrics(params)
@@ -271,7 +278,9 @@ def test_bad_inputs_raise_clear_errors(kwargs, match):
 def test_forced_non_convergence_raises_never_nan():
     # an iteration cap far too small for a loaded spine: the solver reports failure, simulate raises
     with pytest.raises(SimulationError, match="did not converge") as exc:
-        simulate(2.0, 3.2, 0.0, tip_force=(0.0, -1.0), solver=SolverOptions(max_shape_iter=2, max_root_iter=2))
+        simulate(
+            2.0, 3.2, 0.0, tip_force=(0.0, -1.0), solver=SolverOptions(max_shape_iter=2, max_root_iter=2)
+        )
     assert exc.value.time == 0.0
     # a tip load far beyond buckling (§4.9) is reported, not turned into NaN
     with pytest.raises(SimulationError):

@@ -88,7 +88,9 @@ def _numpy_psi(eps, T):
     c = db + ea**2 * (a - 0.5 * P.E_A)
     u = np.abs(eps)
     return np.where(
-        u <= ea, 0.5 * P.E_A * u**2 + db, np.where(u < em, a * u**2 + b * u + c, 0.5 * P.E_M * (u - P.eps_T) ** 2)
+        u <= ea,
+        0.5 * P.E_A * u**2 + db,
+        np.where(u < em, a * u**2 + b * u + c, 0.5 * P.E_M * (u - P.eps_T) ** 2),
     )
 
 
@@ -149,8 +151,13 @@ def test_resistivity_mixing():
 
 @settings(max_examples=300, deadline=None)
 @given(
-    st.floats(0, 1), st.floats(0, 1), st.floats(1e-6, 10.0),
-    st.floats(0, 100), st.floats(0, 100), st.floats(0, 100), st.floats(0, 100),
+    st.floats(0, 1),
+    st.floats(0, 1),
+    st.floats(1e-6, 10.0),
+    st.floats(0, 100),
+    st.floats(0, 100),
+    st.floats(0, 100),
+    st.floats(0, 100),
 )
 def test_phase_step_is_implicit_euler_and_keeps_fractions(xp, xm, h, ppA, pAp, pmA, pAm):
     if xp + xm > 1.0:

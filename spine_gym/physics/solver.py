@@ -25,7 +25,6 @@ from ._jit import jit
 from .layout import (
     ERR_NONFINITE,
     ERR_ROOT,
-    ERR_SHAPE,
     ERR_SUBSTEPS,
     ERR_TEMPERATURE,
     K_A,
@@ -221,7 +220,7 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     n = dth.shape[0]
     e = np.inf
     passes = 0
-    for it in range(max_root):
+    for _ in range(max_root):
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
         slope = 1.0 - moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp)  # = −g'(M) >= 1
         dm = (gm - m) / slope
@@ -258,9 +257,7 @@ def composite(state, vforce, kp, ks, work, saved):
     if method == METHOD_NEWTON:
         for i in range(n):
             saved[i] = dth[i]
-        st, m, passes, er, el, sr, sl = composite_newton(
-            dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work
-        )
+        st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
         if st != OK:  # safeguard: the bracketed solve from the untouched starting point
             for i in range(n):
                 dth[i] = saved[i]
@@ -349,7 +346,9 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         ppA_r, pAp_r, pmA_r, pAm_r = rates(sr, tr, kp)
         ppA_l, pAp_l, pmA_l, pAm_l = rates(sl, tl, kp)
         # b. step size
-        r = max(_step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), _step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l))
+        r = max(
+            _step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), _step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l)
+        )
         h = rem
         if r * h > c_crit:
             h = min(max(c_crit / r, h_min), rem)
@@ -432,7 +431,6 @@ def init_state(state, kp, ks, vforce):
     state[X_TL] = kp[K_TE]
     state[X_ER] = kp[K_EPS0]
     state[X_EL] = kp[K_EPS0]
-    dth = state[X_HEAD : X_HEAD + n]
     s = state[X_HEAD + n : X_HEAD + 2 * n]
     zero = np.zeros((n, 2))
     probe = np.zeros(n)
