@@ -1,0 +1,368 @@
+"""Design variables, metrics and the evaluation of one design (MODEL.md §9 "capacity", §10.4).
+
+A *design* is a set of overrides on the baseline: any :class:`~spine_gym.params.ModelParams` field
+(``spine_gym.params.field_names()``: wire offset ``a``, wires per side ``n_w``, pre-strain ``eps0``,
+tube modulus ``E_t``, …) plus the drive ``voltage`` of the capacity protocol
+(:class:`~spine_gym.capacity.CapacityProtocol`). Each design is scored by
+:func:`spine_gym.capacity.capacity_metrics`; this module neither re-implements the protocol nor the
+physics, it only parses user specifications, validates them up front (so that a typo fails before
+any worker starts) and turns one evaluation into a flat record.
+
+Specification grammar (shared by the CLI and the Python API):
+
+* sweep axis ``name=lo:hi:n`` — ``n`` evenly spaced values from ``lo`` to ``hi`` (inclusive);
+  ``name=lo:hi:n:log`` — geometric spacing; ``name=v1,v2,...`` — an explicit list; ``name=v`` —
+  one value.
+* search range ``name=lo:hi`` — continuous (integer for integer fields) range; ``name=lo:hi:log`` —
+  log-uniform; ``name=v1,v2,...`` — a categorical choice.
+* assignment ``name=value`` — a fixed override of the base design.
+* constraint ``metric>=x`` or ``metric<=y``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
+from ..params import ModelParams, SolverOptions, field_names
+from ..simulate import SimulationError
+
+__all__ = [
+    "METRICS",
+    "METRIC_ALIASES",
+    "PROTOCOL_PARAMS",
+    "Constraint",
+    "SearchDim",
+    "design_parameter_names",
+    "evaluate_design",
+    "is_integer_param",
+    "make_design",
+    "parameter_range",
+    "parse_assignment",
+    "parse_constraint",
+    "parse_search_spec",
+    "parse_sweep_spec",
+    "resolve_metric",
+]
+
+#: Metrics of one design, in CSV column order (fields of CapacityMetrics), with units.
+METRICS: dict[str, str] = {
+    "stable_angle_deg": "stable angle θ_s [deg]",
+    "responding_time_s": "responding time (i) [s]",
+    "responding_time_swing_s": "responding time (ii) [s]",
+    "load_deflection_deg": "deflection under tip force [deg]",
+    "actuating_ability": "actuating ability [1/deg]",
+    "peak_temperature_K": "peak wire temperature [K]",
+}
+assert list(METRICS) == [f.name for f in dataclasses.fields(CapacityMetrics)]
+
+#: Short names accepted wherever a metric is named.
+METRIC_ALIASES: dict[str, str] = {
+    "stable_angle": "stable_angle_deg",
+    "angle": "stable_angle_deg",
+    "responding_time": "responding_time_s",
+    "response_time": "responding_time_s",
+    "responding_time_swing": "responding_time_swing_s",
+    "load_deflection": "load_deflection_deg",
+    "deflection": "load_deflection_deg",
+    "ability": "actuating_ability",
+    "peak_temperature": "peak_temperature_K",
+}
+
+#: Metrics that are ``inf`` when the protocol never reaches the level (CapacityMetrics docstring):
+#: the responding times, and the ability when the tip force moves the spine by exactly 0 deg.
+INF_METRICS = ("responding_time_s", "responding_time_swing_s", "actuating_ability")
+
+#: Design variables that live in the capacity protocol rather than in ModelParams.
+PROTOCOL_PARAMS: dict[str, tuple[float, float]] = {"voltage": (0.0, 100.0)}  # [V], CapacityProtocol
+
+_MODEL_FIELDS = frozenset(field_names())
+_INT_FIELDS = frozenset(f.name for f in dataclasses.fields(ModelParams) if f.type in ("int", int))
+
+
+def design_parameter_names() -> list[str]:
+    """Every name a design study may vary: the ModelParams fields, then ``voltage``."""
+    return field_names() + list(PROTOCOL_PARAMS)
+
+
+def is_integer_param(name: str) -> bool:
+    """True for integer design variables (``n_w``, ``n_seg``)."""
+    return name in _INT_FIELDS
+
+
+def _check_name(name: str) -> str:
+    name = name.strip()
+    if name not in _MODEL_FIELDS and name not in PROTOCOL_PARAMS:
+        raise ValueError(
+            f"unknown design parameter {name!r}; valid names: {', '.join(design_parameter_names())}"
+        )
+    return name
+
+
+def parameter_range(name: str) -> tuple[float, float]:
+    """The allowed [lo, hi] of one design variable (cross-field rules are checked separately)."""
+    name = _check_name(name)
+    if name in PROTOCOL_PARAMS:
+        return PROTOCOL_PARAMS[name]
+    return ModelParams._RANGES[name]
+
+
+def resolve_metric(name: str) -> str:
+    """Canonical metric name for ``name`` or an alias; ValueError listing the valid ones."""
+    key = name.strip()
+    key = METRIC_ALIASES.get(key, key)
+    if key not in METRICS:
+        raise ValueError(
+            f"unknown metric {name!r}; valid metrics: {', '.join(METRICS)} "
+            f"(aliases: {', '.join(METRIC_ALIASES)})"
+        )
+    return key
+
+
+def _split(spec: str, what: str) -> tuple[str, str]:
+    if "=" not in spec:
+        raise ValueError(f"{what} {spec!r} must look like NAME=VALUES")
+    name, _, rhs = spec.partition("=")
+    name = _check_name(name)
+    rhs = rhs.strip()
+    if not rhs:
+        raise ValueError(f"{what} for {name!r} has no value")
+    return name, rhs
+
+
+def _number(name: str, text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise ValueError(f"{name}: {text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name}: values must be finite, got {text!r}")
+    return v
+
+
+def _as_param_values(name: str, values) -> list[float | int]:
+    """Cast to int for integer fields (refusing fractions), float otherwise."""
+    out: list[float | int] = []
+    for v in values:
+        v = float(v)
+        if is_integer_param(name):
+            r = round(v)
+            if abs(v - r) > 1e-9 * max(1.0, abs(v)):
+                lo, hi = parameter_range(name)
+                raise ValueError(f"{name} takes integers in [{lo}, {hi}], got {v!r}")
+            out.append(int(r))
+        else:
+            out.append(v)
+    return out
+
+
+def _check_values_in_range(name: str, values) -> None:
+    lo, hi = parameter_range(name)
+    for v in values:
+        if not lo <= v <= hi:
+            raise ValueError(f"{name} must be in [{lo:g}, {hi:g}], got {v!r}")
+
+
+def parse_sweep_spec(spec: str) -> tuple[str, list[float | int]]:
+    """Parse one sweep axis ``name=lo:hi:n[:log]``, ``name=v1,v2,...`` or ``name=v``.
+
+    Returns:
+        (name, values) with values cast to int for integer fields.
+
+    Raises:
+        ValueError: unknown name, malformed spec, or a value outside the field's range (message
+        names the parameter and the allowed range).
+    """
+    name, rhs = _split(spec, "sweep spec")
+    if ":" in rhs:
+        parts = rhs.split(":")
+        log = parts[-1].strip().lower() == "log"
+        if log:
+            parts = parts[:-1]
+        if len(parts) != 3:
+            raise ValueError(f"sweep spec for {name!r} must be lo:hi:n or lo:hi:n:log, got {rhs!r}")
+        lo, hi = _number(name, parts[0]), _number(name, parts[1])
+        try:
+            n = int(parts[2])
+        except ValueError:
+            raise ValueError(f"{name}: number of points must be an integer, got {parts[2]!r}") from None
+        if n < 1:
+            raise ValueError(f"{name}: number of points must be >= 1, got {n}")
+        if n == 1 and lo != hi:
+            raise ValueError(f"{name}: one point needs lo == hi, got {lo:g}:{hi:g}:1")
+        if log:
+            if lo <= 0 or hi <= 0:
+                raise ValueError(f"{name}: a log sweep needs lo, hi > 0, got {lo:g}:{hi:g}")
+            raw = np.geomspace(lo, hi, n)
+        else:
+            raw = np.linspace(lo, hi, n)
+        values = _as_param_values(name, raw)
+    else:
+        values = _as_param_values(name, [_number(name, t) for t in rhs.split(",") if t.strip()])
+    if not values:
+        raise ValueError(f"sweep spec for {name!r} has no values")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name}: sweep values must be distinct, got {values}")
+    _check_values_in_range(name, values)
+    return name, values
+
+
+@dataclass(frozen=True)
+class SearchDim:
+    """One dimension of an optimiser search space.
+
+    Attributes:
+        name: design parameter.
+        low, high: bounds of a range (None for a categorical dimension).
+        log: log-uniform range.
+        choices: categorical values (None for a range).
+    """
+
+    name: str
+    low: float | None = None
+    high: float | None = None
+    log: bool = False
+    choices: tuple | None = None
+
+    @property
+    def is_int(self) -> bool:
+        return is_integer_param(self.name)
+
+    def suggest(self, trial) -> float | int:
+        """Draw this dimension from an Optuna trial."""
+        if self.choices is not None:
+            return trial.suggest_categorical(self.name, list(self.choices))
+        if self.is_int:
+            return trial.suggest_int(self.name, int(self.low), int(self.high), log=self.log)
+        return trial.suggest_float(self.name, float(self.low), float(self.high), log=self.log)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self) | {"choices": None if self.choices is None else list(self.choices)}
+
+
+def parse_search_spec(spec: str) -> SearchDim:
+    """Parse one search dimension ``name=lo:hi[:log]`` or ``name=v1,v2,...`` (categorical)."""
+    name, rhs = _split(spec, "search spec")
+    if ":" in rhs:
+        parts = rhs.split(":")
+        log = parts[-1].strip().lower() == "log"
+        if log:
+            parts = parts[:-1]
+        if len(parts) != 2:
+            raise ValueError(f"search spec for {name!r} must be lo:hi or lo:hi:log, got {rhs!r}")
+        lo, hi = _as_param_values(name, [_number(name, parts[0]), _number(name, parts[1])])
+        if not lo < hi:
+            raise ValueError(f"{name}: search range needs lo < hi, got {lo!r}:{hi!r}")
+        if log and lo <= 0:
+            raise ValueError(f"{name}: a log range needs lo > 0, got {lo!r}")
+        _check_values_in_range(name, (lo, hi))
+        return SearchDim(name, low=lo, high=hi, log=log)
+    values = _as_param_values(name, [_number(name, t) for t in rhs.split(",") if t.strip()])
+    if not values:
+        raise ValueError(f"search spec for {name!r} has no values")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name}: categorical choices must be distinct, got {values}")
+    _check_values_in_range(name, values)
+    return SearchDim(name, choices=tuple(values))
+
+
+def parse_assignment(spec: str) -> tuple[str, float | int]:
+    """Parse a fixed override ``name=value`` of the base design."""
+    name, rhs = _split(spec, "assignment")
+    (value,) = _as_param_values(name, [_number(name, rhs)])
+    _check_values_in_range(name, (value,))
+    return name, value
+
+
+#: Finite stand-in for an infinite violation (Optuna's constraint values must be finite-ish floats
+#: and stay JSON-safe in every storage backend).
+INF_VIOLATION = 1e9
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """``metric >= bound`` (sense ``">="``) or ``metric <= bound`` (sense ``"<="``)."""
+
+    metric: str
+    sense: str
+    bound: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "metric", resolve_metric(self.metric))
+        if self.sense not in (">=", "<="):
+            raise ValueError(f"constraint sense must be '>=' or '<=', got {self.sense!r}")
+        if not math.isfinite(self.bound):
+            raise ValueError(f"constraint bound on {self.metric} must be finite, got {self.bound!r}")
+
+    def violation(self, value: float) -> float:
+        """Amount by which ``value`` violates the constraint (<= 0 means satisfied).
+
+        ``inf`` metrics are handled explicitly: a responding time that is never reached (inf)
+        violates ``<= y`` by :data:`INF_VIOLATION`, and an infinite ability satisfies ``>= x``.
+        NaN (a failed simulation) counts as violated by INF_VIOLATION.
+        """
+        if math.isnan(value):
+            return INF_VIOLATION
+        v = value - self.bound if self.sense == "<=" else self.bound - value
+        return float(min(max(v, -INF_VIOLATION), INF_VIOLATION))
+
+    def __str__(self) -> str:
+        return f"{self.metric}{self.sense}{self.bound:g}"
+
+
+def parse_constraint(spec: str) -> Constraint:
+    """Parse ``metric>=x`` or ``metric<=y`` (metric names or aliases)."""
+    for sense in (">=", "<="):
+        if sense in spec:
+            left, _, right = spec.partition(sense)
+            metric = resolve_metric(left)
+            return Constraint(metric, sense, _number(metric, right.strip()))
+    raise ValueError(f"constraint {spec!r} must look like METRIC>=X or METRIC<=Y")
+
+
+def make_design(
+    overrides: dict[str, float | int],
+    base: ModelParams | None = None,
+    protocol: CapacityProtocol | None = None,
+) -> tuple[ModelParams, CapacityProtocol]:
+    """Apply design overrides to a base model and protocol (both validated).
+
+    Raises:
+        ValueError: unknown name or an invalid value; the message names the parameter.
+    """
+    base = base or ModelParams()
+    protocol = protocol or CapacityProtocol()
+    model_kw: dict[str, Any] = {}
+    proto_kw: dict[str, Any] = {}
+    for k, v in overrides.items():
+        _check_name(k)
+        v = _as_param_values(k, [v])[0]
+        (proto_kw if k in PROTOCOL_PARAMS else model_kw)[k] = v
+    try:
+        params = base.replace(**model_kw) if model_kw else base
+        proto = dataclasses.replace(protocol, **proto_kw) if proto_kw else protocol
+    except ValueError as e:
+        shown = ", ".join(f"{k}={v!r}" for k, v in overrides.items())
+        raise ValueError(f"invalid design ({shown}): {e}") from e
+    return params, proto
+
+
+def evaluate_design(
+    params: ModelParams, protocol: CapacityProtocol, solver: SolverOptions | None = None
+) -> dict[str, Any]:
+    """Capacity metrics of one design as a flat record.
+
+    Returns:
+        dict with every :data:`METRICS` key (floats; ``inf`` where a level is never reached, NaN
+        only when the simulation failed) and ``status`` (``"ok"`` or ``"failed: <reason>"``).
+    """
+    try:
+        m = capacity_metrics(params, protocol, solver)
+    except SimulationError as e:
+        return {k: math.nan for k in METRICS} | {"status": f"failed: {e}"}
+    return {k: float(v) for k, v in m.as_dict().items()} | {"status": "ok"}
