@@ -13,6 +13,7 @@ import json
 import math
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -139,7 +140,10 @@ def test_parallel_sweep_is_bit_identical_to_serial():
     serial = sweep(axes, protocol=TINY, n_workers=1)
     procs = sweep(axes, protocol=TINY, n_workers=2, backend="process")
     threads = sweep(axes, protocol=TINY, n_workers=2, backend="thread")
+    with ThreadPoolExecutor(max_workers=2) as ex:  # a caller-owned executor is reused, not closed
+        reused = [sweep(axes, protocol=TINY, executor=ex) for _ in range(2)]
     assert serial.rows == procs.rows == threads.rows  # exact float equality, grid order
+    assert reused[0].rows == reused[1].rows == serial.rows
     assert [r["index"] for r in procs.rows] == [0, 1, 2, 3]
     assert serial.shape == (2, 2)
     assert serial.rows[0]["stable_angle_deg"] > 1.0  # non-trivial designs were compared

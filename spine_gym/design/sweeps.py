@@ -104,25 +104,34 @@ def _make_executor(backend: str, n_workers: int, mp_context: str) -> Executor:
     return ProcessPoolExecutor(max_workers=n_workers, mp_context=multiprocessing.get_context(mp_context))
 
 
-def _run_tasks(tasks, n_workers, backend, mp_context, progress, desc="sweep") -> list[dict[str, Any]]:
+def _run_tasks(
+    tasks, n_workers, backend, mp_context, progress, executor: Executor | None = None, desc="sweep"
+) -> list[dict[str, Any]]:
     from tqdm.auto import tqdm
 
     results: list[dict[str, Any] | None] = [None] * len(tasks)
     with tqdm(total=len(tasks), desc=desc, unit="design", disable=not progress, leave=True) as bar:
-        if n_workers == 1 or len(tasks) <= 1:
+        if executor is None and (n_workers == 1 or len(tasks) <= 1):
             for i, task in enumerate(tasks):
                 results[i] = _evaluate_task(task)
                 bar.update()
-        else:
-            ex = _make_executor(backend, min(n_workers, len(tasks)), mp_context)
-            try:
-                futures = {ex.submit(_evaluate_task, task): i for i, task in enumerate(tasks)}
-                for fut in as_completed(futures):
-                    results[futures[fut]] = fut.result()
-                    bar.update()
-            except BaseException:
+            return results  # type: ignore[return-value]
+        own = executor is None
+        ex = executor or _make_executor(backend, min(n_workers, len(tasks)), mp_context)
+        futures: dict = {}
+        try:
+            for i, task in enumerate(tasks):
+                futures[ex.submit(_evaluate_task, task)] = i
+            for fut in as_completed(futures):
+                results[futures[fut]] = fut.result()
+                bar.update()
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            if own:
                 ex.shutdown(wait=True, cancel_futures=True)
-                raise
+            raise
+        if own:
             ex.shutdown(wait=True)
     return results  # type: ignore[return-value]
 
@@ -283,6 +292,7 @@ def sweep(
     backend: str = "process",
     mp_context: str = "spawn",
     progress: bool = False,
+    executor: Executor | None = None,
 ) -> SweepResult:
     """Evaluate the capacity metrics on the Cartesian product of parameter axes.
 
@@ -298,6 +308,9 @@ def sweep(
         backend: ``"process"`` (process pool) or ``"thread"`` (thread pool; kernels are nogil).
         mp_context: start method of the process pool, ``"spawn"`` or ``"forkserver"``.
         progress: show a tqdm progress bar (stderr).
+        executor: an existing ``concurrent.futures`` executor to reuse across sweeps (e.g. in a
+            notebook, to pay the worker start-up once); it is not shut down here, and
+            ``n_workers``/``backend``/``mp_context`` are then only recorded.
 
     Returns:
         SweepResult with one row per design in grid order (independent of ``n_workers``).
@@ -327,7 +340,7 @@ def sweep(
         tasks.append((params, proto, solver))
 
     t0 = time.perf_counter()
-    records = _run_tasks(tasks, n_workers, backend, mp_context, progress)
+    records = _run_tasks(tasks, n_workers, backend, mp_context, progress, executor)
     elapsed = time.perf_counter() - t0
 
     rows = []
