@@ -213,11 +213,26 @@ def make_storage(url: str | None):
     if url is None:
         return optuna.storages.InMemoryStorage()
     if "://" in url:
-        # a generous SQLite lock timeout: several workers write to the same file
-        kw = {"connect_args": {"timeout": 60}} if url.startswith("sqlite") else {}
-        return optuna.storages.RDBStorage(url, engine_kwargs=kw)
+        kw = {}
+        if url.startswith("sqlite:///") and url != "sqlite:///:memory:":
+            Path(url[len("sqlite:///") :]).parent.mkdir(parents=True, exist_ok=True)
+            # a generous lock timeout: several workers write to the same file
+            kw = {"connect_args": {"timeout": 60}}
+        try:
+            return optuna.storages.RDBStorage(url, engine_kwargs=kw)
+        except Exception as e:  # bad URL, missing DB driver, server unreachable, ...
+            raise ValueError(f"cannot open storage {_hide_password(url)}: {type(e).__name__}: {e}") from e
     Path(url).parent.mkdir(parents=True, exist_ok=True)
     return JournalStorage(JournalFileBackend(str(url)))
+
+
+def _hide_password(url: str) -> str:
+    try:
+        from sqlalchemy.engine import make_url
+
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:  # not parseable: show the scheme only
+        return url.split("://", 1)[0] + "://..."
 
 
 def _open_study(problem: DesignProblem, storage, study_name: str, sampler=None):
