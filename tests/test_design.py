@@ -283,6 +283,8 @@ def test_two_workers_share_one_journal_study(tmp_path):
     assert loaded.best == res.best and loaded.problem == problem
     more = optimize(problem, n_trials=2, storage=journal, study_name="s", seed=2)
     assert len(more.trials) == 8
+    capped = optimize(problem, n_trials=10, storage=journal, study_name="s", max_total_trials=10)
+    assert len(capped.trials) == 10  # the global budget stopped the run after 2 of its 10 trials
     other = DesignProblem(space=("a=6e-3:14e-3",), protocol=TINY)
     with pytest.raises(ValueError, match="different design problem"):
         optimize(other, n_trials=1, storage=journal, study_name="s")
@@ -368,3 +370,10 @@ def test_cli_optimize_with_two_workers_and_best(tmp_path):
     assert shown.returncode == 0 and "trials: 4 finished" in shown.stdout
     missing = _cli("best", "--storage", str(journal), "--study-name", "nope", cwd=ROOT)
     assert missing.returncode == 2 and "no study named 'nope'" in missing.stderr
+
+
+def test_import_is_light():
+    """Optuna and matplotlib load only when the optimiser or the plots are used."""
+    code = "import sys, spine_gym.design; print('optuna' in sys.modules, 'matplotlib' in sys.modules)"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.stdout.split() == ["False", "False"], r.stderr

@@ -66,7 +66,7 @@ def _scale(name: str) -> float:
 
 
 def _fmt_value(name: str, v: Any) -> str:
-    return f"{name}={v * _scale(name):g}"
+    return f"{name}={v * _scale(name):.4g}"
 
 
 def _save(fig: Figure, path: str | Path | None) -> Figure:
@@ -183,8 +183,8 @@ def plot_heatmap(result: SweepResult, x: str, y: str, metric: str, path: str | P
     ax.set_facecolor("0.85")
     ax.patch.set_hatch("//")
     fig.colorbar(im, ax=ax, label=METRICS[metric])
-    ax.set_xticks(range(len(xs)), [f"{v * _scale(x):g}" for v in xs], rotation=45 if len(xs) > 8 else 0)
-    ax.set_yticks(range(len(ys)), [f"{v * _scale(y):g}" for v in ys])
+    ax.set_xticks(range(len(xs)), [f"{v * _scale(x):.4g}" for v in xs], rotation=45 if len(xs) > 8 else 0)
+    ax.set_yticks(range(len(ys)), [f"{v * _scale(y):.4g}" for v in ys])
     ax.set_xlabel(axis_label(x))
     ax.set_ylabel(axis_label(y))
     if finite.any():
@@ -215,6 +215,8 @@ def plot_heatmap(result: SweepResult, x: str, y: str, metric: str, path: str | P
     title = METRICS[metric]
     if np.isinf(z).any():
         title += "  (∞ = never reached)"
+    if np.isnan(z).any():
+        title += "  (× = failed run)"
     ax.set_title(title, fontsize=10)
     return _save(fig, path)
 
