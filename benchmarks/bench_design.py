@@ -109,7 +109,7 @@ def main(argv=None) -> int:
     res = {
         "benchmark": "capacity protocol (MODEL.md §10.4, 150 s simulated) per design",
         "n_designs": n,
-        "grid": {k_: [float(v) for v in vals] for k_, vals in AXES.items()},
+        "grid": {k_: [v if isinstance(v, int) else float(v) for v in vals] for k_, vals in AXES.items()},
         "workers": k,
         "repeats_best_of": args.repeats,
         "cpu_count": os.cpu_count(),
