@@ -65,7 +65,7 @@ class CapacityMetrics:
     """Result of the capacity protocol. Times are ``inf`` when the level is never reached."""
 
     stable_angle_deg: float  # θ_s = |Θ(t_stable)| [deg]
-    responding_time_s: float  # reading (i): after the switch, to reach +0.9 θ_s [s]
+    responding_time_s: float  # reading (i): after the switch, to reach +0.9 θ_s before the load [s]
     responding_time_swing_s: float  # reading (ii): 90 % of the swing Θ(t_stable) → Θ(t_load_on) [s]
     load_deflection_deg: float  # |Θ(end) − Θ(t_load_on)| under the tip force [deg]
     actuating_ability: float  # 1 / load_deflection [1/deg]
@@ -75,9 +75,9 @@ class CapacityMetrics:
         return asdict(self)
 
 
-def _first_crossing(t: np.ndarray, y: np.ndarray, level: float, t_from: float) -> float:
-    """First time ≥ t_from at which y ≥ level, linearly interpolated; inf if never."""
-    idx = np.nonzero((t >= t_from - 1e-12) & (y >= level))[0]
+def _first_crossing(t: np.ndarray, y: np.ndarray, level: float, t_from: float, t_to: float) -> float:
+    """First time in [t_from, t_to] at which y ≥ level, linearly interpolated; inf if never."""
+    idx = np.nonzero((t >= t_from - 1e-12) & (t <= t_to + 1e-12) & (y >= level))[0]
     if idx.size == 0:
         return math.inf
     k = int(idx[0])
@@ -94,10 +94,12 @@ def metrics_from_result(result: SimulationResult, protocol: CapacityProtocol) ->
     a_load_on = float(a[result.at(protocol.t_load_on)])
     a_end = float(a[-1])
     theta_s = abs(a_stable)
-    t_resp = _first_crossing(t, a, 0.9 * theta_s, protocol.t_stable) - protocol.t_stable
+    # the response is read before the load goes on (the loaded phase is a different test)
+    t_on = protocol.t_load_on
+    t_resp = _first_crossing(t, a, 0.9 * theta_s, protocol.t_stable, t_on) - protocol.t_stable
     swing = a_load_on - a_stable
     if swing > 0.0:
-        t_swing = _first_crossing(t, a, a_stable + 0.9 * swing, protocol.t_stable) - protocol.t_stable
+        t_swing = _first_crossing(t, a, a_stable + 0.9 * swing, protocol.t_stable, t_on) - protocol.t_stable
     else:
         t_swing = math.inf
     defl = abs(a_end - a_load_on)

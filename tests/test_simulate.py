@@ -290,3 +290,11 @@ def test_forced_non_convergence_raises_never_nan():
 def test_too_many_substeps_is_reported():
     with pytest.raises(SimulationError, match="sub-steps"):
         simulate(8.0, 3.2, 0.0, solver=SolverOptions(max_substeps=3))
+
+
+def test_responding_time_is_inf_when_not_reached_before_the_load():
+    # a 5 s right-wire phase is far too short to swing back to +0.9 θ_s (it takes ~36 s)
+    proto = CapacityProtocol(t_stable=30, t_respond=5, t_load=40)
+    m = metrics_from_result(run_protocol(protocol=proto), proto)
+    assert m.stable_angle_deg > 20
+    assert m.responding_time_s == math.inf
