@@ -348,7 +348,7 @@ def plot_timings(
     ax.grid(alpha=0.3, axis="x", which="both")
     for yi, v, i in zip(y, ms, range(t.size), strict=True):
         txt = f"{v:.3g} ms" + (f"  {annotations[i]}" if annotations is not None else "")
-        ax.text(v * 1.08, yi, txt, va="center", fontsize=7)
+        ax.text(v * 1.08, yi, txt, va="center", fontsize=7, bbox=dict(fc="w", ec="none", alpha=0.8, pad=1))
     ax.set_xlim(ms.min() / 2.0, ms.max() * 30.0)
     if target_s is not None:
         ax.axvline(target_s * 1e3, color="k", ls="--", lw=1.0, label=f"{target_label} {target_s * 1e3:g} ms")
@@ -358,7 +358,14 @@ def plot_timings(
     if errors:
         bx = axs[0, 1]
         for i, (lab, (te, err)) in enumerate(errors.items()):
-            bx.plot(np.asarray(te, float), np.asarray(err, float), color=f"C{i % 10}", lw=1.0, label=lab)
+            bx.plot(
+                np.asarray(te, float),
+                np.asarray(err, float),
+                color=f"C{i % 10}",
+                lw=0.8,
+                alpha=0.8,
+                label=lab,
+            )
         bx.set_xlabel("time [s]")
         bx.set_ylabel(errors_ylabel)
         bx.grid(alpha=0.3)
