@@ -22,9 +22,8 @@ row, machine-readable), ``hysteresis.csv`` / ``alternate.csv`` (trajectories) an
 ``hysteresis_angle.png``, ``alternate_angle.png``, ``hysteresis_states.png``,
 ``capacity_vs_a.png`` (seed Fig. 15-like) and ``capacity_vs_wires.png`` (seed Fig. 16-like).
 
-The capacity numbers come from the library (:func:`spine_gym.capacity.run_protocol` +
-:func:`spine_gym.capacity.metrics_from_result`, i.e. exactly
-:func:`spine_gym.capacity.capacity_metrics`); the event times of the hysteresis and alternate runs
+The capacity numbers come from the library function :func:`spine_gym.capacity.capacity_metrics`;
+the event times of the hysteresis and alternate runs
 (onset, 90 % rise, relaxation, zero crossing, swing duration) are the library functions
 :func:`hysteresis_events` and :func:`alternate_events` of this module.
 """
@@ -43,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .capacity import CapacityMetrics, CapacityProtocol, metrics_from_result, run_protocol
+from .capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
 from .params import ModelParams, SolverOptions
 from .simulate import SimulationResult, simulate
 
@@ -540,8 +539,7 @@ def reproduce(
         for case in cases:
             bar.set_postfix_str(f"capacity {case} (§10.4)")
             params = ModelParams().replace(**CAPACITY_REFERENCE[case][0])
-            # capacity_metrics() == metrics_from_result(run_protocol()); the trajectory is not needed
-            capacity[case] = metrics_from_result(run_protocol(params, protocol, solver), protocol)
+            capacity[case] = capacity_metrics(params, protocol, solver)
             bar.update()
         sections = [compare_hysteresis(hyst), compare_alternate(alt), compare_capacity(capacity)]
         rep = Reproduction(sections, hyst, alt, capacity)
