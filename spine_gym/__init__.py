@@ -6,6 +6,7 @@ Gymnasium environment ``SmaSpine-v0``.
 
 from .params import ModelParams, SolverOptions, alternative, baseline
 from .simulate import SimulationError, SimulationResult, simulate
+from . import envs  # registers SmaSpine-v0
 
 __all__ = [
     "ModelParams",

@@ -1,0 +1,359 @@
+"""``SmaSpine-v0``: track a bending angle with the two antagonistic SMA wires (Gymnasium env).
+
+The class docstring of :class:`SmaSpineEnv` is the documentation page. The physics is the jitted
+model of ``spine_gym.physics`` (MODEL.md); this module maps actions to wire voltages, runs one
+control period of the model per step through :class:`spine_gym.envs.core.SpineBatch` (the code the
+vector env runs too) and returns observations, rewards and infos.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..params import ModelParams, SolverOptions
+from ..physics import layout as L
+from .core import OBS_NAMES, EnvConfig, SpineBatch, validate_actions
+from .task import TARGET_KINDS
+
+__all__ = ["SmaSpineEnv"]
+
+
+class SmaSpineEnv(gym.Env):
+    """SMA-actuated robotic spine: bend it to a moving target angle by heating two wires.
+
+    ## Description
+
+    A flexible tube of 13 segments (0.455 m) carries a NiTi shape-memory-alloy wire on each side,
+    14 mm off its axis. Current through a wire heats it; above ~340 K the wire turns to austenite,
+    shortens and bends the spine toward its side (positive angles: toward the right wire). The
+    physics is the thermo-mechanical model of ``docs/MODEL.md``: per wire a Müller-Achenbach-
+    Seelecke phase model with Joule heating, latent heat and convection, coupled to a quasi-static
+    segmented bending model, integrated with adaptive sub-steps. The task is to track a target
+    bending angle θ*(t) while tip forces and a payload disturb the spine.
+
+    What makes it hard: the response is slow (wire thermal time constant ~17 s) and hysteretic;
+    a heated wire that cools keeps the spine bent for seconds and relaxes over ~25 s; the wire on
+    the outside of a bend is stretched (detwinned) and does **not** pull back by itself, so to
+    bend the other way you heat the other wire. Holding ±45° needs ~2.5 V (wire ~395 K); 5 V drives
+    a wire to ~650 K and bends the spine to its ±63° limit in ~10 s.
+
+    ## Action space
+
+    ``Box(-1, 1, (2,), float32)``; volts = (clip(a, -1, 1) + 1) / 2 · ``v_max``.
+
+    | index | wire  | -1  | +1        | unit |
+    |-------|-------|-----|-----------|------|
+    | 0     | right | 0 V | ``v_max`` | -    |
+    | 1     | left  | 0 V | ``v_max`` | -    |
+
+    Actions outside [-1, 1] are clipped (silently; the applied volts are ``info["voltage"]``). An
+    action that is not a finite numeric array of shape (2,) raises ``ValueError``. The voltage is
+    held over the control period (zero-order hold).
+
+    ## Observation space
+
+    ``Box(low, high, (10,), float32)``; entries outside the bounds are clipped to them.
+
+    | index | observation                                  | unit  | low   | high     |
+    |-------|----------------------------------------------|-------|-------|----------|
+    | 0     | bending angle θ (sum of segment angles)      | deg   | -180  | 180      |
+    | 1     | current target θ*(t)                         | deg   | -90   | 90       |
+    | 2     | right wire temperature                       | K     | 0     | 2000     |
+    | 3     | left wire temperature                        | K     | 0     | 2000     |
+    | 4     | angle rate (difference of measured angles)   | deg/s | -1000 | 1000     |
+    | 5     | target preview θ*(t + ``target_preview``)    | deg   | -90   | 90       |
+    | 6     | previous action, right (after clipping)      | -     | -1    | 1        |
+    | 7     | previous action, left                        | -     | -1    | 1        |
+    | 8     | right wire resistance (one wire)             | Ohm   | 0     | R_max    |
+    | 9     | left wire resistance                         | Ohm   | 0     | R_max    |
+
+    R_max = 2 × the largest one-wire resistance over the nominal and randomised parameters
+    (~3.7 Ohm at the baseline, whose wire has 1.5-1.9 Ohm). Entries 0, 2, 3, 8, 9 are sensor
+    readings: they see ``sensor_delay`` control periods into the past and carry Gaussian
+    ``sensor_noise`` if enabled; entry 4 differentiates the measured angle. Entries 1, 5, 6, 7 are
+    exact. Time t is the end of the step just taken (``info["time"]``).
+
+    ## Rewards
+
+    After each step, with e = θ*(t) − θ(t) [deg] (true angle, not the noisy reading), E the
+    electrical energy of the step [J] (both wires) and E_ref the largest possible one (both wires
+    at ``v_max``, lowest resistance; 2.7 J at the defaults):
+
+        r = −|e| / error_scale − energy_weight · E / E_ref − cost_weight · cost
+
+    With the defaults (``error_scale`` = 10°, ``energy_weight`` = 0.5, ``cost_weight`` = 0) a step
+    earns between about −9.5 and 0; −0.1 per degree of error. ``info["reward_tracking"]`` and
+    ``info["reward_energy"]`` hold the first two terms.
+
+    **Cost** (safety-gymnasium convention, kept out of the reward by default):
+    ``info["cost"]`` = Σ over both wires of max(0, T − ``temperature_limit``) [K] >= 0.
+
+    ## Starting state
+
+    A straight spine at ambient temperature T_E with the martensite fractions of the pre-strained
+    wires (MODEL.md §3.10), solved under the episode's payload. Each reset draws from the env's
+    seeded generator, in this order: a target profile (:meth:`TargetProfile.sample`: 1-3 setpoint
+    steps, a ramp between two levels, or a sinusoid with period in ``sine_period_range``, all
+    inside ``target_range``), a load schedule (:meth:`LoadSchedule.sample`: ``tip_force_count``
+    tip-force events of magnitude in ``tip_force_range`` N, uniform direction in the global frame,
+    uniform onset, length in ``tip_force_duration`` s; a payload in ``payload_range`` kg), and, if
+    enabled, randomised model parameters. ``reset(options=...)`` pins any of them:
+
+    * ``"target"``: a :class:`~spine_gym.envs.task.TargetProfile` (or a number: a constant target
+      in degrees; pinned targets may use ±90°);
+    * ``"loads"``: a :class:`~spine_gym.envs.task.LoadSchedule`;
+    * ``"params"``: a :class:`~spine_gym.ModelParams` (same ``n_seg``) instead of the randomised set.
+
+    ## Episode end
+
+    * **Truncation** when ``episode_duration`` (default 60 s = 600 steps) has elapsed; the
+      registration's ``max_episode_steps=600`` matches the default. If you change
+      ``episode_duration`` or ``control_period`` through ``gym.make``, also pass
+      ``max_episode_steps=episode_duration / control_period`` (the TimeLimit wrapper of ``gym.make``
+      truncates at the smaller of the two).
+    * **Termination** only when the model fails (``info["status"]`` != 0, a
+      ``spine_gym.physics.layout`` status code, e.g. a load beyond buckling: a downward tip force
+      of ~2 N on a bent spine). The observation is then that of the last valid state (the failed
+      step is rolled back, so nothing is ever NaN). With the default loads and ``v_max`` <= 8 V this
+      does not happen.
+
+    ## Info
+
+    ``voltage`` (2,) [V] applied [right, left]; ``angle_deg``; ``target_deg``; ``tracking_error_deg``
+    (= target − angle); ``energy_J`` electrical energy of the step (both sides); ``power_W`` (2,) mean
+    electrical power per side; ``cost``; ``temperature`` (2,) [K]; ``resistance`` (2,) [Ohm];
+    ``time`` [s]; ``tip_force`` (2,) [N] total force on the top disk over the step (events + payload
+    weight, global x/y); ``status`` (int, 0 = ok); ``reward_tracking``, ``reward_energy``. ``reset``
+    returns the same keys (zero voltage and energy).
+
+    ## Arguments
+
+    ```python
+    gym.make("SmaSpine-v0", v_max=5.0, control_period=0.1, episode_duration=60.0, ...)
+    ```
+
+    * ``v_max`` [V] in (0, 8]: voltage of action +1. Default 5.
+    * ``control_period`` [s]: time per step, a multiple of ``physics_dt``. Default 0.1.
+    * ``physics_dt`` [s]: the model's output step inside a control period (its adaptive sub-steps
+      run inside each); 0.01 is the model's accuracy setting. Default 0.01.
+    * ``episode_duration`` [s]: a multiple of ``control_period``. Default 60.
+    * ``target_range`` [deg]: (low, high) within ±60 for sampled targets. Default (-45, 45): held
+      below ~400 K; ±60° needs ~4 V and wires beyond the 423 K limit.
+    * ``target_kinds``: subset of ``("steps", "ramp", "sine")``. ``sine_period_range`` [s]: (20, 60).
+    * ``target_preview`` [s]: look-ahead of observation 5. Default 1.
+    * ``tip_force_range`` [N] (low, high) or ``None`` (off), <= 20: default (0, 0.5).
+      ``tip_force_count``: (0, 2) events per episode. ``tip_force_duration`` [s]: (1, 10).
+    * ``payload_range`` [kg] (low, high) or ``None`` (off), <= 1: default (0, 0.05).
+    * ``domain_randomization``: ``False`` (default), ``True`` (convection ×[0.75, 1.25], tube
+      modulus ×[0.8, 1.2], ambient ±10 K, resistivities ×[0.95, 1.05]; see
+      :func:`spine_gym.envs.default_randomization`) or a dict ``{ModelParams field: (low, high)}``
+      of absolute ranges; drawn uniformly per episode.
+    * ``sensor_noise``: ``None`` (default) or ``{"angle": deg, "temperature": K, "resistance": Ohm}``
+      standard deviations. ``sensor_delay``: whole control periods (default 0).
+    * ``temperature_limit`` [K]: threshold of ``info["cost"]``. Default 423 (150 °C).
+    * ``error_scale`` [deg] (10), ``energy_weight`` (0.5), ``cost_weight`` [1/K] (0): reward terms.
+    * ``params``: :class:`spine_gym.ModelParams` (default: MODEL.md §7 baseline);
+      ``solver``: :class:`spine_gym.SolverOptions`.
+    * ``render_mode``: ``None`` or ``"rgb_array"`` (480×480 frame: the bent spine, wires coloured
+      by temperature from blue (ambient) to red (``temperature_limit`` and above), target as a
+      dashed arc, force on the top disk as an arrow).
+
+    Bad arguments raise ``ValueError`` naming the argument and its allowed range.
+
+    ## Vector environment
+
+    ``gym.make_vec("SmaSpine-v0", num_envs=N)`` returns
+    :class:`spine_gym.envs.vector_env.SmaSpineVectorEnv`: the loop over environments runs inside
+    numba in parallel, on the same code as this class; row i equals this env seeded with seed + i.
+
+    ## Version history
+
+    * v0: initial release (spine_gym 0.1).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        v_max: float = 5.0,
+        control_period: float = 0.1,
+        physics_dt: float = 0.01,
+        episode_duration: float = 60.0,
+        target_range: tuple[float, float] = (-45.0, 45.0),
+        target_kinds: tuple[str, ...] = TARGET_KINDS,
+        sine_period_range: tuple[float, float] = (20.0, 60.0),
+        target_preview: float = 1.0,
+        tip_force_range: tuple[float, float] | None = (0.0, 0.5),
+        tip_force_count: tuple[int, int] = (0, 2),
+        tip_force_duration: tuple[float, float] = (1.0, 10.0),
+        payload_range: tuple[float, float] | None = (0.0, 0.05),
+        domain_randomization: bool | dict = False,
+        sensor_noise: dict | None = None,
+        sensor_delay: int = 0,
+        temperature_limit: float = 423.0,
+        error_scale: float = 10.0,
+        energy_weight: float = 0.5,
+        cost_weight: float = 0.0,
+        params: ModelParams | None = None,
+        solver: SolverOptions | None = None,
+    ):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        self.config = EnvConfig(
+            v_max=v_max,
+            control_period=control_period,
+            physics_dt=physics_dt,
+            episode_duration=episode_duration,
+            target_range=target_range,
+            target_kinds=target_kinds,
+            sine_period_range=sine_period_range,
+            target_preview=target_preview,
+            tip_force_range=tip_force_range,
+            tip_force_count=tip_force_count,
+            tip_force_duration=tip_force_duration,
+            payload_range=payload_range,
+            domain_randomization=domain_randomization,
+            sensor_noise=sensor_noise,
+            sensor_delay=sensor_delay,
+            temperature_limit=temperature_limit,
+            error_scale=error_scale,
+            energy_weight=energy_weight,
+            cost_weight=cost_weight,
+            params=params,
+            solver=solver,
+        )
+        self.render_mode = render_mode
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.config.control_period}
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        low, high = self.config.observation_bounds()
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._core = SpineBatch(self.config, 1, parallel=False)
+        self._rows = np.zeros(1, dtype=np.int64)
+        self._renderer = None
+        self._needs_reset = True
+        self._done = False
+
+    # ------------------------------------------------------------------ read-only facts
+    @property
+    def v_max(self) -> float:
+        """Voltage of action +1 [V]."""
+        return self.config.v_max
+
+    @property
+    def control_period(self) -> float:
+        """Time per step [s]."""
+        return self.config.control_period
+
+    @property
+    def episode_duration(self) -> float:
+        """Episode length [s]."""
+        return self.config.episode_duration
+
+    @property
+    def max_steps(self) -> int:
+        """Steps per episode (the env truncates after this many)."""
+        return self.config.n_steps
+
+    @property
+    def temperature_limit(self) -> float:
+        """Threshold of ``info["cost"]`` [K]."""
+        return self.config.temperature_limit
+
+    @property
+    def observation_names(self) -> tuple[str, ...]:
+        """Names of the observation entries (units in the class docstring)."""
+        return OBS_NAMES
+
+    @property
+    def target_profile(self):
+        """The :class:`TargetProfile` of the current episode."""
+        return self._episode()[0]
+
+    @property
+    def load_schedule(self):
+        """The :class:`LoadSchedule` of the current episode."""
+        return self._episode()[1]
+
+    @property
+    def model_params(self) -> ModelParams:
+        """The :class:`ModelParams` of the current episode (randomised or nominal)."""
+        return self._episode()[2]
+
+    @property
+    def state(self) -> np.ndarray:
+        """Copy of the model state vector (``spine_gym.physics.layout``)."""
+        return self._core.states[0].copy()
+
+    def _episode(self):
+        ep = self._core.episodes[0]
+        if ep is None:
+            raise RuntimeError("call reset() first")
+        return ep
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode (see "Starting state" in the class docstring)."""
+        super().reset(seed=seed)
+        obs = self._core.reset_env(0, self.np_random, options)
+        self._needs_reset = False
+        self._done = False
+        return obs, self._info(self._core.reset_info(self._rows), 0)
+
+    def step(self, action):
+        """One control period; returns ``(obs, reward, terminated, truncated, info)``."""
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step()")
+        a = validate_actions(action, (2,))
+        if self._done:
+            gym.logger.warn(
+                "step() called after the episode ended (terminated or truncated); call reset(). "
+                "The model keeps running with the last target and loads."
+            )
+        obs, reward, terminated, truncated, info = self._core.step(a[None, :], (self.np_random,))
+        term, trunc = bool(terminated[0]), bool(truncated[0])
+        self._done = self._done or term or trunc
+        return obs[0], float(reward[0]), term, trunc, self._info(info, 0)
+
+    @staticmethod
+    def _info(arrays: dict[str, np.ndarray], j: int) -> dict[str, Any]:
+        out = {}
+        for key, v in arrays.items():
+            x = v[j]
+            out[key] = x.copy() if isinstance(x, np.ndarray) else x.item()
+        if out["status"] != L.OK:
+            out["status_text"] = L.STATUS_TEXT.get(out["status"], str(out["status"]))
+        return out
+
+    def render(self):
+        """An (480, 480, 3) uint8 frame if ``render_mode == "rgb_array"``, else None."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without render_mode; create the env with render_mode='rgb_array'"
+            )
+            return None
+        if self._core.episodes[0] is None:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            from .render import SpineRenderer
+
+            self._renderer = SpineRenderer(self.config.temperature_limit)
+        return self._renderer.draw(self._core.state_summary(0))
+
+    def close(self):
+        """Release the figure of the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __getstate__(self):
+        d = self.__dict__.copy()
+        d["_renderer"] = None  # matplotlib figures are not pickled
+        return d

@@ -1,0 +1,285 @@
+"""Native vector env of ``SmaSpine-v0``: N spines stepped by one parallel numba loop.
+
+``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
+:class:`~spine_gym.envs.core.SpineBatch` as the single env with B = N: random draws (targets, loads,
+randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
+``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the parallel kernel
+:func:`spine_gym.physics.env_kernels.step_many` per step. Row i therefore equals
+``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .core import OBS_NAMES, RESET_OPTION_KEYS, EnvConfig, SpineBatch, config_fields, validate_actions
+
+__all__ = ["SmaSpineVectorEnv"]
+
+
+class SmaSpineVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted parallel loop.
+
+    Action, observation, reward, info keys and arguments are those of ``SmaSpineEnv`` (its class
+    docstring is the documentation); the vector-specific parts are:
+
+    * **Autoreset** (``metadata["autoreset_mode"]``): ``AutoresetMode.NEXT_STEP`` by default, as
+      Gymnasium's ``SyncVectorEnv``: the step after a sub-env terminated or truncated resets it
+      (its action is ignored; reward 0, ``terminated = truncated = False``, the info is the reset
+      info). ``autoreset_mode=AutoresetMode.SAME_STEP`` resets in the step that ended the episode
+      and puts the last observation and info in ``info["final_obs"]`` / ``info["final_info"]``
+      (the Stable-Baselines3 adapter uses this mode); ``DISABLED`` leaves resets to the caller
+      (``reset(options={"reset_mask": mask})``).
+    * **Truncation**: the env truncates on its own after ``episode_duration / control_period``
+      steps, or after ``max_episode_steps`` if that is smaller (``gym.make_vec`` passes the
+      registration's 600, matching what ``gym.make``'s TimeLimit does to the single env).
+    * **Seeding**: ``reset(seed=s)`` seeds sub-env i with ``s + i``; a list gives one seed per env;
+      ``None`` keeps each sub-env's generator running (fresh entropy on the first reset).
+    * **Options**: ``reset(options={"target": ..., "loads": ..., "params": ...})``; each value is one
+      object for all sub-envs or a list of ``num_envs`` (``None`` entries draw as usual);
+      ``"reset_mask"`` (bool (num_envs,)) resets only those sub-envs.
+    * **Info**: a dict of arrays with one row per sub-env and the ``_key`` masks of Gymnasium.
+    * ``parallel``: run the loop over spines on all cores (default: when ``num_envs > 1``).
+    * ``render()`` returns a tuple of ``num_envs`` frames.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10, "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        render_mode: str | None = None,
+        *,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        max_episode_steps: int | None = None,
+        parallel: bool | None = None,
+        **env_kwargs,
+    ):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        unknown = set(env_kwargs) - set(config_fields())
+        if unknown:
+            raise TypeError(f"SmaSpineVectorEnv got unexpected keyword argument(s) {sorted(unknown)}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(
+                f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
+            ) from None
+        self.config = cfg = EnvConfig(**env_kwargs)
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": 1.0 / cfg.control_period}
+        self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        low, high = cfg.observation_bounds()
+        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.max_steps = cfg.n_steps
+        if max_episode_steps is not None:
+            if (
+                isinstance(max_episode_steps, bool)
+                or not isinstance(max_episode_steps, int | np.integer)
+                or max_episode_steps < 1
+            ):
+                raise ValueError(
+                    f"max_episode_steps must be None or an integer >= 1, got {max_episode_steps!r}"
+                )
+            self.max_steps = min(self.max_steps, int(max_episode_steps))
+        self.parallel = self.num_envs > 1 if parallel is None else bool(parallel)
+        self._core = SpineBatch(cfg, self.num_envs, parallel=self.parallel)
+        self._core.max_steps = self.max_steps
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._obs = np.zeros((self.num_envs, len(OBS_NAMES)), dtype=np.float32)
+        self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        self._ever_reset = False
+        self._renderer = None
+
+    # ------------------------------------------------------------------ facts (as the single env)
+    @property
+    def v_max(self) -> float:
+        """Voltage of action +1 [V]."""
+        return self.config.v_max
+
+    @property
+    def control_period(self) -> float:
+        """Time per step [s]."""
+        return self.config.control_period
+
+    @property
+    def temperature_limit(self) -> float:
+        """Threshold of ``info["cost"]`` [K]."""
+        return self.config.temperature_limit
+
+    @property
+    def observation_names(self) -> tuple[str, ...]:
+        """Names of the observation entries."""
+        return OBS_NAMES
+
+    @property
+    def np_randoms(self) -> list[np.random.Generator | None]:
+        """The per-sub-env generators (sub-env i seeded ``seed + i``)."""
+        return list(self._rngs)
+
+    # ------------------------------------------------------------------ reset
+    def _seeds(self, seed) -> list[int | None]:
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(self.num_envs)]
+        seeds = list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(
+                f"a list of seeds must have num_envs = {self.num_envs} entries, got {len(seeds)}"
+            )
+        return seeds
+
+    def _options_for(self, options: dict[str, Any], i: int) -> dict[str, Any]:
+        out = {}
+        for key in RESET_OPTION_KEYS:
+            v = options.get(key)
+            if isinstance(v, list | tuple):
+                if len(v) != self.num_envs:
+                    raise ValueError(
+                        f"options[{key!r}] as a list must have num_envs = {self.num_envs} entries, "
+                        f"got {len(v)}"
+                    )
+                v = v[i]
+            if v is not None:
+                out[key] = v
+        return out
+
+    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: dict[str, Any]) -> None:
+        for i in rows:
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(seeds[i])
+            self._obs[i] = self._core.reset_env(int(i), self._rngs[i], self._options_for(options, int(i)))
+        self._autoreset[rows] = False
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+        """Reset all sub-envs (or those of ``options["reset_mask"]``); returns ``(obs, info)``."""
+        seeds = self._seeds(seed)
+        options = dict(options or {})
+        unknown = set(options) - set(RESET_OPTION_KEYS) - {"reset_mask"}
+        if unknown:
+            raise ValueError(
+                f"unknown reset option(s) {sorted(unknown)}; valid keys: {(*RESET_OPTION_KEYS, 'reset_mask')}"
+            )
+        mask = options.pop("reset_mask", None)
+        if mask is None:
+            rows = np.arange(self.num_envs)
+        else:
+            mask = np.asarray(mask)
+            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
+                raise ValueError(
+                    f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) with a True "
+                    f"entry, got {mask!r}"
+                )
+            if not self._ever_reset and not mask.all():
+                raise ValueError(
+                    "the first reset must reset every sub-env (no reset_mask or an all-True one)"
+                )
+            rows = np.flatnonzero(mask)
+        self._reset_rows(rows, seeds, options)
+        self._ever_reset = True
+        infos: dict[str, Any] = {}
+        self._merge(infos, self._core.reset_info(rows), rows)
+        return self._obs.copy(), infos
+
+    # ------------------------------------------------------------------ step
+    def step(self, actions):
+        """Step every sub-env; see the class docstring for the autoreset convention."""
+        if not self._ever_reset:
+            raise RuntimeError("call reset() before step()")
+        a = validate_actions(actions, (self.num_envs, 2))
+        n = self.num_envs
+        reward = np.zeros(n)
+        terminated = np.zeros(n, dtype=np.bool_)
+        truncated = np.zeros(n, dtype=np.bool_)
+        infos: dict[str, Any] = {}
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
+            reset_rows = np.flatnonzero(self._autoreset)
+            self._reset_rows(reset_rows, [None] * n, {})
+            active = ~np.isin(np.arange(n), reset_rows)
+            self._merge(infos, self._core.reset_info(reset_rows), reset_rows)
+        else:
+            active = None
+        rows = np.arange(n) if active is None else np.flatnonzero(active)
+        if rows.size:
+            obs, r, te, tr, info = self._core.step(a, self._rngs, active)
+            self._obs[rows] = obs
+            reward[rows] = r
+            terminated[rows] = te
+            truncated[rows] = tr
+            done_rows = rows[te | tr]
+            if mode == AutoresetMode.SAME_STEP and done_rows.size:
+                final = {}
+                sel = np.isin(rows, done_rows)
+                self._merge(final, {k: v[sel] for k, v in info.items()}, done_rows)
+                final_obs = np.full(n, None, dtype=object)
+                for i in done_rows:
+                    final_obs[i] = self._obs[i].copy()
+                self._reset_rows(done_rows, [None] * n, {})
+                keep = ~sel
+                self._merge(infos, {k: v[keep] for k, v in info.items()}, rows[keep])
+                self._merge(infos, self._core.reset_info(done_rows), done_rows)
+                infos["final_obs"] = final_obs
+                infos["_final_obs"] = np.isin(np.arange(n), done_rows)
+                infos["final_info"] = final
+                infos["_final_info"] = infos["_final_obs"].copy()
+            else:
+                self._merge(infos, info, rows)
+        self._autoreset = terminated | truncated
+        return self._obs.copy(), reward, terminated, truncated, infos
+
+    def _merge(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:
+        """Write per-row arrays into full-size info arrays with Gymnasium's ``_key`` masks."""
+        n = self.num_envs
+        full = rows.shape[0] == n
+        for key, v in arrays.items():
+            if key not in infos:
+                if full:
+                    infos[key] = v.copy()
+                    infos["_" + key] = np.ones(n, dtype=np.bool_)
+                    continue
+                infos[key] = np.zeros((n, *v.shape[1:]), dtype=v.dtype)
+                infos["_" + key] = np.zeros(n, dtype=np.bool_)
+            infos[key][rows] = v
+            infos["_" + key][rows] = True
+
+    # ------------------------------------------------------------------ misc
+    def render(self):
+        """A tuple of ``num_envs`` (480, 480, 3) uint8 frames if ``render_mode == "rgb_array"``."""
+        if self.render_mode is None:
+            return None
+        if not self._ever_reset:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            from .render import SpineRenderer
+
+            self._renderer = SpineRenderer(self.config.temperature_limit)
+        return tuple(self._renderer.draw(self._core.state_summary(i)) for i in range(self.num_envs))
+
+    def close_extras(self, **kwargs):
+        """Release the renderer's figure."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __getstate__(self):
+        d = self.__dict__.copy()
+        d["_renderer"] = None
+        return d

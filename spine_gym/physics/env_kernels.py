@@ -1,0 +1,71 @@
+"""One control period for many spines: the jitted loop shared by the single and the vector env.
+
+Nothing here adds an equation: each spine is advanced with :func:`solver.advance` (the model's own
+adaptive sub-steps inside every physics step ``dt``) and measured with :func:`batch.record`, exactly
+as :func:`spine_gym.simulate` does. What the environments need on top is bookkeeping: a per-spine
+``active`` mask (the vector env steps only the environments that are not being reset), a backup so
+that a spine whose step fails is handed back at its last valid state (the env then terminates
+with a status, never with NaN), and a ``resolve`` flag per spine (solve the mechanics again only
+when the loads changed since the last solve, as ``batch.run`` does).
+
+Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines in parallel with
+``prange``; ``step_many_serial`` is the serial twin used by the single env. Both give bit-identical
+rows (tested).
+"""
+
+from __future__ import annotations
+
+import numba
+
+from ._jit import jit, pjit
+from .batch import record
+from .layout import OK
+from .solver import advance
+
+
+def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
+    """Advance every active spine by ``n_sub`` physics steps of ``dt`` and record it.
+
+    Args:
+        states: (B, S) model states, advanced in place.
+        backup: (B, S) scratch; row i receives the state before the step.
+        kps: (B, KP_SIZE) constants (one row per spine, for domain randomisation).
+        ks: solver options.
+        v_r, v_l: (B,) voltages held over the control period [V].
+        loads: (B, N, 2) vertex forces held over the control period [N].
+        resolve: (B,) bool, the loads differ from those of the last mechanical solve.
+        active: (B,) bool, spines to advance (others are left untouched).
+        dt: physics step [s]; the control period is ``n_sub * dt``.
+        n_sub: physics steps per control period.
+        status: (B,) int64 out; ``layout`` status code of the step (OK or the first failure).
+        meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step
+            (of the restored state if the step failed).
+    """
+    b = states.shape[0]
+    s = states.shape[1]
+    for i in numba.prange(b):
+        if not active[i]:
+            continue
+        status[i] = OK
+        for q in range(s):
+            backup[i, q] = states[i, q]
+        for j in range(n_sub):
+            st, _, _ = advance(states[i], kps[i], ks, v_r[i], v_l[i], loads[i], dt, resolve[i] and j == 0)
+            if st != OK:
+                status[i] = st
+                for q in range(s):
+                    states[i, q] = backup[i, q]
+                break
+        record(states[i], kps[i], meas[i])
+
+
+step_many = pjit(_step_many)
+step_many_serial = jit(_step_many)
+
+
+@jit
+def record_many(states, kps, rows, meas):
+    """:func:`batch.record` of the spines ``rows`` (int array) into ``meas[rows]``."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        record(states[i], kps[i], meas[i])
