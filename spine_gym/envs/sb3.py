@@ -1,0 +1,171 @@
+"""Stable-Baselines3 ``VecEnv`` over the native vector env (imports stable_baselines3).
+
+SB3 algorithms take a ``VecEnv`` whose ``step_wait`` returns ``(obs, rewards, dones, infos)`` with
+a list of per-env info dicts, resets finished environments in the same step and puts the last
+observation of the finished episode in ``infos[i]["terminal_observation"]`` and
+``infos[i]["TimeLimit.truncated"]`` (``truncated and not terminated``), exactly as SB3's own
+``DummyVecEnv`` does. :class:`SmaSpineSB3VecEnv` gives that over
+:class:`~spine_gym.envs.vector_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
+physics of all environments stays one parallel numba call per step. It composes with
+``VecMonitor`` and ``VecNormalize``::
+
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    from spine_gym.envs.sb3 import SmaSpineSB3VecEnv
+
+    venv = VecNormalize(VecMonitor(SmaSpineSB3VecEnv(16, seed=0)))
+    PPO("MlpPolicy", venv).learn(100_000)
+
+(:func:`make_sb3_vec_env` builds that stack.) The plain route also works:
+``stable_baselines3.common.env_util.make_vec_env("SmaSpine-v0", n_envs=8)`` (a ``DummyVecEnv`` of
+single envs; slower, same numbers).
+
+Per-env infos hold the single env's keys; for a finished episode they are the infos of its last
+step (plus ``terminal_observation``), and the reset info of the new episode is in
+``reset_infos[i]`` (SB3's convention).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
+
+from .core import RESET_OPTION_KEYS
+from .vector_env import SmaSpineVectorEnv
+
+__all__ = ["SmaSpineSB3VecEnv", "make_sb3_vec_env"]
+
+
+def _rows_to_dicts(info: dict[str, Any], n: int) -> list[dict[str, Any]]:
+    """Gymnasium's dict of arrays (with ``_key`` masks) -> one dict per env (masked keys only)."""
+    keys = [k for k in info if not k.startswith("_") and k not in ("final_obs", "final_info")]
+    out: list[dict[str, Any]] = [{} for _ in range(n)]
+    for key in keys:
+        arr = info[key]
+        mask = info.get("_" + key)
+        vals = arr.tolist() if arr.ndim == 1 else list(arr)
+        if mask is None or mask.all():
+            for d, v in zip(out, vals, strict=True):
+                d[key] = v
+        else:
+            for i in np.flatnonzero(mask):
+                out[i][key] = vals[i]
+    return out
+
+
+class SmaSpineSB3VecEnv(VecEnv):
+    """SB3 ``VecEnv`` of ``num_envs`` SmaSpine-v0 environments stepped by the native vector env.
+
+    Args:
+        num_envs: number of environments.
+        seed: seed of the first reset (env i gets ``seed + i``); ``VecEnv.seed`` works as usual.
+        **env_kwargs: arguments of :class:`~spine_gym.envs.SmaSpineEnv` (and ``parallel``,
+            ``max_episode_steps`` of the vector env).
+    """
+
+    def __init__(self, num_envs: int = 1, seed: int | None = None, **env_kwargs):
+        self.venv = SmaSpineVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
+        super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
+        self.metadata = {**self.metadata, "render_fps": self.venv.metadata["render_fps"]}
+        if seed is not None:
+            self.seed(seed)
+        self._actions: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ VecEnv API
+    def reset(self):
+        """Reset every env with the seeds/options set by ``seed()``/``set_options()`` (used once)."""
+        options: dict[str, list] = {}
+        for i, opt in enumerate(self._options):
+            for key, value in (opt or {}).items():
+                if key not in RESET_OPTION_KEYS:
+                    raise ValueError(f"unknown reset option {key!r}; valid keys: {RESET_OPTION_KEYS}")
+                options.setdefault(key, [None] * self.num_envs)[i] = value
+        obs, info = self.venv.reset(seed=list(self._seeds), options=options)
+        self.reset_infos = _rows_to_dicts(info, self.num_envs)
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._actions is None:
+            raise RuntimeError("step_async() must be called before step_wait()")
+        obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
+        self._actions = None
+        n = self.num_envs
+        dones = terminated | truncated
+        infos = _rows_to_dicts(info, n)
+        if dones.any():
+            finals = _rows_to_dicts(info["final_info"], n)
+            for i in np.flatnonzero(dones):
+                self.reset_infos[i] = infos[i]
+                infos[i] = finals[i]
+                infos[i]["terminal_observation"] = info["final_obs"][i]
+        for i in range(n):
+            infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        return obs, rewards.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        if self.render_mode != "rgb_array":
+            return [None] * self.num_envs
+        return list(self.venv.render())
+
+    def _indices(self, indices: VecEnvIndices) -> list[int]:
+        return list(self._get_indices(indices))
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """An attribute of the environments (shared by all: they have one configuration)."""
+        value = getattr(self.venv, attr_name)
+        return [value for _ in self._indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Set an attribute of the underlying vector env (shared by all environments)."""
+        if indices is not None and sorted(self._indices(indices)) != list(range(self.num_envs)):
+            raise ValueError("the environments share one configuration: set_attr applies to all of them")
+        setattr(self.venv, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
+    ) -> list:
+        """Call a method of the underlying vector env once; its result is repeated per index."""
+        result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
+        return [result for _ in self._indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
+        """No sub-env is wrapped (there are no per-env Gymnasium objects)."""
+        return [False for _ in self._indices(indices)]
+
+
+def make_sb3_vec_env(
+    num_envs: int = 1,
+    seed: int | None = None,
+    *,
+    monitor: bool = True,
+    normalize: bool | dict = False,
+    env_kwargs: dict | None = None,
+) -> VecEnv:
+    """:class:`SmaSpineSB3VecEnv`, optionally wrapped in ``VecMonitor`` and ``VecNormalize``.
+
+    Args:
+        num_envs: number of environments.
+        seed: seed of the first reset (env i gets ``seed + i``).
+        monitor: wrap in ``VecMonitor`` (episode return/length in ``info["episode"]``).
+        normalize: ``True`` or a dict of ``VecNormalize`` keyword arguments.
+        env_kwargs: arguments of :class:`~spine_gym.envs.SmaSpineEnv`.
+    """
+    env: VecEnv = SmaSpineSB3VecEnv(num_envs, seed=seed, **(env_kwargs or {}))
+    if monitor:
+        env = VecMonitor(env)
+    if normalize:
+        env = VecNormalize(env, **(normalize if isinstance(normalize, dict) else {}))
+    return env
