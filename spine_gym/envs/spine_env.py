@@ -38,8 +38,9 @@ class SmaSpineEnv(gym.Env):
     What makes it hard: the response is slow (wire thermal time constant ~17 s) and hysteretic;
     a heated wire that cools keeps the spine bent for seconds and relaxes over ~25 s; the wire on
     the outside of a bend is stretched (detwinned) and does **not** pull back by itself, so to
-    bend the other way you heat the other wire. Holding ±45° needs ~2.5 V (wire ~395 K); 5 V drives
-    a wire to ~650 K and bends the spine to its ±63° limit in ~10 s.
+    bend the other way you heat the other wire. After a 5-V heating pulse, 2.5 V holds ~36° (wire
+    ~395 K) and 3 V ~45° (~430 K); 5 V held drives a wire to ~650 K and the spine to its ±63°
+    limit in ~10 s.
 
     ## Action space
 
@@ -71,11 +72,12 @@ class SmaSpineEnv(gym.Env):
     | 8     | right wire resistance (one wire)             | Ohm   | 0     | R_max    |
     | 9     | left wire resistance                         | Ohm   | 0     | R_max    |
 
-    R_max = 2 × the largest one-wire resistance over the nominal and randomised parameters
-    (~3.7 Ohm at the baseline, whose wire has 1.5-1.9 Ohm). Entries 0, 2, 3, 8, 9 are sensor
-    readings: they see ``sensor_delay`` control periods into the past and carry Gaussian
-    ``sensor_noise`` if enabled; entry 4 differentiates the measured angle. Entries 1, 5, 6, 7 are
-    exact. Time t is the end of the step just taken (``info["time"]``).
+    R_max = 2 × the largest one-wire resistance over the nominal and randomised parameters (4.7 Ohm
+    at the baseline, whose wire has 1.87 Ohm in martensite, 2.34 Ohm in austenite; plus 10 standard
+    deviations of resistance noise). Entries 0, 2, 3, 8, 9 are sensor readings: they see
+    ``sensor_delay`` control periods into the past and carry Gaussian ``sensor_noise`` if enabled;
+    entry 4 differentiates the measured angle. Entries 1, 5, 6, 7 are exact. Time t is the end of
+    the step just taken (``info["time"]``).
 
     ## Rewards
 
@@ -86,8 +88,9 @@ class SmaSpineEnv(gym.Env):
         r = −|e| / error_scale − energy_weight · E / E_ref − cost_weight · cost
 
     With the defaults (``error_scale`` = 10°, ``energy_weight`` = 0.5, ``cost_weight`` = 0) a step
-    earns between about −9.5 and 0; −0.1 per degree of error. ``info["reward_tracking"]`` and
-    ``info["reward_energy"]`` hold the first two terms.
+    earns −0.1 per degree of error and at most −0.5 for energy: between about −11 (target 45° one
+    way, spine 63° the other, both wires at 5 V) and 0; typical values are −4 to 0.
+    ``info["reward_tracking"]`` and ``info["reward_energy"]`` hold the first two terms.
 
     **Cost** (safety-gymnasium convention, kept out of the reward by default):
     ``info["cost"]`` = Σ over both wires of max(0, T − ``temperature_limit``) [K] >= 0.
