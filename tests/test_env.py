@@ -163,13 +163,22 @@ def test_env_reproduces_simulate_bit_for_bit():
 
 
 def test_target_range_is_reachable_in_both_directions():
-    """Full voltage reaches beyond ±45° (the default target range) in 15 s, either way."""
+    """Full voltage reaches beyond ±45° (the default target range) in 15 s, either way, and swings
+    from one end to the other (heating the antagonist) within an episode."""
     env = SmaSpineEnv(**NO_LOADS)
     for a, sign in (([1.0, -1.0], 1.0), ([-1.0, 1.0], -1.0)):
         env.reset(seed=0)
         for _ in range(150):
             _, _, _, _, info = env.step(np.array(a, dtype=np.float32))
         assert sign * info["angle_deg"] > 45.0
+    # and across: from +45 deg (right wire heated 10 s) to below -45 deg by heating the left wire
+    env.reset(seed=0)
+    for k in range(250):
+        a = [1.0, -1.0] if k < 100 else [-1.0, 1.0]
+        info = env.step(np.array(a, dtype=np.float32))[4]
+        if k == 99:
+            assert info["angle_deg"] > 45.0
+    assert info["angle_deg"] < -45.0
 
 
 def test_payload_and_tip_force_deflect_the_spine():

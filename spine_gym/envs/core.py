@@ -23,6 +23,7 @@ from ..params import ModelParams, SolverOptions, field_names
 from ..physics import batch, env_kernels
 from ..physics import layout as L
 from ..physics.solver import init_state
+from . import _bookkeeping as bk
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
 __all__ = [
@@ -68,11 +69,8 @@ RATE_OBS_LIMIT = 1000.0  # [deg/s] bound of the angle-rate entry
 TEMP_OBS_HIGH = 2000.0  # [K] = the kernel's temperature sanity bound (layout.K_TMAX)
 TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at full transformation)
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
-N_CHANNELS = 5  # measured channels: angle, T_R, T_L, R_R, R_L
+N_CHANNELS = bk.N_CHANNELS  # measured channels: angle, T_R, T_L, R_R, R_L
 RESET_OPTION_KEYS = ("target", "loads", "params")
-_QJ = [L.X_QJR, L.X_QJL]  # columns of the cumulative Joule heat per unit volume [J/m^3]
-_TEMPS = [L.X_TR, L.X_TL]
-_RES = [batch.OUT_RES_R, batch.OUT_RES_L]
 
 # default domain randomisation: field -> ("scale" | "shift", low, high) about the nominal value
 _DEFAULT_DR = {
@@ -332,7 +330,7 @@ def parse_reset_options(options) -> dict[str, Any]:
         return {}
     if not isinstance(options, Mapping):
         raise ValueError(f"options must be a dict with keys among {RESET_OPTION_KEYS}, got {options!r}")
-    unknown = set(options) - set(RESET_OPTION_KEYS) - {"reset_mask"}
+    unknown = set(options) - set(RESET_OPTION_KEYS)
     if unknown:
         raise ValueError(f"unknown reset option(s) {sorted(unknown)}; valid keys: {RESET_OPTION_KEYS}")
     out = {}
@@ -405,6 +403,12 @@ class SpineBatch:
         )
         self.noisy = bool(self.noise_sigma.any())
         self.energy_ref = cfg.energy_reference
+        self.settings = np.zeros(bk.N_SETTINGS)
+        self.settings[bk.S_PERIOD] = cfg.control_period
+        self.settings[bk.S_ERROR_SCALE] = cfg.error_scale
+        self.settings[bk.S_ENERGY_COEF] = cfg.energy_weight / self.energy_ref
+        self.settings[bk.S_COST_WEIGHT] = cfg.cost_weight
+        self.settings[bk.S_T_LIMIT] = cfg.temperature_limit
         self.max_steps = cfg.n_steps  # truncation (the vector env may lower it to max_episode_steps)
         self.volts = np.zeros((b, 2))  # [V] applied over the last step
         self._all = np.ones(b, dtype=np.bool_)
@@ -479,10 +483,15 @@ class SpineBatch:
         env_kernels.record_many(self.states, self.kps, rows, self.meas)
         m = self.meas[i]
         self.joule[i] = (m[L.X_QJR] * self.side_volume[i], m[L.X_QJL] * self.side_volume[i])
-        self.hist[i] = self._channels(rows)[0]
-        measured = self.hist[i, 0] + (rng.normal(size=N_CHANNELS) * self.noise_sigma if self.noisy else 0.0)
+        true = np.empty(N_CHANNELS)
+        bk.channels(m, self.ohm_per_resistivity[i], true)
+        self.hist[i] = true  # the sensors read the initial state before t = 0
+        measured = true + (rng.normal(size=N_CHANNELS) * self.noise_sigma if self.noisy else 0.0)
         self.prev_measured_angle[i] = measured[0]
-        return self._assemble(rows, rows, self.k[rows], measured[None, :], np.zeros(1))[0]
+        obs = np.empty(OBS_DIM)
+        preview = self.targets[i, min(cfg.preview_steps, self.targets.shape[1] - 1)]
+        bk.assemble(obs, measured, 0.0, self.targets[i, 0], preview, -1.0, -1.0, self.obs_low, self.obs_high)
+        return obs.astype(np.float32)
 
     def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Info arrays (keys as in :meth:`step`) of freshly reset environments ``rows``."""
@@ -529,21 +538,19 @@ class SpineBatch:
             ``info`` is a dict of arrays with one row per active environment.
         """
         cfg = self.cfg
-        b = self.num_envs
-        if active is None:  # the common case: slices (views) instead of fancy indexing
+        if active is None:
             active = self._all
-            rows = slice(None)
-            row_ids = self._row_ids
+            rows = self._row_ids
         else:
-            rows = row_ids = np.flatnonzero(active)
-        a = np.clip(actions[rows], -1.0, 1.0)
-        volts = (a + 1.0) * (0.5 * cfg.v_max)
-        self.volts[rows] = volts
+            rows = np.flatnonzero(active)
+        n = rows.shape[0]
+        a = np.clip(actions, -1.0, 1.0)
+        np.multiply(a + 1.0, 0.5 * cfg.v_max, out=self.volts)
         k0 = self.k[rows]
         kk = np.minimum(k0, cfg.n_steps - 1)
-        self.loads[rows, 0, :] = self.forces[row_ids, kk]
-        resolve = np.zeros(b, dtype=np.bool_)
-        resolve[rows] = self.resolve_plan[row_ids, kk] & (k0 < cfg.n_steps)
+        self.loads[rows, 0, :] = self.forces[rows, kk]
+        resolve = np.zeros(self.num_envs, dtype=np.bool_)
+        resolve[rows] = self.resolve_plan[rows, kk] & (k0 < cfg.n_steps)
         kernel = env_kernels.step_many if self.parallel else env_kernels.step_many_serial
         kernel(
             self.states,
@@ -560,92 +567,63 @@ class SpineBatch:
             self.status,
             self.meas,
         )
-        k = k0 + 1
-        self.k[rows] = k
-        m = self.meas[rows]
-        status = self.status[rows].copy()
-        # energy of the step from the model's Joule-heat accumulators (MODEL.md §6.1 energy bookkeeping)
-        joule = m[:, _QJ] * self.side_volume[rows, None]
-        side_energy = joule - self.joule[rows]
-        self.joule[rows] = joule
-        energy = side_energy[:, 0] + side_energy[:, 1]
-        # sensors: true channels -> delay line -> noise
-        true = self._channels(rows, m)
-        if cfg.sensor_delay:
-            hist = self.hist[rows]
-            hist[:, :-1] = hist[:, 1:]
-            hist[:, -1] = true
-            self.hist[rows] = hist
-            measured = hist[:, 0].copy()
-        else:
-            measured = true.copy()
-        if self.noisy:
-            for j, i in enumerate(row_ids):
-                measured[j] += rngs[i].normal(size=N_CHANNELS) * self.noise_sigma
-        rate = (measured[:, 0] - self.prev_measured_angle[rows]) / cfg.control_period
-        self.prev_measured_angle[rows] = measured[:, 0]
-        self.prev_action[rows] = a
-        obs = self._assemble(rows, row_ids, k, measured, rate)
-        # reward (true state, not the measurement)
-        angle = true[:, 0]
-        target = obs_target = self.targets[row_ids, np.minimum(k, self.targets.shape[1] - 1)]
-        error = obs_target - angle
-        temps = true[:, 1:3]
-        cost = self._cost(temps)
-        r_track = np.abs(error) * (-1.0 / cfg.error_scale)
-        r_energy = energy * (-cfg.energy_weight / self.energy_ref)
-        reward = r_track + r_energy
-        if cfg.cost_weight:
-            reward -= cfg.cost_weight * cost
-        terminated = status != L.OK
-        truncated = (k >= self.max_steps) & ~terminated
-        info = {
-            "voltage": volts,
-            "angle_deg": angle,
-            "target_deg": target,
-            "tracking_error_deg": error,
-            "energy_J": energy,
-            "power_W": side_energy / cfg.control_period,
-            "cost": cost,
-            "temperature": temps,
-            "resistance": true[:, 3:5],
-            "time": k * cfg.control_period,
-            "tip_force": self.loads[rows, 0, :].copy(),
-            "status": status,
-            "reward_tracking": r_track,
-            "reward_energy": r_energy,
+        noise = np.zeros((n, N_CHANNELS))
+        if self.noisy:  # drawn per environment from its own generator, after the physics
+            for j, i in enumerate(rows):
+                noise[j] = rngs[i].normal(size=N_CHANNELS) * self.noise_sigma
+        obs = np.empty((n, OBS_DIM), dtype=np.float32)
+        info = np.empty((n, bk.N_INFO))
+        terminated = np.empty(n, dtype=np.bool_)
+        truncated = np.empty(n, dtype=np.bool_)
+        bk.finish_rows(
+            rows,
+            self.meas,
+            self.k,
+            self.joule,
+            self.side_volume,
+            self.ohm_per_resistivity,
+            self.hist,
+            noise,
+            self.prev_measured_angle,
+            self.prev_action,
+            a,
+            self.volts,
+            self.loads,
+            self.status,
+            self.targets,
+            cfg.preview_steps,
+            self.max_steps,
+            self.obs_low,
+            self.obs_high,
+            self.settings,
+            obs,
+            info,
+            terminated,
+            truncated,
+        )
+        out = {
+            "voltage": info[:, bk.I_VOLT_R : bk.I_VOLT_L + 1],
+            "angle_deg": info[:, bk.I_ANGLE],
+            "target_deg": info[:, bk.I_TARGET],
+            "tracking_error_deg": info[:, bk.I_ERROR],
+            "energy_J": info[:, bk.I_ENERGY],
+            "power_W": info[:, bk.I_POWER_R : bk.I_POWER_L + 1],
+            "cost": info[:, bk.I_COST],
+            "temperature": info[:, bk.I_TEMP_R : bk.I_TEMP_L + 1],
+            "resistance": info[:, bk.I_RES_R : bk.I_RES_L + 1],
+            "time": info[:, bk.I_TIME],
+            "tip_force": info[:, bk.I_FORCE_X : bk.I_FORCE_Y + 1],
+            "status": self.status[rows],
+            "reward_tracking": info[:, bk.I_R_TRACK],
+            "reward_energy": info[:, bk.I_R_ENERGY],
         }
-        return obs, reward, terminated, truncated, info
+        return obs, info[:, bk.I_REWARD], terminated, truncated, out
 
     # ------------------------------------------------------------------ helpers
-    def _channels(self, rows, m: np.ndarray | None = None) -> np.ndarray:
-        """True sensor channels (angle [deg], T_R, T_L [K], R_R, R_L [Ω]) of ``rows``."""
-        if m is None:
-            m = self.meas[rows]
-        out = np.empty((m.shape[0], N_CHANNELS))
-        out[:, 0] = m[:, batch.OUT_ANGLE] * (180.0 / math.pi)
-        out[:, 1:3] = m[:, _TEMPS]
-        out[:, 3:5] = m[:, _RES] * self.ohm_per_resistivity[rows, None]
-        return out
-
     def _cost(self, temps: np.ndarray) -> np.ndarray:
-        """Σ over both wires of max(0, T − temperature_limit) [K]."""
+        """Σ over both wires of max(0, T − temperature_limit) [K] (as ``_bookkeeping.finish_rows``)."""
         over = np.maximum(temps - self.cfg.temperature_limit, 0.0)
         return over[:, 0] + over[:, 1]
-
-    def _assemble(self, rows, row_ids, k, measured: np.ndarray, rate: np.ndarray) -> np.ndarray:
-        last = self.targets.shape[1] - 1
-        obs = np.empty((measured.shape[0], OBS_DIM))
-        obs[:, OBS_ANGLE] = measured[:, 0]
-        obs[:, OBS_TARGET] = self.targets[row_ids, np.minimum(k, last)]
-        obs[:, OBS_TEMP_R : OBS_TEMP_L + 1] = measured[:, 1:3]
-        obs[:, OBS_RATE] = rate
-        obs[:, OBS_PREVIEW] = self.targets[row_ids, np.minimum(k + self.cfg.preview_steps, last)]
-        obs[:, OBS_PREV_R : OBS_PREV_L + 1] = self.prev_action[rows]
-        obs[:, OBS_RES_R : OBS_RES_L + 1] = measured[:, 3:5]
-        np.maximum(obs, self.obs_low, out=obs)
-        np.minimum(obs, self.obs_high, out=obs)
-        return obs.astype(np.float32)
 
     def state_summary(self, i: int) -> dict[str, Any]:
         """What the renderer needs for environment ``i``."""
