@@ -18,21 +18,33 @@ transformations, and hence the model's adaptive sub-stepping, set in; before tha
 ~5 µs of physics, after it ~100 µs), then ``--steps`` timed ones (default 50), all with its own
 fixed uniform random actions in [-1, 1] (the single env runs the episodes of environments
 0..15); steps/s = N × steps / wall time of the timed steps; each figure is the best of
-``--repeats`` runs (best-of: the machine is shared, the minimum is the least disturbed). The
+``--repeats`` runs, the configurations of one N interleaved run by run (best-of: the machine is
+shared, the minimum is the least disturbed; SyncVectorEnv at N = 1024 runs once, ~20 s). The
 Pendulum peer (torque = 2 × the first action entry) runs 20 000 steps. Writes
 ``benchmarks/results/env_speed.json`` and ``benchmarks/results/env_speed.png``.
 
     .venv/bin/python benchmarks/bench_env.py [--warm 50] [--steps 50] [--repeats 3] [--sizes 1 16 256 1024]
+    .venv/bin/python benchmarks/bench_env.py --omp-passive --tag _passive
+
+numba's parallel loop uses GNU OpenMP here; by default its idle worker threads spin for a while
+after each parallel region. On a machine whose cores are busy with other processes that spinning
+competes with the main thread's Python work between steps and the native env can drop below the
+serial loop; ``--omp-passive`` runs the same benchmark with ``OMP_WAIT_POLICY=PASSIVE`` (workers
+sleep at once) to show the difference. The load average at start and end is recorded.
 """
 
 from __future__ import annotations
 
+import os
+import sys
+
+if "--omp-passive" in sys.argv:  # must be set before numba's OpenMP runtime starts
+    os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+
 import argparse
 import json
-import os
 import platform
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -165,6 +177,7 @@ def machine() -> dict:
         "numpy": np.__version__,
         "numba": numba.__version__,
         "gymnasium": gym.__version__,
+        "OMP_WAIT_POLICY": os.environ.get("OMP_WAIT_POLICY", "(unset: GNU OpenMP spins, then sleeps)"),
         "spine_gym": spine_gym.__version__,
         "git_commit": commit,
     }
@@ -217,6 +230,12 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="best-of repeats (default 3)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 16, 256, 1024])
     ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument(
+        "--omp-passive",
+        action="store_true",
+        help="OMP_WAIT_POLICY=PASSIVE: idle OpenMP workers sleep instead of spinning (see the module doc)",
+    )
+    ap.add_argument("--tag", default="", help="suffix of the output file names (env_speed<tag>.json/.png)")
     args = ap.parse_args(argv)
     steps, reps, sizes, w = args.steps, args.repeats, sorted(args.sizes), args.warm
     info = machine()
@@ -241,9 +260,14 @@ def main(argv=None) -> int:
         native = gym.make_vec("SmaSpine-v0", num_envs=n)
         sync = make_sync(n)
         r_sync = 1 if n >= 1024 else reps  # ~20 s per run at N = 1024
-        res["native"][str(n)] = n * steps / _best(lambda: time_vector(native, acts, w), reps)  # noqa: B023
-        res["sync"][str(n)] = n * steps / _best(lambda: time_vector(sync, acts, w), r_sync)  # noqa: B023
-        res["kernel"][str(n)] = n * steps / _best(lambda: time_kernel(n, acts, w), reps)  # noqa: B023
+        best = {"native": np.inf, "sync": np.inf, "kernel": np.inf}
+        for r in range(reps):  # interleaved, so that a burst of machine load hits all three alike
+            best["native"] = min(best["native"], time_vector(native, acts, w))
+            if r < r_sync:
+                best["sync"] = min(best["sync"], time_vector(sync, acts, w))
+            best["kernel"] = min(best["kernel"], time_kernel(n, acts, w))
+        for key, t in best.items():
+            res[key][str(n)] = n * steps / t
         native.close()
         sync.close()
         nat, syn, ker = res["native"][str(n)], res["sync"][str(n)], res["kernel"][str(n)]
@@ -255,10 +279,12 @@ def main(argv=None) -> int:
     for n in [s for s in sizes if s >= 256]:
         acts = _actions(w + steps, n)
         venv = gym.make_vec("SmaSpine-v0", num_envs=n)
-        per = {}
-        for k in (1, n_threads):
-            numba.set_num_threads(k)
-            per[str(k)] = n * steps / _best(lambda: time_vector(venv, acts, w), reps)  # noqa: B023
+        per = {"1": np.inf, str(n_threads): np.inf}
+        for _ in range(reps):  # interleaved
+            for k in (1, n_threads):
+                numba.set_num_threads(k)
+                per[str(k)] = min(per[str(k)], time_vector(venv, acts, w))
+        per = {k: n * steps / t for k, t in per.items()}
         numba.set_num_threads(n_threads)
         res["threads"][str(n)] = {**per, "speedup": per[str(n_threads)] / per["1"]}
         print(
@@ -290,8 +316,8 @@ def main(argv=None) -> int:
     info["numba_threading_layer"] = numba.threading_layer()
     out = {"machine": info, "results": res, "summary": summary}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "env_speed.json").write_text(json.dumps(out, indent=2, default=float))
-    plot(res, args.out / "env_speed.png")
+    (args.out / f"env_speed{args.tag}.json").write_text(json.dumps(out, indent=2, default=float))
+    plot(res, args.out / f"env_speed{args.tag}.png")
     print(json.dumps(summary, indent=2, default=float))
     return 0
 
