@@ -383,6 +383,7 @@ class PIDGains:
         bias: voltage added to both wires [V] (keeps them warm, softens the dead zone).
         kaw: back-calculation anti-windup gain [1/s].
         feedforward: weight in [0, 1] of the steady-state feedforward voltage (0: pure PID).
+        preview: weight in [0, 1] of the previewed target in the reference (0: current target only).
     """
 
     kp: float = 0.4
@@ -392,20 +393,26 @@ class PIDGains:
     bias: float = 0.0
     kaw: float = 1.0
     feedforward: float = 0.0
+    preview: float = 0.0
 
 
 class PIDController(BaseController):
     """PID on the angle error, signed output split between the antagonistic wires.
 
-    ``u = ff(Θ*) + kp e + I + D`` [V] with ``e = Θ* − Θ`` [deg], ``D`` the filtered derivative of
-    −Θ (no derivative kick on target steps) and ``ff`` the steady-state voltage of the target
-    (signed by side) times ``feedforward``. The wires get ``right = max(u, 0) + bias`` and
+    ``u = ff(r) + kp e + I + D`` [V] with ``e = r − Θ`` [deg], ``D`` the filtered derivative of
+    −Θ (no derivative kick on target steps) and ``ff`` the steady-state voltage of the reference
+    (signed by side) times ``feedforward``. The reference is the current target Θ* blended with
+    the env's look-ahead target (observation ``preview_index``, ``SmaSpine-v0``'s entry 5 =
+    Θ*(t + 1 s)): ``r = (1 − preview) Θ* + preview Θ*_preview`` (classical preview feedforward,
+    which the learned policies get too). The wires get ``right = max(u, 0) + bias`` and
     ``left = max(−u, 0) + bias``, clipped to [0, v_max]. Anti-windup by back-calculation:
     ``dI/dt = ki e + kaw (u_sat − u)`` where ``u_sat`` is the part of ``u`` the wires can apply.
 
     Args:
-        kp, ki, kd, tau_d, bias, kaw, feedforward: see :class:`PIDGains`; ``kp, ki, kd, kaw``
-            ≥ 0, ``tau_d`` in [0, 100] s, ``bias`` in [0, v_max] V, ``feedforward`` in [0, 1].
+        kp, ki, kd, tau_d, bias, kaw, feedforward, preview: see :class:`PIDGains`; ``kp, ki, kd,
+            kaw`` ≥ 0, ``tau_d`` in [0, 100] s, ``bias`` in [0, v_max] V, ``feedforward`` and
+            ``preview`` in [0, 1].
+        preview_index: observation entry of the look-ahead target (used if ``preview`` > 0), >= 4.
         ss_map: steady-state map for the feedforward (default: :func:`steady_state_map`).
         **kwargs: ``v_max``, ``dt``, ``temperature_limit`` of :class:`BaseController`.
     """
@@ -422,7 +429,9 @@ class PIDController(BaseController):
         bias: float = PIDGains.bias,
         kaw: float = PIDGains.kaw,
         feedforward: float = PIDGains.feedforward,
+        preview: float = PIDGains.preview,
         *,
+        preview_index: int = 5,
         ss_map: SteadyStateMap | None = None,
         params: ModelParams | None = None,
         **kwargs,
@@ -436,7 +445,15 @@ class PIDController(BaseController):
             bias=_check_range("bias", bias, 0.0, self.v_max),
             kaw=_check_range("kaw", kaw, 0.0, 1e3),
             feedforward=_check_range("feedforward", feedforward, 0.0, 1.0),
+            preview=_check_range("preview", preview, 0.0, 1.0),
         )
+        if (
+            isinstance(preview_index, bool)
+            or not isinstance(preview_index, int | np.integer)
+            or preview_index < N_FIXED_OBS
+        ):
+            raise ValueError(f"preview_index must be an integer >= {N_FIXED_OBS}, got {preview_index!r}")
+        self.preview_index = int(preview_index)
         if ss_map is not None and not isinstance(ss_map, SteadyStateMap):
             raise ValueError(f"ss_map must be a SteadyStateMap, got {type(ss_map).__name__}")
         self.ss_map = ss_map
@@ -461,6 +478,16 @@ class PIDController(BaseController):
     def _volts(self, obs, mem):
         g = self.gains
         angle, target = obs[:, OBS_ANGLE], obs[:, OBS_TARGET]
+        if g.preview > 0.0:
+            if obs.shape[1] <= self.preview_index:
+                raise ValueError(
+                    f"preview > 0 needs observation entry {self.preview_index} (target preview), "
+                    f"got observations of size {obs.shape[1]}"
+                )
+            ahead = obs[:, self.preview_index]
+            if not np.all(np.isfinite(ahead)):
+                raise ValueError(f"observation must be finite, got NaN or inf in entry {self.preview_index}")
+            target = (1.0 - g.preview) * target + g.preview * ahead
         e = target - angle
         prev = mem[:, 2]
         first = np.isnan(prev)
@@ -483,4 +510,4 @@ class PIDController(BaseController):
         return np.stack([vr, vl], axis=1)
 
     def config(self) -> dict:
-        return {**dataclasses.asdict(self.gains), **super().config()}
+        return {**dataclasses.asdict(self.gains), "preview_index": self.preview_index, **super().config()}

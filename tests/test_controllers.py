@@ -91,6 +91,18 @@ def test_pid_splits_the_signed_output_between_the_wires():
     assert v == pytest.approx([0.3, 0.2 * 10 + 0.3], abs=1e-5)
 
 
+def test_pid_preview_blends_the_look_ahead_target_into_the_reference():
+    """r = (1 - preview) target + preview obs[preview_index]: with preview = 1 only the look-ahead counts."""
+    c = PIDController(kp=0.2, ki=0.0, bias=0.0, preview=1.0)
+    v = action_to_volts(c.predict(obs(angle=0.0, target=0.0, extra=(0.0, 10.0)))[0], 5.0)
+    assert v == pytest.approx([0.2 * 10, 0.0], abs=1e-5)
+    half = PIDController(kp=0.2, ki=0.0, bias=0.0, preview=0.5)
+    v = action_to_volts(half.predict(obs(angle=0.0, target=0.0, extra=(0.0, 10.0)))[0], 5.0)
+    assert v == pytest.approx([0.2 * 5, 0.0], abs=1e-5)
+    with pytest.raises(ValueError, match="preview"):
+        PIDController(preview=0.5).predict(obs()[:5])  # no look-ahead entry in a 5-entry observation
+
+
 def test_pid_anti_windup_bounds_the_integrator():
     """A long saturated error must not wind the integrator up beyond what the wires can apply."""
     c = PIDController(kp=1.0, ki=1.0, kaw=2.0)
@@ -207,6 +219,8 @@ def test_bad_observations_raise_clear_errors(factory):
         (lambda: PIDController(ki=np.nan), "ki"),
         (lambda: PIDController(bias=6.0), "bias"),
         (lambda: PIDController(feedforward=2.0), "feedforward"),
+        (lambda: PIDController(preview=1.5), "preview"),
+        (lambda: PIDController(preview=0.5, preview_index=2), "preview_index"),
         (lambda: BangBangController(v_on=0.0), "v_on"),
         (lambda: BangBangController(band=1.0, release=-2.0), "release"),
         (lambda: BangBangController(v_on=6.0), "v_on"),
