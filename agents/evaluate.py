@@ -1,0 +1,349 @@
+"""Evaluate baselines and saved policies on the fixed scenario suite of :mod:`agents.scenarios`.
+
+Example (the README's main command)::
+
+    python -m agents.evaluate            # shipped PPO/SAC policies + step, bang-bang, PID
+
+Every controller (anything with SB3's ``predict``) runs every scenario of the suite in its own
+``SmaSpine-v0`` env, reset with the scenario's seed, target profile and load schedule. The CLI
+prints one table per scenario group (mean over the group's scenarios) with tracking RMSE and max
+error [deg], settling time [s] (step scenarios), electrical energy [J], peak wire temperature [K]
+and time over the temperature limit [s], and writes to ``--out``:
+
+* ``metrics.csv`` — one row per (controller, scenario); ``summary.csv`` — one row per
+  (controller, group);
+* ``trajectories/<controller>/<scenario>.csv`` — the step-by-step record;
+* ``plots/<controller>_<group>.png`` — angle and target, voltages and temperatures vs time for
+  each scenario of the group.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from .common import ENV_ID, POLICIES_DIR
+from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
+from .scenarios import SUITES, Scenario, get_suite
+
+BASELINES = ("step", "bang_bang", "pid")
+
+
+# --------------------------------------------------------------------------- running
+def make_env(env_kwargs: dict | None = None):
+    """A plain ``SmaSpine-v0`` env (no time-limit surprises: the episode length is the env's)."""
+    import gymnasium as gym
+
+    import spine_gym  # noqa: F401 - registers the env
+
+    return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
+
+
+def run_episode(env, policy, scenario: Scenario, deterministic: bool = True) -> Trajectory:
+    """Roll ``policy`` through one scenario and return its :class:`Trajectory`.
+
+    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``; the policy's memory
+    is restarted through ``episode_start`` (and ``reset()`` if it has one).
+    """
+    if hasattr(policy, "reset"):
+        policy.reset()
+    obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
+    state = None
+    start = np.ones((1,), dtype=bool)
+    infos, actions, rewards = [], [], []
+    while True:
+        action, state = policy.predict(
+            obs[None, :], state=state, episode_start=start, deterministic=deterministic
+        )
+        action = np.asarray(action, dtype=np.float32).reshape(2)
+        start = np.zeros((1,), dtype=bool)
+        obs, reward, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        actions.append(action)
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    return Trajectory.from_infos(infos, actions, rewards)
+
+
+def env_temperature_limit(env) -> float:
+    """The env's wire-temperature limit [K] (the threshold of ``info['cost']``)."""
+    for attr in ("temperature_limit", "T_limit", "temp_limit"):
+        if hasattr(env, attr):
+            return float(getattr(env, attr))
+    raise AttributeError("the env exposes no temperature_limit attribute")
+
+
+def build_baseline(name: str, env, tuned: dict | None = None):
+    """Baseline controller ``name`` configured for ``env`` (its v_max, control period, limit)."""
+    from spine_gym.controllers import BangBangController, PIDController, StepVoltageController
+
+    from .tune import GUARD_MARGIN_K, load_tuned
+
+    common = {"v_max": float(env.v_max), "dt": float(env.control_period)}
+    tuned = load_tuned() if tuned is None else tuned
+    if name == "step":
+        return StepVoltageController(**common)
+    guard = {"temperature_limit": env_temperature_limit(env) - GUARD_MARGIN_K}  # as in agents.tune
+    if name == "bang_bang":
+        return BangBangController(**tuned["bang_bang"], **common, **guard)
+    if name == "pid":
+        return PIDController(**tuned["pid"], **common, **guard)
+    raise ValueError(f"unknown baseline {name!r}; choose from {BASELINES}")
+
+
+def evaluate(
+    controllers: dict[str, object],
+    scenarios: Iterable[Scenario],
+    env_kwargs: dict[str, dict] | None = None,
+    *,
+    progress: bool = False,
+) -> tuple[list[dict], dict[tuple[str, str], Trajectory]]:
+    """Run every controller on every scenario.
+
+    Args:
+        controllers: name -> object with SB3's ``predict``.
+        scenarios: the suite.
+        env_kwargs: per-controller env kwargs (e.g. a policy's training env kwargs); the
+            scenario's ``episode_duration`` always wins.
+        progress: print one line per controller.
+
+    Returns:
+        ``(rows, trajectories)``: one metrics dict per (controller, scenario) and the
+        trajectories keyed by (controller, scenario name).
+    """
+    scenarios = list(scenarios)
+    rows, trajs = [], {}
+    for name, ctrl in controllers.items():
+        t0 = time.perf_counter()
+        kw = dict((env_kwargs or {}).get(name, {}))
+        envs: dict[float, object] = {}
+        for sc in scenarios:
+            if sc.duration not in envs:
+                envs[sc.duration] = make_env({**kw, "episode_duration": sc.duration})
+            env = envs[sc.duration]
+            traj = run_episode(env, ctrl, sc)
+            m = episode_metrics(
+                traj, temperature_limit=env_temperature_limit(env), dt=float(env.control_period)
+            )
+            rows.append({"controller": name, "group": sc.group, "scenario": sc.name, "kind": sc.kind, **m})
+            trajs[(name, sc.name)] = traj
+        for env in envs.values():
+            env.close()
+        if progress:
+            print(
+                f"  {name:<12s} {len(scenarios)} scenarios in {time.perf_counter() - t0:5.1f} s", flush=True
+            )
+    return rows, trajs
+
+
+def summarize(rows: list[dict]) -> list[dict]:
+    """Mean of each metric per (controller, group), in first-seen order (NaN-aware for settling)."""
+    keys = []
+    for r in rows:
+        k = (r["controller"], r["group"])
+        if k not in keys:
+            keys.append(k)
+    out = []
+    for ctrl, group in keys:
+        sel = [r for r in rows if r["controller"] == ctrl and r["group"] == group]
+        s = {"controller": ctrl, "group": group, "n_scenarios": len(sel)}
+        for col in METRIC_COLUMNS:
+            vals = np.array([r[col] for r in sel], dtype=float)
+            s[col] = float(np.nanmean(vals)) if np.any(np.isfinite(vals)) else float("nan")
+        out.append(s)
+    return out
+
+
+def format_tables(summary: list[dict], use_rich: bool = True) -> str:
+    """One table per scenario group (rows: controllers), as text."""
+    groups = list(dict.fromkeys(s["group"] for s in summary))
+    heads = ["controller"] + [h for h, _ in METRIC_COLUMNS.values()]
+    chunks = []
+    for g in groups:
+        sel = [s for s in summary if s["group"] == g]
+        body = [
+            [s["controller"]]
+            + [("n/a" if math.isnan(s[c]) else f.format(s[c])) for c, (_, f) in METRIC_COLUMNS.items()]
+            for s in sel
+        ]
+        title = f"scenario group: {g} ({sel[0]['n_scenarios']} scenarios, mean per scenario)"
+        if use_rich:
+            from rich.console import Console
+            from rich.markup import escape
+            from rich.table import Table
+
+            t = Table(title=title)
+            for i, h in enumerate(heads):
+                t.add_column(escape(h), justify="left" if i == 0 else "right", no_wrap=True)
+            for row in body:
+                t.add_row(*(escape(c) for c in row))
+            con = Console(record=True, width=120, force_terminal=False)
+            with con.capture() as cap:
+                con.print(t)
+            chunks.append(cap.get())
+        else:
+            w = [max(len(h), *(len(r[i]) for r in body)) for i, h in enumerate(heads)]
+            lines = [
+                title,
+                "  ".join(h.ljust(w[i]) if i == 0 else h.rjust(w[i]) for i, h in enumerate(heads)),
+            ]
+            lines += [
+                "  ".join(c.ljust(w[i]) if i == 0 else c.rjust(w[i]) for i, c in enumerate(r)) for r in body
+            ]
+            chunks.append("\n".join(lines) + "\n")
+    return "\n".join(chunks)
+
+
+# --------------------------------------------------------------------------- output
+def write_csv(path: Path, rows: list[dict]) -> None:
+    """Write dict rows (same keys) as CSV."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def write_trajectories(out: Path, trajs: dict[tuple[str, str], Trajectory]) -> None:
+    """One CSV per (controller, scenario) under ``out/trajectories``."""
+    for (ctrl, sc), tr in trajs.items():
+        cols = tr.to_columns()
+        rows = [dict(zip(cols, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+        write_csv(out / "trajectories" / ctrl / f"{sc}.csv", rows)
+
+
+def plot_controller(
+    path: Path, controller: str, group: str, scenarios: list[Scenario], trajs, temperature_limit: float
+) -> None:
+    """Angle/target, voltages and temperatures vs time for each scenario of a group (one PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(scenarios)
+    fig, axes = plt.subplots(3, n, figsize=(3.2 * n, 7.0), sharex="col", squeeze=False)
+    for j, sc in enumerate(scenarios):
+        tr = trajs[(controller, sc.name)]
+        ax = axes[0, j]
+        ax.plot(tr.time, tr.target_deg, "k--", lw=1, label="target")
+        ax.plot(tr.time, tr.angle_deg, "C0", lw=1.3, label="angle")
+        ax.set_title(sc.name, fontsize=9)
+        axes[1, j].plot(tr.time, tr.voltage[:, 0], "C3", lw=1, label="right")
+        axes[1, j].plot(tr.time, tr.voltage[:, 1], "C2", lw=1, label="left")
+        axes[2, j].plot(tr.time, tr.temperature[:, 0], "C3", lw=1, label="right")
+        axes[2, j].plot(tr.time, tr.temperature[:, 1], "C2", lw=1, label="left")
+        axes[2, j].axhline(temperature_limit, color="k", ls=":", lw=0.8)
+        axes[2, j].set_xlabel("time [s]")
+    axes[0, 0].set_ylabel("angle [deg]")
+    axes[1, 0].set_ylabel("voltage [V]")
+    axes[2, 0].set_ylabel("temperature [K]")
+    axes[0, 0].legend(fontsize=7)
+    axes[1, 0].legend(fontsize=7)
+    fig.suptitle(f"{controller} — {group}")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- CLI
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m agents.evaluate", description=__doc__.split("\n")[0])
+    p.add_argument(
+        "--baselines",
+        nargs="*",
+        default=list(BASELINES),
+        help=f"baselines to run (default: all of {BASELINES})",
+    )
+    p.add_argument(
+        "--models",
+        nargs="*",
+        default=None,
+        metavar="NAME=PATH",
+        help="saved models (run folder, shipped folder or .zip); default: every policy in agents/policies/",
+    )
+    p.add_argument(
+        "--suite", default="full", choices=sorted(SUITES), help="scenario suite (default: %(default)s)"
+    )
+    p.add_argument("--groups", nargs="*", default=None, help="only these scenario groups")
+    p.add_argument("--scenarios", nargs="*", default=None, help="only these scenario names")
+    p.add_argument("-o", "--out", default="results/eval", help="output folder (default: %(default)s)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
+    p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
+    return p
+
+
+def shipped_policies() -> dict[str, Path]:
+    """Shipped policy folders ``agents/policies/<name>/`` that hold a ``model.zip``."""
+    return {p.name: p for p in sorted(POLICIES_DIR.glob("*")) if (p / "model.zip").exists()}
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    """Run the CLI; returns the summary rows."""
+    args = build_parser().parse_args(argv)
+    t_start = time.perf_counter()
+    scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios)
+    unknown = set(args.baselines) - set(BASELINES)
+    if unknown:
+        raise SystemExit(f"unknown baseline(s) {sorted(unknown)}; choose from {BASELINES}")
+    if args.models is None:
+        models = shipped_policies()
+    else:
+        models = {}
+        for item in args.models:
+            name, sep, path = item.partition("=")
+            if not sep:
+                name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
+            models[name] = Path(path)
+    controllers: dict[str, object] = {}
+    env_kwargs: dict[str, dict] = {}
+    probe = make_env()
+    limit = env_temperature_limit(probe)
+    for b in args.baselines:
+        controllers[b] = build_baseline(b, probe)
+    if models:
+        import torch
+
+        torch.set_num_threads(1)
+        from .common import load_policy
+
+        for name, path in models.items():
+            pol = load_policy(path, name=name)
+            controllers[name] = pol
+            env_kwargs[name] = {k: v for k, v in pol.env_kwargs.items() if k != "episode_duration"}
+    probe.close()
+    if not controllers:
+        raise SystemExit("nothing to evaluate: no baselines and no models")
+    print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
+    rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
+    summary = summarize(rows)
+    print()
+    print(format_tables(summary, use_rich=not args.plain))
+    out = Path(args.out)
+    write_csv(out / "metrics.csv", rows)
+    write_csv(out / "summary.csv", summary)
+    if not args.no_trajectories:
+        write_trajectories(out, trajs)
+    if not args.no_plots:
+        groups = list(dict.fromkeys(s.group for s in scenarios))
+        for ctrl in controllers:
+            for g in groups:
+                scs = [s for s in scenarios if s.group == g]
+                plot_controller(out / "plots" / f"{ctrl}_{g}.png", ctrl, g, scs, trajs, limit)
+    wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")
+    print(f"wrote {wrote} to {out} in {time.perf_counter() - t_start:.1f} s total")
+    return summary
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

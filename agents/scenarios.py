@@ -1,0 +1,154 @@
+"""The fixed, named, seeded scenario suite on which controllers are compared.
+
+A :class:`Scenario` is pure data (target profile, load schedule, duration, reset seed); its
+:meth:`Scenario.reset_options` turns it into the env's ``reset(options={"target": ...,
+"loads": ...})`` objects (:mod:`spine_gym.envs.task`). The suite has two groups with the same
+target profiles:
+
+* ``nominal`` — no external load;
+* ``disturbed`` — a payload on the top disk (gravity load) and horizontal tip-force pulses that
+  push the spine off its target.
+
+Target profiles (all within ±40°, inside the ±45° the env samples for training and well inside
+the ±63° the wires can reach) start at 0° like the spine: a hold then a step, a step sequence
+crossing zero, a staircase, ramps and sinusoids (periods 20-30 s). The disturbances are fixed
+numbers drawn once from ``numpy.random.default_rng(EVAL_SEED_BASE + k)`` here, so the suite does
+not move when the env's samplers change. Reset seeds are ``EVAL_SEED_BASE + k`` — disjoint from
+the training and tuning seeds (< ``EVAL_SEED_BASE``).
+
+``full`` is the suite of the README (60-s episodes); ``quick`` is a 3-scenario, 20-s cut for
+tests and the notebook.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+EVAL_SEED_BASE = 900_000  # evaluation reset seeds: EVAL_SEED_BASE + k; training/tuning seeds stay below
+G = 9.81  # [m/s^2]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One evaluation episode.
+
+    Attributes:
+        name: unique name (``<profile>`` + ``_dist`` in the disturbed group).
+        group: ``"nominal"`` or ``"disturbed"``.
+        kind: ``"step"``, ``"ramp"`` or ``"sine"`` (settling time is reported for steps).
+        target: ``(constructor, kwargs)`` of :class:`spine_gym.envs.task.TargetProfile`.
+        payload_kg: mass hung on the top disk [kg] (a constant (0, −m g) tip force).
+        tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y).
+        duration: episode duration [s].
+        seed: env reset seed.
+    """
+
+    name: str
+    group: str
+    kind: str
+    target: tuple[str, dict]
+    payload_kg: float = 0.0
+    tip_pulses: tuple[tuple[float, float, float, float], ...] = field(default_factory=tuple)
+    duration: float = 60.0
+    seed: int = EVAL_SEED_BASE
+
+    def reset_options(self) -> dict:
+        """The env's ``reset`` options: ``{"target": TargetProfile, "loads": LoadSchedule}``."""
+        from spine_gym.envs.task import LoadSchedule, TargetProfile
+
+        ctor, kwargs = self.target
+        target = getattr(TargetProfile, ctor)(**kwargs)
+        loads = LoadSchedule(
+            tip_force_events=tuple((t0, t1, (fx, fy)) for t0, t1, fx, fy in self.tip_pulses),
+            payload=self.payload_kg,
+        )
+        return {"target": target, "loads": loads}
+
+
+# target profiles shared by both groups: name -> (kind, constructor, kwargs); times in s, angles in deg
+def _profiles(duration: float) -> dict[str, tuple[str, str, dict]]:
+    """Every profile starts at 0 deg (the straight spine at rest) and moves after a short hold."""
+    d = duration
+    h = 5.0 * d / 60.0  # [s] initial hold at 0 deg
+    q = (d - h) / 4.0
+    return {
+        "step_up": ("step", "step", {"times": (0.0, h), "values": (0.0, 30.0)}),
+        "step_cross": ("step", "step", {"times": (0.0, h, h + 2 * q), "values": (0.0, 20.0, -15.0)}),
+        "staircase": (
+            "step",
+            "step",
+            {"times": (0.0, h, h + q, h + 2 * q, h + 3 * q), "values": (0.0, 10.0, 25.0, 40.0, 15.0)},
+        ),
+        "ramp_up": ("ramp", "ramp", {"times": (h, h + 2 * q), "values": (0.0, 35.0)}),
+        "ramp_swing": ("ramp", "ramp", {"times": (0.0, 0.4 * d, d), "values": (0.0, 30.0, -20.0)}),
+        "sine_slow": ("sine", "sine", {"amplitude": 25.0, "period": d / 2.0, "offset": 0.0}),
+        "sine_fast": ("sine", "sine", {"amplitude": 15.0, "period": d / 3.0, "offset": 0.0}),
+    }
+
+
+def _disturbance(k: int, duration: float) -> tuple[float, tuple[tuple[float, float, float, float], ...]]:
+    """Payload [kg] and two horizontal tip-force pulses for scenario k, from a fixed seed."""
+    rng = np.random.default_rng(EVAL_SEED_BASE + k)
+    payload = float(np.round(rng.uniform(0.02, 0.05), 3))
+    pulses = []
+    for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
+        t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
+        t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
+        fx = float(np.round(rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3), 3))
+        pulses.append((t0, min(t1, duration), fx, 0.0))
+    return payload, tuple(pulses)
+
+
+def build_suite(duration: float = 60.0, profiles: list[str] | None = None) -> list[Scenario]:
+    """The nominal and disturbed scenarios for ``duration``-second episodes."""
+    table = _profiles(duration)
+    names = profiles or list(table)
+    out = []
+    for group in ("nominal", "disturbed"):
+        for i, name in enumerate(names):
+            kind, ctor, kwargs = table[name]
+            k = i + (100 if group == "disturbed" else 0)
+            payload, pulses = _disturbance(k, duration) if group == "disturbed" else (0.0, ())
+            out.append(
+                Scenario(
+                    name=name if group == "nominal" else f"{name}_dist",
+                    group=group,
+                    kind=kind,
+                    target=(ctor, kwargs),
+                    payload_kg=payload,
+                    tip_pulses=pulses,
+                    duration=duration,
+                    seed=EVAL_SEED_BASE + k,
+                )
+            )
+    return out
+
+
+SUITES = {
+    "full": lambda: build_suite(60.0),
+    "quick": lambda: build_suite(20.0, ["step_cross", "ramp_swing", "sine_fast"]),
+}
+
+
+def get_suite(
+    name: str = "full", groups: list[str] | None = None, names: list[str] | None = None
+) -> list[Scenario]:
+    """The scenarios of suite ``name``, optionally only some groups / scenario names."""
+    if name not in SUITES:
+        raise ValueError(f"suite must be one of {sorted(SUITES)}, got {name!r}")
+    suite = SUITES[name]()
+    if groups:
+        bad = set(groups) - {s.group for s in suite}
+        if bad:
+            raise ValueError(
+                f"unknown group(s) {sorted(bad)}; suite {name!r} has {sorted({s.group for s in suite})}"
+            )
+        suite = [s for s in suite if s.group in groups]
+    if names:
+        bad = set(names) - {s.name for s in suite}
+        if bad:
+            raise ValueError(f"unknown scenario(s) {sorted(bad)}; available: {[s.name for s in suite]}")
+        suite = [s for s in suite if s.name in names]
+    return suite

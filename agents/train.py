@@ -1,0 +1,278 @@
+"""Train PPO or SAC on ``SmaSpine-v0`` (RL-Zoo-style command line).
+
+Example::
+
+    python -m agents.train --algo ppo -n 300000 --seed 1 --n-envs 8 -f logs \\
+        --env-kwargs episode_duration:60.0
+
+Hyperparameters come from ``agents/hyperparams/{algo}.yml`` (entry keyed by the env id, RL Zoo's
+format: ``n_envs``, ``n_timesteps``, ``policy``, ``normalize``, ``policy_kwargs`` as a
+``dict(...)`` string, ``lin_<x>`` schedules, plus an optional ``env_kwargs`` dict); command-line
+flags override them (``-params key:value``). The training env is the package's native vector env
+(one jitted batch step for all sub-envs) behind an SB3 ``VecEnv`` adapter, wrapped in
+``VecMonitor`` and ``VecNormalize``.
+
+Each run gets a folder ``<log folder>/<algo>/<env id>_<k>/`` holding ``command.txt`` (the exact
+command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparameters used),
+``meta.json`` (what :func:`agents.common.load_policy` needs), ``checkpoints/`` (model +
+``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
+``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
+logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
+normalisation statistics and step counter) in a new run folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
+    p.add_argument("--algo", required=True, choices=ALGOS, help="RL algorithm")
+    p.add_argument("--env", default=ENV_ID, help="environment id (default: %(default)s)")
+    p.add_argument(
+        "-n", "--n-timesteps", type=int, default=-1, help="training steps (default: from the YAML)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (env sampling, network init)")
+    p.add_argument("--n-envs", type=int, default=-1, help="parallel sub-envs (default: from the YAML)")
+    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, help="env kwargs key:value")
+    p.add_argument(
+        "-params", "--hyperparams", nargs="+", action=StoreDict, default={}, help="override key:value"
+    )
+    p.add_argument(
+        "-conf",
+        "--conf-file",
+        type=str,
+        default=None,
+        help="hyperparameter YAML (default: agents/hyperparams/<algo>.yml)",
+    )
+    p.add_argument("-f", "--log-folder", type=str, default="logs", help="log folder (default: %(default)s)")
+    p.add_argument("-i", "--trained-agent", type=str, default="", help="checkpoint .zip to resume from")
+    p.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N env steps (<= 0: never)")
+    p.add_argument("--eval-episodes", type=int, default=8, help="episodes per evaluation")
+    p.add_argument("--save-freq", type=int, default=50_000, help="checkpoint every N env steps (<= 0: never)")
+    p.add_argument(
+        "--vec-env", choices=("native", "dummy"), default="native", help="vector env implementation"
+    )
+    p.add_argument("-P", "--progress", action="store_true", help="show a progress bar")
+    p.add_argument("--no-tensorboard", action="store_true", help="do not write TensorBoard logs")
+    p.add_argument(
+        "--torch-threads", type=int, default=1, help="torch intra-op threads (default: %(default)s)"
+    )
+    p.add_argument("--device", default="cpu", help="torch device (default: %(default)s)")
+    p.add_argument("-v", "--verbose", type=int, default=1, help="verbosity 0/1/2")
+    return p
+
+
+def _next_run_folder(log_folder: Path, algo: str, env_id: str) -> Path:
+    base = log_folder / algo
+    base.mkdir(parents=True, exist_ok=True)
+    k = 1 + max(
+        [
+            int(p.name.rsplit("_", 1)[1])
+            for p in base.glob(f"{env_id}_*")
+            if p.name.rsplit("_", 1)[1].isdigit()
+        ]
+        or [0]
+    )
+    folder = base / f"{env_id}_{k}"
+    folder.mkdir()
+    return folder
+
+
+def _yaml_safe(d: dict) -> dict:
+    out = {}
+    for k, v in d.items():
+        if callable(v):
+            v = f"lin_{v.initial:g}" if hasattr(v, "initial") else repr(v)
+        elif isinstance(v, tuple):
+            v = list(v)
+        elif isinstance(v, dict):
+            v = _yaml_safe(v)
+        out[k] = v
+    return out
+
+
+def train(argv: list[str] | None = None) -> Path:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
+    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
+    import torch
+
+    torch.set_num_threads(max(1, args.torch_threads))
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from .envs import make_vec_env
+
+    for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
+        if v == 0 or v < -1:
+            raise SystemExit(f"{name} must be a positive integer, got {v}")
+    hp_raw = load_hyperparams(args.algo, args.env, args.conf_file)
+    hp_raw.update(args.hyperparams)
+    hp, special = preprocess_hyperparams(hp_raw)
+    n_envs = args.n_envs if args.n_envs > 0 else int(special.get("n_envs", 1))
+    n_timesteps = args.n_timesteps if args.n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5)))
+    env_kwargs = {**special["env_kwargs"], **args.env_kwargs}
+    set_random_seed(args.seed)
+
+    run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
+    command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
+    (run / "command.txt").write_text(command + "\n")
+    (run / "args.yml").write_text(
+        yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
+    )
+    (run / "config.yml").write_text(
+        yaml.safe_dump(
+            {
+                args.env: _yaml_safe(
+                    {**hp, **special, "n_envs": n_envs, "n_timesteps": n_timesteps, "env_kwargs": env_kwargs}
+                )
+            }
+        )
+    )
+    meta = {
+        "algo": args.algo,
+        "env_id": args.env,
+        "env_kwargs": env_kwargs,
+        "seed": args.seed,
+        "n_envs": n_envs,
+        "n_timesteps": n_timesteps,
+        "command": command,
+        "resumed_from": args.trained_agent or None,
+    }
+
+    env = make_vec_env(args.env, n_envs, seed=args.seed, env_kwargs=env_kwargs, kind=args.vec_env)
+    norm = special["normalize"]
+    eval_env = None
+    if args.eval_freq > 0:
+        eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
+    if norm is not None:
+        if args.trained_agent:
+            stats = _checkpoint_vecnormalize(Path(args.trained_agent))
+            env = VecNormalize.load(str(stats), env)
+            env.training = True
+        else:
+            env = VecNormalize(env, gamma=hp.get("gamma", 0.99), **norm)
+        if eval_env is not None:
+            eval_env = VecNormalize(
+                eval_env,
+                training=False,
+                norm_reward=False,
+                **{k: v for k, v in norm.items() if k != "norm_reward"},
+            )
+
+    algo_cls = {"ppo": PPO, "sac": SAC}[args.algo]
+    tb = None if args.no_tensorboard else str(run / "tb")
+    if args.trained_agent:
+        model = algo_cls.load(
+            args.trained_agent, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
+        )
+        replay = Path(args.trained_agent).with_name("replay_buffer.pkl")
+        if args.algo == "sac" and replay.exists():
+            model.load_replay_buffer(str(replay))
+    else:
+        model = algo_cls(
+            special["policy"],
+            env,
+            seed=args.seed,
+            device=args.device,
+            tensorboard_log=tb,
+            verbose=args.verbose,
+            **hp,
+        )
+
+    callbacks = []
+    if args.save_freq > 0:
+        callbacks.append(
+            CheckpointCallback(
+                save_freq=max(1, args.save_freq // n_envs),
+                save_path=str(run / "checkpoints"),
+                save_vecnormalize=norm is not None,
+                save_replay_buffer=False,
+            )
+        )
+    if eval_env is not None:
+        on_best = None
+        if norm is not None:
+            # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
+            # SaveVecNormalizeCallback): the final ones differ from those the best model saw
+            from stable_baselines3.common.callbacks import BaseCallback
+
+            class _SaveBestVecNormalize(BaseCallback):
+                def _on_step(self) -> bool:
+                    self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
+                    return True
+
+            on_best = _SaveBestVecNormalize()
+        callbacks.append(
+            EvalCallback(
+                eval_env,
+                callback_on_new_best=on_best,
+                eval_freq=max(1, args.eval_freq // n_envs),
+                n_eval_episodes=args.eval_episodes,
+                best_model_save_path=str(run),
+                log_path=str(run),
+                deterministic=True,
+                verbose=args.verbose,
+            )
+        )
+    (run / "meta.json").write_text(json.dumps(meta, indent=2))
+    t0 = time.time()
+    model.learn(
+        total_timesteps=n_timesteps,
+        callback=CallbackList(callbacks),
+        progress_bar=args.progress,
+        reset_num_timesteps=not args.trained_agent,
+        tb_log_name=args.algo,
+    )
+    wall = time.time() - t0
+    model.save(run / "model.zip")
+    if norm is not None:
+        env.save(str(run / "vecnormalize.pkl"))
+    meta.update({"train_wall_time_s": round(wall, 1), "total_timesteps": int(model.num_timesteps)})
+    (run / "meta.json").write_text(json.dumps(meta, indent=2))
+    if args.verbose:
+        print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")
+    env.close()
+    if eval_env is not None:
+        eval_env.close()
+    return run
+
+
+def _checkpoint_vecnormalize(ckpt: Path) -> Path:
+    """``VecNormalize`` statistics saved with a checkpoint (or a run folder's final ones)."""
+    if not ckpt.exists():
+        raise SystemExit(f"checkpoint {ckpt} does not exist")
+    candidates = []
+    if ckpt.stem.startswith("rl_model_"):
+        steps = ckpt.stem.split("_")[-2]
+        candidates.append(ckpt.with_name(f"rl_model_vecnormalize_{steps}_steps.pkl"))
+    candidates.append(ckpt.with_name("vecnormalize.pkl"))
+    for c in candidates:
+        if c.exists():
+            return c
+    raise SystemExit(
+        f"no VecNormalize statistics found beside {ckpt} (looked for {[str(c) for c in candidates]})"
+    )
+
+
+def main() -> None:
+    train()
+
+
+if __name__ == "__main__":
+    main()
