@@ -25,7 +25,7 @@ ENV_ID = "SmaSpine-v0"
 ALGOS = ("ppo", "sac")
 
 # keys of a hyperparameter entry that are not constructor arguments of the algorithm
-SPECIAL_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_kwargs", "vec_env")
+SPECIAL_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_kwargs", "vec_env", "residual", "residual_scale")
 
 
 def parse_value(text: str) -> Any:
@@ -107,6 +107,10 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special["normalize"] = norm if isinstance(norm, dict) else None
     special.setdefault("policy", "MlpPolicy")
     special.setdefault("env_kwargs", {})
+    special.setdefault("residual", None)
+    special.setdefault("residual_scale", 1.0)
+    if special["residual"] in (None, "none", "None", False):
+        special["residual"] = None
     return hp, special
 
 
@@ -211,4 +215,9 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
             obs_rms, clip_obs, eps = vn.obs_rms, vn.clip_obs, vn.epsilon
             break
     meta.setdefault("algo", algo)
-    return SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
+    policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
+    if meta.get("residual"):
+        from .residual import ResidualPolicy
+
+        return ResidualPolicy(policy, meta["residual"], name=policy.name)
+    return policy

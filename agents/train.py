@@ -19,6 +19,10 @@ command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparamet
 ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
 logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
 normalisation statistics and step counter) in a new run folder.
+
+``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
+top of the tuned PID (:mod:`agents.residual`; ``residual_scale`` sets the authority of the
+correction, default 1); the baseline's settings go into ``meta.json`` with the model.
 """
 
 from __future__ import annotations
@@ -160,6 +164,24 @@ def train(argv: list[str] | None = None) -> Path:
     eval_env = None
     if args.eval_freq > 0:
         eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
+    if special["residual"]:
+        # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
+        from .evaluate import env_temperature_limit, make_env
+        from .residual import ResidualVecEnv, base_spec
+
+        probe = make_env(env_kwargs)
+        spec = base_spec(
+            special["residual"],
+            v_max=probe.v_max,
+            dt=probe.control_period,
+            temperature_limit=env_temperature_limit(probe),
+            scale=special["residual_scale"],
+        )
+        probe.close()
+        meta["residual"] = spec
+        env = ResidualVecEnv(env, spec)
+        if eval_env is not None:
+            eval_env = ResidualVecEnv(eval_env, spec)
     if norm is not None:
         if args.trained_agent:
             stats = _checkpoint_vecnormalize(Path(args.trained_agent))

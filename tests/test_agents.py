@@ -247,3 +247,31 @@ def test_tuned_file_matches_the_controllers():
 
     PIDController(**tuned["pid"])  # valid gains
     BangBangController(**tuned["bang_bang"])
+
+
+# --------------------------------------------------------------------------- residual learning
+def test_residual_env_with_zero_correction_is_the_tuned_pid():
+    """A residual of 0 applies exactly the baseline's actions; the policy sees them appended."""
+    from agents.envs import make_vec_env
+    from agents.residual import ResidualVecEnv, base_spec, combine
+
+    kw = {"episode_duration": 2.0}
+    env = ev.make_env(kw)
+    spec = base_spec("pid", v_max=env.v_max, dt=env.control_period, temperature_limit=env.temperature_limit, scale=1.0)
+    venv = ResidualVecEnv(make_vec_env(n_envs=2, seed=5, env_kwargs=kw), spec)
+    assert venv.observation_space.shape == (12,)
+    obs = venv.reset()
+    pid = ev.build_baseline("pid", env)
+    ref_obs = np.stack([ev.make_env(kw).reset(seed=5 + i)[0] for i in range(2)])
+    np.testing.assert_array_equal(obs[:, :10], ref_obs)
+    for k in range(25):  # past the 20-step episode end: autoreset restarts the PID memory
+        a_pid, _ = pid.predict(obs[:, :10], episode_start=np.full(2, k == 0) if k == 0 else done)
+        np.testing.assert_allclose(obs[:, 10:], a_pid, atol=1e-6)
+        obs, _, done, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+        if done.any():
+            assert all(infos[i]["terminal_observation"].shape == (12,) for i in np.flatnonzero(done))
+    assert np.array_equal(combine(np.array([0.5, -0.9]), np.array([2.0, -0.5]), 0.5), np.float32([1.0, -1.0]))
+    with pytest.raises(ValueError, match="residual_scale"):
+        base_spec("pid", v_max=5.0, dt=0.1, temperature_limit=423.0, scale=0.0)
+    with pytest.raises(ValueError, match="residual base"):
+        base_spec("lqr", v_max=5.0, dt=0.1, temperature_limit=423.0, scale=1.0)
