@@ -1,0 +1,98 @@
+"""Choose among trained models on validation episodes, never on the evaluation suite.
+
+Example::
+
+    python -m agents.select logs/ppo/SmaSpine-v0_* --episodes 20
+
+Each model (run folder: its final ``model.zip``; with ``--best`` also its ``best_model.zip``)
+runs ``--episodes`` episodes drawn by the env's own samplers (the training distribution: random
+targets, tip forces and payloads) with reset seeds ``VALIDATION_SEED_BASE + i`` — disjoint from
+the training seeds, the tuning seeds and the evaluation suite's seeds. The tuned PID runs the same
+episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg] and mean
+energy [J] per model, and the ratio of both to the PID's.
+
+Selecting the shipped policies this way keeps the evaluation suite a test set: the suite's numbers
+are not what the models were picked by.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
+
+
+def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
+    """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
+    from .evaluate import make_env
+
+    if n_episodes < 1:
+        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+    env = make_env(env_kwargs or {})
+    rmse, energy = [], []
+    for i in range(n_episodes):
+        if hasattr(policy, "reset"):
+            policy.reset()
+        obs, _ = env.reset(seed=VALIDATION_SEED_BASE + i)
+        start = np.ones(1, dtype=bool)
+        sq, e, n = 0.0, 0.0, 0
+        while True:
+            a, _ = policy.predict(obs[None, :], None, start, True)
+            start = np.zeros(1, dtype=bool)
+            obs, _, term, trunc, info = env.step(np.asarray(a, dtype=np.float32).reshape(2))
+            sq += info["tracking_error_deg"] ** 2
+            e += info["energy_J"]
+            n += 1
+            if term or trunc:
+                break
+        rmse.append(np.sqrt(sq / n))
+        energy.append(e)
+    env.close()
+    return float(np.mean(rmse)), float(np.mean(energy))
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    p = argparse.ArgumentParser(prog="python -m agents.select", description=__doc__.split("\n")[0])
+    p.add_argument("runs", nargs="+", help="run folders of agents.train")
+    p.add_argument("--episodes", type=int, default=20, help="validation episodes (default: %(default)s)")
+    p.add_argument("--best", action="store_true", help="also score each run's best_model.zip")
+    p.add_argument("--out", default=None, help="CSV file for the scores")
+    args = p.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(1)
+    from .common import load_policy
+    from .evaluate import build_baseline, make_env, write_csv
+
+    probe = make_env()
+    ref_rmse, ref_energy = validation_scores(build_baseline("pid", probe), args.episodes)
+    probe.close()
+    rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
+    for run in map(Path, args.runs):
+        targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
+        for t in targets:
+            pol = load_policy(t)
+            kw = {k: v for k, v in getattr(pol, "env_kwargs", {}).items() if k != "episode_duration"}
+            r, e = validation_scores(pol, args.episodes, kw)
+            rows.append(
+                {
+                    "model": str(t),
+                    "rmse_deg": r,
+                    "energy_J": e,
+                    "rmse_ratio": r / ref_rmse,
+                    "energy_ratio": e / ref_energy,
+                }
+            )
+            print(f"{str(t):<55s} RMSE {r:6.2f} deg ({r / ref_rmse:5.2f} x PID)  energy {e:6.1f} J ({e / ref_energy:5.2f} x PID)", flush=True)
+    print(f"{'pid':<55s} RMSE {ref_rmse:6.2f} deg  energy {ref_energy:6.1f} J")
+    if args.out:
+        write_csv(Path(args.out), rows)
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
