@@ -275,3 +275,23 @@ def test_residual_env_with_zero_correction_is_the_tuned_pid():
         base_spec("pid", v_max=5.0, dt=0.1, temperature_limit=423.0, scale=0.0)
     with pytest.raises(ValueError, match="residual base"):
         base_spec("lqr", v_max=5.0, dt=0.1, temperature_limit=423.0, scale=1.0)
+
+
+def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_nothing():
+    from agents.scenarios import EVAL_SEED_BASE
+    from agents.select import VALIDATION_SEED_BASE, validation_scores
+
+    assert TRAIN_SEED_BASE + 10_000 <= VALIDATION_SEED_BASE < EVAL_SEED_BASE
+    kw = {"episode_duration": 10.0}
+    env = ev.make_env(kw)
+
+    class Off:  # both wires at 0 V
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return -np.ones((np.atleast_2d(obs).shape[0], 2), dtype=np.float32), None
+
+    r_pid, e_pid = validation_scores(ev.build_baseline("pid", env), 2, kw)
+    r_off, e_off = validation_scores(Off(), 2, kw)
+    assert e_off == 0.0 and e_pid > 0.0
+    assert np.isfinite(r_pid) and r_pid < r_off
+    with pytest.raises(ValueError, match="n_episodes"):
+        validation_scores(Off(), 0, kw)
