@@ -46,15 +46,23 @@ def make_env(env_kwargs: dict | None = None):
     return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
 
 
-def run_episode(env, policy, scenario: Scenario, deterministic: bool = True) -> Trajectory:
+def run_episode(
+    env, policy, scenario: Scenario | None = None, deterministic: bool = True, *, seed: int | None = None
+) -> Trajectory:
     """Roll ``policy`` through one scenario and return its :class:`Trajectory`.
 
-    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``; the policy's memory
-    is restarted through ``episode_start`` (and ``reset()`` if it has one).
+    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``, or, without a
+    scenario, with ``seed`` alone (an episode drawn by the env's own samplers); the policy's
+    memory is restarted through ``episode_start`` (and ``reset()`` if it has one).
     """
+    if (scenario is None) == (seed is None):
+        raise ValueError("give either a scenario or a seed")
     if hasattr(policy, "reset"):
         policy.reset()
-    obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
+    if scenario is not None:
+        obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
+    else:
+        obs, _ = env.reset(seed=seed)
     state = None
     start = np.ones((1,), dtype=bool)
     infos, actions, rewards = [], [], []

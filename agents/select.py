@@ -28,29 +28,16 @@ VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning 
 
 def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
     """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
-    from .evaluate import make_env
+    from .evaluate import make_env, run_episode
 
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
     env = make_env(env_kwargs or {})
     rmse, energy = [], []
     for i in range(n_episodes):
-        if hasattr(policy, "reset"):
-            policy.reset()
-        obs, _ = env.reset(seed=VALIDATION_SEED_BASE + i)
-        start = np.ones(1, dtype=bool)
-        sq, e, n = 0.0, 0.0, 0
-        while True:
-            a, _ = policy.predict(obs[None, :], None, start, True)
-            start = np.zeros(1, dtype=bool)
-            obs, _, term, trunc, info = env.step(np.asarray(a, dtype=np.float32).reshape(2))
-            sq += info["tracking_error_deg"] ** 2
-            e += info["energy_J"]
-            n += 1
-            if term or trunc:
-                break
-        rmse.append(np.sqrt(sq / n))
-        energy.append(e)
+        tr = run_episode(env, policy, seed=VALIDATION_SEED_BASE + i)
+        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
+        energy.append(np.sum(tr.energy_J))
     env.close()
     return float(np.mean(rmse)), float(np.mean(energy))
 
