@@ -55,21 +55,15 @@ def load_tuned(path: Path | None = None) -> dict:
     return {k: dict(data[k]["params"]) for k in DEFAULT_TUNED}
 
 
-def _episode_rmse(env, ctrl, seed: int) -> float:
-    ctrl.reset()
-    obs, _ = env.reset(seed=seed)
-    sq, n = 0.0, 0
-    while True:
-        obs, _, terminated, truncated, info = env.step(ctrl(obs))
-        sq += float(info["tracking_error_deg"]) ** 2
-        n += 1
-        if terminated or truncated:
-            return float(np.sqrt(sq / n))
-
-
 def objective_value(env, ctrl, seeds: list[int]) -> float:
     """Mean RMSE [deg] of ``ctrl`` over the training episodes ``seeds``."""
-    return float(np.mean([_episode_rmse(env, ctrl, s) for s in seeds]))
+    from .evaluate import run_episode
+
+    rmse = []
+    for s in seeds:
+        tr = run_episode(env, ctrl, seed=s)
+        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
+    return float(np.mean(rmse))
 
 
 def _suggest(trial, kind: str, v_max: float) -> dict:
@@ -135,7 +129,7 @@ def tune(
     common = {
         "v_max": float(env.v_max),
         "dt": float(env.control_period),
-        "temperature_limit": env_temperature_limit(env),
+        "temperature_limit": env_temperature_limit(env) - GUARD_MARGIN_K,  # as agents.evaluate builds them
     }
     cls = PIDController if kind == "pid" else BangBangController
     seeds = [TRAIN_SEED_BASE + i for i in range(n_episodes)]
