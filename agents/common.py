@@ -162,6 +162,24 @@ class SavedPolicy:
         return f"SavedPolicy({self.name}, algo={self.meta.get('algo')})"
 
 
+def vecnormalize_candidates(model_path: Path) -> list[Path]:
+    """Where :mod:`agents.train` puts the ``VecNormalize`` statistics of ``model_path``, best first.
+
+    A checkpoint ``rl_model_<n>_steps.zip`` has ``rl_model_vecnormalize_<n>_steps.pkl``,
+    ``best_model.zip`` has ``best_vecnormalize.pkl``; every model falls back to the run's final
+    ``vecnormalize.pkl`` beside it.
+    """
+    model_path = Path(model_path)
+    out = []
+    if model_path.stem.startswith("rl_model_"):
+        steps = model_path.stem.split("_")[-2]
+        out.append(model_path.with_name(f"rl_model_vecnormalize_{steps}_steps.pkl"))
+    if model_path.name == "best_model.zip":
+        out.append(model_path.with_name("best_vecnormalize.pkl"))
+    out.append(model_path.with_name("vecnormalize.pkl"))
+    return out
+
+
 def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") -> SavedPolicy:
     """Load a model saved by :mod:`agents.train` (a run folder, a shipped folder or a ``.zip``).
 
@@ -201,14 +219,8 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
             data = zf.read("data").decode()
         algo = "sac" if "ent_coef" in data and "target_entropy" in data else "ppo"
     model = classes[algo].load(model_path, device=device)
-    candidates = [folder / "vecnormalize.pkl"]
-    if model_path.name == "best_model.zip":
-        candidates.insert(0, folder / "best_vecnormalize.pkl")
-    if model_path.stem.startswith("rl_model_"):
-        steps = model_path.stem.split("_")[-2]
-        candidates.insert(0, folder / f"rl_model_vecnormalize_{steps}_steps.pkl")
     obs_rms, clip_obs, eps = None, 10.0, 1e-8
-    for c in candidates:
+    for c in vecnormalize_candidates(model_path):
         if c.exists():
             with open(c, "rb") as f:
                 vn = pickle.load(f)

@@ -131,14 +131,10 @@ class ResidualPolicy:
         self.base.reset()
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
-        obs = np.asarray(observation)
-        single = obs.ndim == 1
-        if obs.ndim not in (1, 2) or not np.issubdtype(obs.dtype, np.number):
-            raise ValueError(f"observation must be a numeric array (d,) or (n_envs, d), got shape {obs.shape}")
-        if not np.all(np.isfinite(obs)):
-            raise ValueError("observation must be finite, got NaN or inf")
-        obs2 = np.atleast_2d(obs).astype(np.float32)
-        base_a, _ = self.base.predict(obs2, episode_start=episode_start)
+        # the baseline checks shape and type, the model (SavedPolicy) that every entry is finite
+        base_a, _ = self.base.predict(observation, episode_start=episode_start)
+        single = np.ndim(observation) == 1
+        obs2 = np.atleast_2d(np.asarray(observation, dtype=np.float32))
         base_a = np.asarray(base_a, dtype=np.float32).reshape(obs2.shape[0], 2)
         res, _ = self.model.predict(np.concatenate([obs2, base_a], axis=1), None, None, deterministic)
         action = combine(base_a, np.asarray(res).reshape(obs2.shape[0], 2), self.scale)

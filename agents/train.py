@@ -37,7 +37,14 @@ from pathlib import Path
 
 import yaml
 
-from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
+from .common import (
+    ALGOS,
+    ENV_ID,
+    StoreDict,
+    load_hyperparams,
+    preprocess_hyperparams,
+    vecnormalize_candidates,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -279,11 +286,7 @@ def _checkpoint_vecnormalize(ckpt: Path) -> Path:
     """``VecNormalize`` statistics saved with a checkpoint (or a run folder's final ones)."""
     if not ckpt.exists():
         raise SystemExit(f"checkpoint {ckpt} does not exist")
-    candidates = []
-    if ckpt.stem.startswith("rl_model_"):
-        steps = ckpt.stem.split("_")[-2]
-        candidates.append(ckpt.with_name(f"rl_model_vecnormalize_{steps}_steps.pkl"))
-    candidates.append(ckpt.with_name("vecnormalize.pkl"))
+    candidates = vecnormalize_candidates(ckpt)
     for c in candidates:
         if c.exists():
             return c
