@@ -14,10 +14,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._series import V_MAX_ALLOWED, SimulationError, as_series
+from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import batch
 from .physics import layout as L
 from .physics.solver import init_state
+from .simulate_spatial import SpatialResult, simulate_spatial
 
 __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
 
@@ -110,7 +112,7 @@ def initial_state(params: ModelParams, solver: SolverOptions | None = None, load
 def simulate(
     duration: float,
     voltage_right: float | np.ndarray | Callable[[float], float],
-    voltage_left: float | np.ndarray | Callable[[float], float],
+    voltage_left: float | np.ndarray | Callable[[float], float] | None = None,
     *,
     dt: float = 0.01,
     tip_force=None,
@@ -118,8 +120,15 @@ def simulate(
     params: ModelParams | None = None,
     solver: SolverOptions | None = None,
     state: np.ndarray | None = None,
-) -> SimulationResult:
+    layout: SpineLayout | None = None,
+) -> SimulationResult | SpatialResult:
     """Simulate the SMA spine for ``duration`` seconds.
+
+    Planar (MODEL.md) by default. With ``layout=`` (a :class:`SpineLayout`: spatial four-wire
+    module, chain of modules) it runs the spatial core instead (SPATIAL.md) and returns a
+    :class:`SpatialResult`: then the second argument holds the voltages of all W wire groups
+    ((W,), (n, W) or a callable t → (W,)), ``voltage_left`` and ``params`` must be omitted (the
+    layout carries its params) and forces are 3-vectors (see :func:`simulate_spatial`).
 
     Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
 
@@ -133,14 +142,28 @@ def simulate(
         params: model parameters (default: MODEL.md §7 baseline).
         solver: numerical options (default :class:`SolverOptions`).
         state: start from this state (e.g. ``previous.final_state``) instead of §3.10.
+        layout: run the spatial core on this layout (see above).
 
     Returns:
-        A :class:`SimulationResult`.
+        A :class:`SimulationResult` (planar) or a :class:`SpatialResult` (``layout`` given).
 
     Raises:
         ValueError: an input out of range (the message names it).
         SimulationError: the model could not advance; never returns NaN.
     """
+    if layout is not None:
+        if voltage_left is not None or params is not None:
+            raise ValueError(
+                "with layout=, pass the voltages of all wire groups as the second argument and no "
+                f"voltage_left or params (the layout carries its params); got voltage_left={voltage_left!r}, "
+                f"params={params!r}"
+            )
+        return simulate_spatial(
+            duration, voltage_right, layout=layout, dt=dt, tip_force=tip_force,
+            vertex_forces=vertex_forces, solver=solver, state=state,
+        )
+    if voltage_left is None:
+        raise ValueError("voltage_left is required for the planar model (or pass layout= for the spatial one)")
     params = params or ModelParams()
     solver = solver or SolverOptions()
     if not isinstance(params, ModelParams):
