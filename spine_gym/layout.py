@@ -108,7 +108,9 @@ class Module:
     def __post_init__(self):
         wires = tuple(self.wires)
         if len(wires) > MAX_WIRE_GROUPS or not all(isinstance(w, WireGroup) for w in wires):
-            raise ValueError(f"wires must be a tuple of at most {MAX_WIRE_GROUPS} WireGroup, got {self.wires!r}")
+            raise ValueError(
+                f"wires must be a tuple of at most {MAX_WIRE_GROUPS} WireGroup, got {self.wires!r}"
+            )
         object.__setattr__(self, "wires", wires)
         object.__setattr__(self, "n_seg", _integer("n_seg", self.n_seg, 1, 1000))
         _check("ls", self.ls, 1e-4, 1.0)

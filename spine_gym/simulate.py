@@ -23,6 +23,7 @@ from .simulate_spatial import SpatialResult, simulate_spatial
 
 __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
 
+
 @dataclass
 class SimulationResult:
     """Trajectory of one simulation, sampled every ``dt`` (row 0 is t = 0).
@@ -159,11 +160,19 @@ def simulate(
                 f"params={params!r}"
             )
         return simulate_spatial(
-            duration, voltage_right, layout=layout, dt=dt, tip_force=tip_force,
-            vertex_forces=vertex_forces, solver=solver, state=state,
+            duration,
+            voltage_right,
+            layout=layout,
+            dt=dt,
+            tip_force=tip_force,
+            vertex_forces=vertex_forces,
+            solver=solver,
+            state=state,
         )
     if voltage_left is None:
-        raise ValueError("voltage_left is required for the planar model (or pass layout= for the spatial one)")
+        raise ValueError(
+            "voltage_left is required for the planar model (or pass layout= for the spatial one)"
+        )
     params = params or ModelParams()
     solver = solver or SolverOptions()
     if not isinstance(params, ModelParams):

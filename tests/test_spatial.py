@@ -114,7 +114,9 @@ def test_planar_equivalence_with_the_default_adaptive_solver():
 
 def test_alternate_drive_of_the_spatial_core_meets_model_md_10_3():
     vr, vl = RUNS["alternate"]
-    s = simulate(40.0, _planar_voltages(PLANAR_LAYOUTS["four_wires"], vr, vl), layout=PLANAR_LAYOUTS["four_wires"])
+    s = simulate(
+        40.0, _planar_voltages(PLANAR_LAYOUTS["four_wires"], vr, vl), layout=PLANAR_LAYOUTS["four_wires"]
+    )
     for t, ref in ALTERNATE_REFERENCE.items():
         tol = 1.0 if t in ALTERNATE_SWING_TIMES else ANGLE_TOL_DEG
         assert s.tip_bending_deg[s.at(t), 0] == pytest.approx(ref, abs=tol), f"t = {t} s"
@@ -288,7 +290,9 @@ def test_analytic_arcs_of_a_weightless_chain():
         seg0 = layout.n_seg
         for k, m in enumerate(layout.modules):  # constant curvature |M|/EI in the plane of M_k
             seg0 -= m.n_seg
-            np.testing.assert_allclose(omega[seg0 : seg0 + m.n_seg], np.tile(mw[k] * m.ls / ei, (m.n_seg, 1)), rtol=1e-12)
+            np.testing.assert_allclose(
+                omega[seg0 : seg0 + m.n_seg], np.tile(mw[k] * m.ls / ei, (m.n_seg, 1)), rtol=1e-12
+            )
         tip, rot = _arc_chain_tip(layout, mw, ei)
         np.testing.assert_allclose(pos[0], tip, rtol=0, atol=1e-9)
         np.testing.assert_allclose(frames[0], rot.T, rtol=0, atol=1e-9)
@@ -351,13 +355,17 @@ def test_reported_bending_vector_and_tip_pose_match_the_reference_geometry():
     t = frames[0][2]
     theta = math.degrees(math.acos(t[2]))
     beta = math.atan2(t[1], t[0])
-    np.testing.assert_allclose(r.tip_bending_deg[-1], [theta * math.cos(beta), theta * math.sin(beta)], atol=1e-9)
+    np.testing.assert_allclose(
+        r.tip_bending_deg[-1], [theta * math.cos(beta), theta * math.sin(beta)], atol=1e-9
+    )
     # the upper module's bending vector lives in its own base frame (the joint's frame)
     base, top = frames[layout.modules[1].n_seg], frames[0]
     tt = base @ top[2]
     th_u = math.degrees(math.acos(tt[2]))
     b_u = math.atan2(tt[1], tt[0])
-    np.testing.assert_allclose(r.module_bending_deg[-1, 1], [th_u * math.cos(b_u), th_u * math.sin(b_u)], atol=1e-9)
+    np.testing.assert_allclose(
+        r.module_bending_deg[-1, 1], [th_u * math.cos(b_u), th_u * math.sin(b_u)], atol=1e-9
+    )
 
 
 # ---------------------------------------------------------------- §7.6 chain sanity
@@ -441,7 +449,9 @@ def test_wire_count_zero_and_bad_offsets_raise():
 def test_overlapping_wires_raise():
     p = ModelParams()
     wires = (WireGroup(0.0, 0.014, 1), WireGroup(1.0, 0.014, 1))  # 0.24 mm apart, d = 0.5 mm
-    with pytest.raises(ValueError, match=r"modules\[0\].wires\[1\] overlaps wires\[0\].*>= the wire diameter"):
+    with pytest.raises(
+        ValueError, match=r"modules\[0\].wires\[1\] overlaps wires\[0\].*>= the wire diameter"
+    ):
         SpineLayout((Module(wires, 13, 0.035, 0.46, 0.025),), p)
     SpineLayout((Module((WireGroup(0.0, 0.014, 1), WireGroup(5.0, 0.014, 1)), 13, 0.035, 0.46, 0.025),), p)
 

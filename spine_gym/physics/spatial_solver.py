@@ -597,9 +597,7 @@ def init_state(state, kp, ks, kw, km, vforce):
         probe[:, :] = 0.0
         mp[:, :] = 0.0
         mp[c // 2, c % 2] = INIT_DM
-        st, _ = solve_shape(
-            probe, mp, zero, kp, km, ks[S_TOLTH], int(ks[S_MAXSHAPE]), wk[0], wk[1], wk[2]
-        )
+        st, _ = solve_shape(probe, mp, zero, kp, km, ks[S_TOLTH], int(ks[S_MAXSHAPE]), wk[0], wk[1], wk[2])
         if st != OK:
             return st
         for i in range(ns):

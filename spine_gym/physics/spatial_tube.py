@@ -246,7 +246,6 @@ def bending_vector(base, top):
     return theta * v1 / s, theta * v2 / s
 
 
-
 def straight_load_factor(km: np.ndarray, ei: float, g: float) -> float:
     """Axial load / buckling load of the straight upright column under its own weight (SPATIAL.md §6).
 
