@@ -62,6 +62,7 @@ from .spatial_layout import (
     F_T,
     F_XM,
     F_XP,
+    M_LS,
     M_NSEG,
     M_SEG0,
     S_TIME,
@@ -82,10 +83,10 @@ from .spatial_tube import (
     half_sinc,
     kinematics,
     positions,
+    segment_length_gradient,
     shape_pass,
     solve_shape,
     wire_length,
-    wire_length_gradient,
 )
 
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
@@ -123,28 +124,49 @@ def wire_block(state, field, nw):
     return state[o : o + nw]
 
 
+# indices of the work tuple of make_work
+(
+    WK_FRAMES,  # (N + 1, 3, 3) section frames
+    WK_CHORDS,  # (N, 3) chords
+    WK_NEW,  # (N, 2) new ω of a shape pass
+    WK_SAVED_W,  # (N, 2) saved ω
+    WK_FS,  # (N,) chord factors f
+    WK_EPS,  # (W,) strains
+    WK_SIG,  # (W,) stresses
+    WK_G,  # (K, 2) G(M)
+    WK_JAC,  # (2K, 2K) Jacobian, then the Newton matrix
+    WK_RHS,  # (2K,) right-hand side
+    WK_DM,  # (2K,) ΔM (also scratch of loop_gain)
+    WK_MTRIAL,  # (K, 2) trial M
+    WK_SAVED_M,  # (K, 2) saved M
+    WK_WTRIAL,  # (N, 2) trial ω
+    WK_RATES,  # (W, 4) rates
+    WK_XNEW,  # (W, 2) new fractions
+    WK_POS,  # (N + 1, 3) vertex positions
+) = range(17)
+
+
 @jit
 def make_work(nw, nm, ns):
-    """Preallocated work arrays of one spine (no allocation inside the sub-step loop)."""
+    """Preallocated work arrays of one spine (no allocation inside the sub-step loop), WK_* order."""
     return (
-        np.empty((ns + 1, 3, 3)),  # 0 frames
-        np.empty((ns, 3)),  # 1 chords
-        np.empty((ns, 2)),  # 2 new ω of a shape pass
-        np.empty((ns, 2)),  # 3 saved ω
-        np.empty(ns),  # 4 chord factors f
-        np.zeros((ns, 2)),  # 5 ∂L/∂ω of one wire
-        np.empty(nw),  # 6 strains
-        np.empty(nw),  # 7 stresses
-        np.empty((nm, 2)),  # 8 G(M)
-        np.empty((2 * nm, 2 * nm)),  # 9 Jacobian / Newton matrix
-        np.empty(2 * nm),  # 10 right-hand side
-        np.empty(2 * nm),  # 11 ΔM
-        np.empty((nm, 2)),  # 12 current / trial M
-        np.empty((nm, 2)),  # 13 saved M
-        np.empty((ns, 2)),  # 14 trial ω
-        np.empty((nw, 4)),  # 15 rates
-        np.empty((nw, 2)),  # 16 new fractions
-        np.empty((ns + 1, 3)),  # 17 vertex positions
+        np.empty((ns + 1, 3, 3)),
+        np.empty((ns, 3)),
+        np.empty((ns, 2)),
+        np.empty((ns, 2)),
+        np.empty(ns),
+        np.empty(nw),
+        np.empty(nw),
+        np.empty((nm, 2)),
+        np.empty((2 * nm, 2 * nm)),
+        np.empty(2 * nm),
+        np.empty(2 * nm),
+        np.empty((nm, 2)),
+        np.empty((nm, 2)),
+        np.empty((ns, 2)),
+        np.empty((nw, 4)),
+        np.empty((nw, 2)),
+        np.empty((ns + 1, 3)),
     )
 
 
@@ -153,14 +175,16 @@ def make_work(nw, nm, ns):
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
 
-    Writes wk[6] = ε, wk[7] = σ [Pa], wk[8] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
+    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
     """
-    fs = wk[4]
-    eps = wk[6]
-    sig = wk[7]
-    gm = wk[8]
+    fs = wk[WK_FS]
+    eps = wk[WK_EPS]
+    sig = wk[WK_SIG]
+    gm = wk[WK_G]
     half_sinc(omega, fs)
-    gm[:, :] = 0.0
+    for k in range(gm.shape[0]):
+        gm[k, 0] = 0.0
+        gm[k, 1] = 0.0
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
         e = wire_length(j, omega, fs, kw, km) / kw[j, W_LREF] - 1.0
@@ -175,34 +199,48 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
 
 @jit
 def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
-    """J = dG/dM = ∂G/∂ω · S into wk[9] (2K × 2K); a slack wire (σ = 0) adds nothing."""
-    jac = wk[9]
-    grad = wk[5]
-    sig = wk[7]
-    jac[:, :] = 0.0
-    aw = kp[K_AW]
+    """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
+
+    ∂L/∂ω segment by segment (:func:`.spatial_tube.segment_length_gradient`), times S.
+    """
+    jac = wk[WK_JAC]
+    row = wk[WK_DM]
+    sig = wk[WK_SIG]
     ncol = jac.shape[1]
+    for r in range(ncol):
+        for c in range(ncol):
+            jac[r, c] = 0.0
+    aw = kp[K_AW]
     for j in range(kw.shape[0]):
         if sig[j] <= 0.0:
             continue
         k = int(kw[j, W_MOD])
         seg0 = int(km[k, M_SEG0])
-        wire_length_gradient(j, omega, kw, km, grad)
-        c = kw[j, W_NW] * aw * kw[j, W_A] / (compliance(xp[j], xm[j], kp) * kw[j, W_LREF])
-        cx = c * kw[j, W_EX]
-        cy = c * kw[j, W_EY]
-        for col in range(ncol):
-            v = 0.0
-            for i in range(seg0, seg0 + int(km[k, M_NSEG])):
-                v += grad[i, 0] * sens[2 * i, col] + grad[i, 1] * sens[2 * i + 1, col]
-            jac[2 * k, col] += cx * v
-            jac[2 * k + 1, col] += cy * v
+        ls = km[k, M_LS]
+        a = kw[j, W_A]
+        ex = kw[j, W_EX]
+        ey = kw[j, W_EY]
+        for c in range(ncol):
+            row[c] = 0.0
+        for i in range(seg0, seg0 + int(km[k, M_NSEG])):
+            g1, g2 = segment_length_gradient(omega[i, 0], omega[i, 1], ls, a, ex, ey)
+            for c in range(ncol):
+                row[c] += g1 * sens[2 * i, c] + g2 * sens[2 * i + 1, c]
+        cw = kw[j, W_NW] * aw * a / (compliance(xp[j], xm[j], kp) * kw[j, W_LREF])
+        for c in range(ncol):
+            jac[2 * k, c] += cw * ex * row[c]
+            jac[2 * k + 1, c] += cw * ey * row[c]
 
 
 @jit
 def solve_linear(a, b, x):
     """Solve a x = b by Gaussian elimination with partial pivoting (a and b are overwritten)."""
     n = b.shape[0]
+    if n == 2:  # one module: Cramer's rule
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        x[0] = (a[1, 1] * b[0] - a[0, 1] * b[1]) / det
+        x[1] = (a[0, 0] * b[1] - a[1, 0] * b[0]) / det
+        return
     for c in range(n):
         p = c
         for r in range(c + 1, n):
@@ -228,17 +266,17 @@ def solve_linear(a, b, x):
 
 @jit
 def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
-    """ΔM = (I − J)⁻¹ (G(M) − M) into wk[11] at the shape ``omega`` (mechanics recomputed).
+    """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega`` (mechanics recomputed).
 
     Returns:
         max |ΔM| [N m] (inf or NaN if the step is not finite).
     """
     wire_mechanics(omega, xp, xm, kp, kw, km, wk)
     loop_gain(omega, sens, xp, xm, kp, kw, km, wk)
-    a = wk[9]
-    rhs = wk[10]
-    dm = wk[11]
-    gm = wk[8]
+    a = wk[WK_JAC]
+    rhs = wk[WK_RHS]
+    dm = wk[WK_DM]
+    gm = wk[WK_G]
     nm = mw.shape[0]
     for k in range(nm):
         rhs[2 * k] = gm[k, 0] - mw[k, 0]
@@ -272,12 +310,12 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
     Returns:
-        (status, shape passes); on OK, wk[6], wk[7] hold the strains and stresses of the shape.
+        (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
-    frames, chords, new = wk[0], wk[1], wk[2]
-    dm = wk[11]
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    dm = wk[WK_DM]
     nm = mw.shape[0]
     ns = omega.shape[0]
     e = np.inf
@@ -309,9 +347,9 @@ def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk):
     """
     tol_th = ks[S_TOLTH]
     max_shape = int(ks[S_MAXSHAPE])
-    frames, chords, new = wk[0], wk[1], wk[2]
-    trial = wk[14]
-    mt = wk[12]
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial = wk[WK_WTRIAL]
+    mt = wk[WK_MTRIAL]
     nm = mw.shape[0]
     st, passes = solve_shape(omega, mw, vforce, kp, km, tol_th, max_shape, frames, chords, new)
     if st != OK:
@@ -333,7 +371,7 @@ def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk):
 @jit
 def _residual_norm(mw, wk):
     """max |G(M) − M| after :func:`wire_mechanics`."""
-    gm = wk[8]
+    gm = wk[WK_G]
     r = 0.0
     for k in range(mw.shape[0]):
         r = max(r, abs(gm[k, 0] - mw[k, 0]), abs(gm[k, 1] - mw[k, 1]))
@@ -345,13 +383,13 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     """Back-tracking Newton with full shape solves and a finite-difference S (the safeguard of §5).
 
     Returns:
-        (status, shape passes); on OK, wk[6], wk[7] hold the strains and stresses of the shape.
+        (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
     max_shape = int(ks[S_MAXSHAPE])
-    frames, chords, new = wk[0], wk[1], wk[2]
-    trial, mt, dm = wk[14], wk[12], wk[11]
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial, mt, dm = wk[WK_WTRIAL], wk[WK_MTRIAL], wk[WK_DM]
     nm = mw.shape[0]
     st, passes = refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk)
     if st != OK:
@@ -386,6 +424,42 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
+def copy_pairs(dst, src):
+    """dst[:, :] = src for (n, 2) arrays (an explicit loop: cheaper than a 2-D slice assignment)."""
+    for i in range(src.shape[0]):
+        dst[i, 0] = src[i, 0]
+        dst[i, 1] = src[i, 1]
+
+
+@jit
+def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
+    """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
+
+    Newton first, then the safeguard from the untouched starting point (cf. solver.composite).
+    Returns (status, shape passes used).
+    """
+    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
+    copy_pairs(saved_w, omega)
+    copy_pairs(saved_m, mw)
+    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    if st != OK:
+        copy_pairs(omega, saved_w)
+        copy_pairs(mw, saved_m)
+        st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+        passes += p2
+        if st != OK:
+            copy_pairs(omega, saved_w)
+            copy_pairs(mw, saved_m)
+            return st, passes
+    e_new = wk[WK_EPS]
+    s_new = wk[WK_SIG]
+    for j in range(eps.shape[0]):
+        eps[j] = e_new[j]
+        sig[j] = s_new[j]
+    return OK, passes
+
+
+@jit
 def composite(state, vforce, kp, ks, kw, km, wk):
     """Solve the composite module for the state's fractions and the loads, in place (cf. solver.composite).
 
@@ -393,24 +467,21 @@ def composite(state, vforce, kp, ks, kw, km, wk):
     """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
-    xp = wire_block(state, F_XP, nw)
-    xm = wire_block(state, F_XM, nw)
-    saved_w, saved_m = wk[3], wk[13]
-    saved_w[:, :] = omega
-    saved_m[:, :] = mw
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
-    if st != OK:  # safeguard from the untouched starting point
-        omega[:, :] = saved_w
-        mw[:, :] = saved_m
-        st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
-        passes += p2
-        if st != OK:
-            omega[:, :] = saved_w
-            mw[:, :] = saved_m
-            return st, passes
-    wire_block(state, F_EPS, nw)[:] = wk[6]
-    wire_block(state, F_SIG, nw)[:] = wk[7]
-    return OK, passes
+    return solve_mechanics(
+        mw,
+        omega,
+        sens,
+        wire_block(state, F_XP, nw),
+        wire_block(state, F_XM, nw),
+        wire_block(state, F_EPS, nw),
+        wire_block(state, F_SIG, nw),
+        vforce,
+        kp,
+        ks,
+        kw,
+        km,
+        wk,
+    )
 
 
 @jit
@@ -456,22 +527,15 @@ def _choose_h(rem, dt, r, ks):
 
 
 @jit
-def _thermal_update(state, kp, kw, volts, h, wk):
+def _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk):
     """Phases (implicit Euler), Joule and latent heat, implicit convection for every wire (§6.1 c–f).
 
-    Writes the new temperatures and energy accumulators into ``state`` and the new fractions
-    into wk[16]. Returns (status, whether any fraction moved).
+    Writes the new temperatures and energy accumulators (the state's per-wire blocks passed in)
+    and the new fractions into wk[WK_XNEW]. Returns (status, whether any fraction moved).
     """
     nw = kw.shape[0]
-    xp = wire_block(state, F_XP, nw)
-    xm = wire_block(state, F_XM, nw)
-    temp = wire_block(state, F_T, nw)
-    sig = wire_block(state, F_SIG, nw)
-    qj = wire_block(state, F_QJ, nw)
-    qc = wire_block(state, F_QC, nw)
-    ql = wire_block(state, F_QL, nw)
-    rt = wk[15]
-    xnew = wk[16]
+    rt = wk[WK_RATES]
+    xnew = wk[WK_XNEW]
     rhoc = kp[K_RHOC]
     asv = kp[K_ASV]
     t_e = kp[K_TE]
@@ -524,13 +588,17 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
     xm = wire_block(state, F_XM, nw)
     temp = wire_block(state, F_T, nw)
     sig = wire_block(state, F_SIG, nw)
-    rt = wk[15]
-    xnew = wk[16]
+    eps = wire_block(state, F_EPS, nw)
+    qj = wire_block(state, F_QJ, nw)
+    qc = wire_block(state, F_QC, nw)
+    ql = wire_block(state, F_QL, nw)
+    rt = wk[WK_RATES]
+    xnew = wk[WK_XNEW]
     saved_w = np.empty((ns, 2))
     saved_m = np.empty((nm, 2))
     passes = 0
     if resolve:
-        st, passes = composite(state, vforce, kp, ks, kw, km, wk)
+        st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
         if st != OK:
             return st, 0, passes
     max_sub = int(ks[S_MAXSUB])
@@ -548,7 +616,7 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
             r = max(r, _step_rate(xp[j], xm[j], ppA, pAp, pmA, pAm))
         h = _choose_h(rem, dt, r, ks)
         # c.–f. phases, heat balance, energy bookkeeping
-        st, moved = _thermal_update(state, kp, kw, volts, h, wk)
+        st, moved = _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk)
         if st != OK:
             return st, nsub, passes
         # g. composite solve only when a fraction moved
@@ -556,9 +624,9 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
             for j in range(nw):
                 xp[j] = xnew[j, 0]
                 xm[j] = xnew[j, 1]
-            saved_w[:, :] = omega
-            saved_m[:, :] = mw
-            st, p = composite(state, vforce, kp, ks, kw, km, wk)
+            copy_pairs(saved_w, omega)
+            copy_pairs(saved_m, mw)
+            st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
             passes += p
             if st != OK:
                 return st, nsub, passes
@@ -597,7 +665,18 @@ def init_state(state, kp, ks, kw, km, vforce):
         probe[:, :] = 0.0
         mp[:, :] = 0.0
         mp[c // 2, c % 2] = INIT_DM
-        st, _ = solve_shape(probe, mp, zero, kp, km, ks[S_TOLTH], int(ks[S_MAXSHAPE]), wk[0], wk[1], wk[2])
+        st, _ = solve_shape(
+            probe,
+            mp,
+            zero,
+            kp,
+            km,
+            ks[S_TOLTH],
+            int(ks[S_MAXSHAPE]),
+            wk[WK_FRAMES],
+            wk[WK_CHORDS],
+            wk[WK_NEW],
+        )
         if st != OK:
             return st
         for i in range(ns):
@@ -622,7 +701,7 @@ def record(state, kp, kw, km, wk, row):
     head = sens_offset(nw, nm, ns)
     row[:head] = state[:head]
     mw, omega, sens = views(state, nw, nm, ns)
-    frames, chords, pos = wk[0], wk[1], wk[17]
+    frames, chords, pos = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS]
     kinematics(omega, km, frames, chords)
     positions(chords, pos)
     o = head

@@ -197,25 +197,15 @@ def wire_length(j, omega, fs, kw, km):
 
 
 @jit
-def wire_length_gradient(j, omega, kw, km, grad):
-    """∂L_j/∂ω_n for the segments of wire j's module, written into ``grad`` (N, 2) (others untouched).
+def segment_length_gradient(w1, w2, ls, a, ex, ey):
+    """∂ℓ/∂ω of one segment's share ℓ = f (ls − a e·ω) of a wire length (SPATIAL.md §4).
 
     Small-angle forms f ≈ 1 − Δθ²/24, f'/Δθ ≈ −1/12, as the planar Newton uses (a Newton step
-    only needs the slope to ~1 %): ∂L/∂ω = −(ls − a e·ω) ω/12 − a (1 − Δθ²/24) e.
+    only needs the slope to ~1 %): ∂ℓ/∂ω = −(ls − a e·ω) ω/12 − a (1 − Δθ²/24) e.
     """
-    k = int(kw[j, W_MOD])
-    seg0 = int(km[k, M_SEG0])
-    ls = km[k, M_LS]
-    a = kw[j, W_A]
-    ex = kw[j, W_EX]
-    ey = kw[j, W_EY]
-    for i in range(seg0, seg0 + int(km[k, M_NSEG])):
-        w1 = omega[i, 0]
-        w2 = omega[i, 1]
-        lever = (ls - a * (ex * w1 + ey * w2)) / 12.0
-        fa = a * (1.0 - (w1 * w1 + w2 * w2) / 24.0)
-        grad[i, 0] = -lever * w1 - fa * ex
-        grad[i, 1] = -lever * w2 - fa * ey
+    lever = (ls - a * (ex * w1 + ey * w2)) / 12.0
+    fa = a * (1.0 - (w1 * w1 + w2 * w2) / 24.0)
+    return -lever * w1 - fa * ex, -lever * w2 - fa * ey
 
 
 @jit
