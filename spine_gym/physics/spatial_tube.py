@@ -33,12 +33,16 @@ SMALL = 1e-8  # [rad] below this the rotation coefficients use their series (MOD
 
 @jit
 def rot_coeffs(th):
-    """(a, b, f) = (sin Δθ/Δθ, (1 − cos Δθ)/Δθ², 2 sin(Δθ/2)/Δθ) with small-angle series."""
+    """(a, b, f) = (sin Δθ/Δθ, (1 − cos Δθ)/Δθ², 2 sin(Δθ/2)/Δθ) with small-angle series.
+
+    From one sine and cosine of Δθ/2: f = sin(Δθ/2)/(Δθ/2), a = f cos(Δθ/2), b = f²/2.
+    """
     if th < SMALL:
         t2 = th * th
         return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 - t2 / 24.0
-    f = math.sin(0.5 * th) / (0.5 * th)
-    return math.sin(th) / th, 0.5 * f * f, f
+    half = 0.5 * th
+    f = math.sin(half) / half
+    return f * math.cos(half), 0.5 * f * f, f
 
 
 @jit
@@ -61,17 +65,21 @@ def kinematics(omega, km, frames, chords):
         for i in range(seg0 + int(km[k, M_NSEG]) - 1, seg0 - 1, -1):
             w1 = omega[i, 0]
             w2 = omega[i, 1]
-            a, b, _ = rot_coeffs(math.sqrt(w1 * w1 + w2 * w2))
             th2 = w1 * w1 + w2 * w2
-            lo = frames[i + 1]
-            hi = frames[i]
+            a, b, _ = rot_coeffs(math.sqrt(th2))
+            c11 = 1.0 - b * w2 * w2
+            c12 = b * w1 * w2
+            c22 = 1.0 - b * w1 * w1
+            c33 = 1.0 - b * th2
+            aw1 = a * w1
+            aw2 = a * w2
             for c in range(3):
-                d1 = lo[0, c]
-                d2 = lo[1, c]
-                t = lo[2, c]
-                hi[0, c] = (1.0 - b * w2 * w2) * d1 + b * w1 * w2 * d2 - a * w2 * t
-                hi[1, c] = b * w1 * w2 * d1 + (1.0 - b * w1 * w1) * d2 + a * w1 * t
-                hi[2, c] = a * w2 * d1 - a * w1 * d2 + (1.0 - b * th2) * t
+                d1 = frames[i + 1, 0, c]
+                d2 = frames[i + 1, 1, c]
+                t = frames[i + 1, 2, c]
+                frames[i, 0, c] = c11 * d1 + c12 * d2 - aw2 * t
+                frames[i, 1, c] = c12 * d1 + c22 * d2 + aw1 * t
+                frames[i, 2, c] = aw2 * d1 - aw1 * d2 + c33 * t
                 chords[i, c] = ls * (a * t + b * (w2 * d1 - w1 * d2))
 
 
