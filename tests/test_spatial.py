@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from spine_gym import ModelParams, SimulationError, SolverOptions, simulate
+from spine_gym.capacity import capacity_metrics
 from spine_gym.experiments import (
     ALTERNATE_REFERENCE,
     ALTERNATE_SWING_TIMES,
@@ -532,3 +533,21 @@ def test_fuzzing_extreme_voltages_and_3d_loads_gives_no_nan():
             continue
         for arr in r.to_dict().values():
             assert np.all(np.isfinite(arr)), trial
+
+
+# ---------------------------------------------------------------- capacity metrics of layouts
+def test_capacity_metrics_of_a_planar_layout_equal_the_planar_ones():
+    planar = capacity_metrics(solver=FIXED)
+    spatial = capacity_metrics(solver=FIXED, layout=SpineLayout.planar(neutral_wires=True))
+    for name, value in planar.as_dict().items():
+        assert getattr(spatial, name) == pytest.approx(value, rel=1e-9, abs=1e-6), name
+
+
+def test_capacity_metrics_of_a_chain():
+    m = capacity_metrics(layout=SpineLayout.chain(2))
+    assert m.stable_angle_deg > 20.0
+    assert math.isfinite(m.responding_time_s) and 0.0 < m.actuating_ability < math.inf
+    assert m.peak_temperature_K < 500.0  # the voltage is scaled with the shorter wires
+    one_pair = SpineLayout((Module((WireGroup(0.0, 0.014, 1),), 13, 0.035, 0.46, 0.025),))
+    with pytest.raises(ValueError, match=r"layout.modules\[0\] needs wires at psi_deg 0 and 180"):
+        capacity_metrics(layout=one_pair)
