@@ -120,7 +120,8 @@ class Module:
             object.__setattr__(self, name, float(getattr(self, name)))
         if self.L0 < self.n_seg * self.ls:
             raise ValueError(
-                f"L0 must be >= n_seg*ls = {self.n_seg * self.ls:g} m (the wire spans the module), got {self.L0!r}"
+                f"L0 must be >= n_seg*ls = {self.n_seg * self.ls:g} m (the wire spans the module), "
+                f"got {self.L0!r}"
             )
 
     @property

@@ -30,6 +30,7 @@ from spine_gym.experiments import (
 from spine_gym.layout import Module, SpineLayout, WireGroup, seed_module
 from spine_gym.physics import layout as L
 from spine_gym.physics import spatial_layout as SL
+from spine_gym.physics import spatial_solver as ss
 from spine_gym.physics import spatial_tube as tube3
 from spine_gym.simulate_spatial import SpatialResult
 
@@ -551,3 +552,36 @@ def test_capacity_metrics_of_a_chain():
     one_pair = SpineLayout((Module((WireGroup(0.0, 0.014, 1),), 13, 0.035, 0.46, 0.025),))
     with pytest.raises(ValueError, match=r"layout.modules\[0\] needs wires at psi_deg 0 and 180"):
         capacity_metrics(layout=one_pair)
+
+
+def test_batch_of_spatial_spines_equals_single_spines():
+    lay = SpineLayout.chain(2)
+    kp, kw, km = lay.to_kernel()
+    ks = SolverOptions().to_kernel()
+    rng = np.random.default_rng(0)
+    b = 3
+    volts = rng.uniform(0.0, 2.5, size=(b, lay.n_wires))
+    loads = np.zeros((b, lay.n_seg, 3))
+    loads[:, 0] = rng.uniform(-0.3, 0.3, size=(b, 3))
+    init = np.stack(
+        [
+            simulate(0.01, np.zeros(lay.n_wires), layout=lay, tip_force=loads[i, 0]).final_state
+            for i in range(b)
+        ]
+    )
+    kps = np.tile(kp, (b, 1))
+    kps[1, L.K_EI] *= 1.2  # per-spine constants
+    batches = []
+    for fn in (ss.advance_many, ss.advance_many_serial):
+        states = init.copy()
+        status = np.empty(b, dtype=np.int64)
+        fn(states, kps, ks, kw, km, volts, loads, 0.1, 30, status)
+        assert np.all(status == L.OK)
+        batches.append(states)
+    np.testing.assert_array_equal(batches[0], batches[1])
+    for i in range(b):
+        single = init[i].copy()
+        for _ in range(30):
+            st, _, _ = ss.advance(single, kps[i], ks, kw, km, volts[i], loads[i], 0.1)
+            assert st == L.OK
+        np.testing.assert_array_equal(batches[0][i], single)

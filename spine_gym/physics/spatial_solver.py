@@ -26,9 +26,10 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, pjit
 from .layout import (
     ERR_NONFINITE,
     ERR_ROOT,
@@ -759,3 +760,27 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
             return st, k, nsub, npass
         record(state, kp, kw, km, wk, out[k + 1])
     return OK, n, nsub, npass
+
+
+def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
+    """Advance each spatial spine i by ``n_steps`` output steps of ``dt`` (cf. batch.advance_many).
+
+    Args:
+        states: (B, state size) spatial states, advanced in place.
+        kps: (B, KP_SIZE) material constants per spine (e.g. randomised).
+        kw, km: the layout tables, shared by the batch.
+        volts: (B, W) voltages [V]; loads: (B, N, 3) vertex forces [N].
+        status: (B,) output, the first failure of each spine (a failed spine stops there).
+    """
+    b = states.shape[0]
+    for i in numba.prange(b):
+        status[i] = OK
+        for _ in range(n_steps):
+            st, _a, _c = advance(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt)
+            if st != OK:
+                status[i] = st
+                break
+
+
+advance_many = pjit(_advance_many)
+advance_many_serial = jit(_advance_many)
