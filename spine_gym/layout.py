@@ -106,7 +106,7 @@ class Module:
     m_disk: float  # [kg] disk at the module's top (the top disk of the spine for the top module)
 
     def __post_init__(self):
-        wires = tuple(self.wires)
+        wires = tuple(self.wires) if isinstance(self.wires, list | tuple) else (None,)
         if len(wires) > MAX_WIRE_GROUPS or not all(isinstance(w, WireGroup) for w in wires):
             raise ValueError(
                 f"wires must be a tuple of at most {MAX_WIRE_GROUPS} WireGroup, got {self.wires!r}"
@@ -216,7 +216,12 @@ class SpineLayout:
         return cls((mod,) * n_modules, params)
 
     def replace(self, **changes) -> SpineLayout:
-        """A validated copy with ``changes`` applied."""
+        """A validated copy with ``changes`` applied (fields: ``modules``, ``params``)."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise ValueError(
+                f"unknown SpineLayout field(s) {sorted(unknown)}; valid fields: ['modules', 'params']"
+            )
         return dataclasses.replace(self, **changes)
 
     # ---------------------------------------------------------------- derived

@@ -585,3 +585,46 @@ def test_batch_of_spatial_spines_equals_single_spines():
             st, _, _ = ss.advance(single, kps[i], ks, kw, km, volts[i], loads[i], 0.1)
             assert st == L.OK
         np.testing.assert_array_equal(batches[0][i], single)
+
+
+def test_layout_replace_and_non_tuple_wires():
+    lay = SpineLayout.chain(2)
+    assert lay.replace(params=ModelParams(a=0.012)).params.a == 0.012
+    with pytest.raises(ValueError, match="unknown SpineLayout field"):
+        lay.replace(n_mod=3)
+    with pytest.raises(ValueError, match="wires must be a tuple"):
+        Module(WireGroup(0.0, 0.014, 1), 13, 0.035, 0.46, 0.025)
+
+
+# ---------------------------------------------------------------- safeguard and failure statuses
+def test_safeguard_recovers_when_the_newton_sensitivity_is_wrong():
+    lay = SpineLayout.chain(2)
+    kp, kw, km = lay.to_kernel()
+    ks = SolverOptions().to_kernel()
+    vf = np.zeros((lay.n_seg, 3))
+    vf[0] = (0.2, -0.1, -0.3)
+    r = simulate(8.0, (2.0, 0.0, 0.0, 0.0, 0.0, 1.8, 0.0, 0.0), layout=lay, tip_force=vf[0])
+    nw, nm, ns = lay.n_wires, lay.n_modules, lay.n_seg
+    good = r.final_state.copy()
+    wk = ss.make_work(nw, nm, ns)
+    assert ss.composite(good, vf, kp, ks, kw, km, wk)[0] == L.OK
+    bad = good.copy()
+    mw, omega, sens = ss.views(bad, nw, nm, ns)
+    mw += 0.03  # start away from the solution ...
+    sens *= -4.0  # ... with a sensitivity of the wrong sign: the plain Newton cannot converge
+    trial = bad.copy()
+    tm, tw, ts = ss.views(trial, nw, nm, ns)
+    xp = ss.wire_block(trial, SL.F_XP, nw)
+    xm = ss.wire_block(trial, SL.F_XM, nw)
+    assert ss.composite_newton(tm, tw, ts, xp, xm, vf, kp, ks, kw, km, wk)[0] != L.OK
+    st, passes = ss.composite(bad, vf, kp, ks, kw, km, wk)
+    assert st == L.OK and passes > 0
+    gm, gw, _ = ss.views(good, nw, nm, ns)
+    np.testing.assert_allclose(mw, gm, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(omega, gw, rtol=0, atol=1e-6)
+
+
+def test_a_load_past_buckling_raises_a_status_not_nan():
+    with pytest.raises(SimulationError) as e:
+        simulate(0.1, np.zeros(4), layout=SpineLayout(), tip_force=(0.01, 0.0, -60.0))
+    assert e.value.status in (L.ERR_SHAPE, L.ERR_ROOT, L.ERR_NONFINITE)
