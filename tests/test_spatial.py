@@ -624,3 +624,25 @@ def test_a_load_past_buckling_raises_a_status_not_nan():
     with pytest.raises(SimulationError) as e:
         simulate(0.1, np.zeros(4), layout=SpineLayout(), tip_force=(0.01, 0.0, -60.0))
     assert e.value.status in (L.ERR_SHAPE, L.ERR_ROOT, L.ERR_NONFINITE)
+
+
+def test_fuzz_case_the_newton_could_not_solve_is_solved_by_the_safeguard():
+    # found by fuzzing: a slack wire and a stale sensitivity stalled the first safeguard at 2.5 s
+    p = ModelParams()
+    wires = (WireGroup(15.0, 0.014261823422198235, 2), WireGroup(165.0, 0.015856117891319015, 2))
+    lay = SpineLayout((Module(wires, 13, 0.035, 0.46, 0.025),), p)
+    v = np.array([[3.2, 2.0], [3.2, 5.0], [3.2, 1.0], [5.0, 2.0], [0.0, 3.2], [2.0, 2.0]]).repeat(50, 0)
+    f = np.array(
+        [
+            [-0.532686, 0.336327, 0.665796],
+            [-0.229782, -0.134576, -0.30563],
+            [0.30196, -0.012255, -0.43221],
+            [0.637545, -0.777116, 0.535794],
+            [0.582641, -0.648935, -0.772929],
+            [0.234897, 0.133342, -0.52394],
+        ]
+    ).repeat(50, 0)
+    r = simulate(3.0, v, layout=lay, tip_force=f)
+    assert np.all(np.isfinite(r.tip_position))
+    law = _reference_segment_law(r.omega[-1], r.moment[-1], np.vstack([f[-1], np.zeros((12, 3))]), lay)
+    assert np.abs(law - r.omega[-1]).max() < 10 * SolverOptions().tol_theta

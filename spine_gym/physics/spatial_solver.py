@@ -93,6 +93,7 @@ from .spatial_tube import (
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
 INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
 MAX_HALVINGS = 30  # back-tracking halvings of one safeguarded Newton step
+SAFE_TOL = 0.01  # shape tolerance of the safeguard relative to tol_theta
 
 
 # ---------------------------------------------------------------- state views and work arrays
@@ -340,26 +341,24 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
-def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk):
-    """S = dω/dM by forward differences of full shape solves at the converged shape for ``mw``.
+def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
+    """S = dω/dM by forward differences of full shape solves (tolerance ``tol``) at the shape for ``mw``.
 
-    Returns:
-        (status, shape passes).
+    ``omega`` is first solved for ``mw``. Returns (status, shape passes).
     """
-    tol_th = ks[S_TOLTH]
     max_shape = int(ks[S_MAXSHAPE])
     frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
     trial = wk[WK_WTRIAL]
     mt = wk[WK_MTRIAL]
     nm = mw.shape[0]
-    st, passes = solve_shape(omega, mw, vforce, kp, km, tol_th, max_shape, frames, chords, new)
+    st, passes = solve_shape(omega, mw, vforce, kp, km, tol, max_shape, frames, chords, new)
     if st != OK:
         return st, passes
     for c in range(2 * nm):
-        mt[:, :] = mw
+        copy_pairs(mt, mw)
         mt[c // 2, c % 2] += FD_DM
-        trial[:, :] = omega
-        st, it = solve_shape(trial, mt, vforce, kp, km, tol_th, max_shape, frames, chords, new)
+        copy_pairs(trial, omega)
+        st, it = solve_shape(trial, mt, vforce, kp, km, tol, max_shape, frames, chords, new)
         passes += it
         if st != OK:
             return st, passes
@@ -380,47 +379,72 @@ def _residual_norm(mw, wk):
 
 
 @jit
+def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol):
+    """Try M + λ ΔM (ΔM in wk[WK_DM]), λ = 1, ½, ¼ …, each with a full shape solve from the shape
+    predicted by S; accept the first that lowers max|G − M| (then written into mw, omega).
+
+    Returns:
+        (accepted, shape passes).
+    """
+    max_shape = int(ks[S_MAXSHAPE])
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial, mt, dm = wk[WK_WTRIAL], wk[WK_MTRIAL], wk[WK_DM]
+    passes = 0
+    lam = 1.0
+    for _ in range(MAX_HALVINGS):
+        for k in range(mw.shape[0]):
+            mt[k, 0] = mw[k, 0] + lam * dm[2 * k]
+            mt[k, 1] = mw[k, 1] + lam * dm[2 * k + 1]
+        _predict(omega, sens, dm, lam, trial)
+        st, it = solve_shape(trial, mt, vforce, kp, km, tol, max_shape, frames, chords, new)
+        passes += it
+        if st == OK:
+            wire_mechanics(trial, xp, xm, kp, kw, km, wk)
+            if _residual_norm(mt, wk) < (1.0 - 1e-4 * lam) * norm:
+                copy_pairs(mw, mt)
+                copy_pairs(omega, trial)
+                return True, passes
+        lam *= 0.5
+    return False, passes
+
+
+@jit
 def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
-    """Back-tracking Newton with full shape solves and a finite-difference S (the safeguard of §5).
+    """The safeguard of §5: Newton with full shape solves, a finite-difference S refreshed at every
+    iterate, and back-tracking; if no Newton step lowers the residual, the fixed-point direction
+    ΔM = G(M) − M (a descent direction: −g' = I − J is positive definite as the wires stiffen the
+    structure) with back-tracking. The shape solves use SAFE_TOL × tol_theta, so that the residual
+    is resolved well below tol_moment.
 
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
     tol_m = ks[S_TOLM]
-    tol_th = ks[S_TOLTH]
-    max_shape = int(ks[S_MAXSHAPE])
-    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
-    trial, mt, dm = wk[WK_WTRIAL], wk[WK_MTRIAL], wk[WK_DM]
-    nm = mw.shape[0]
-    st, passes = refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk)
-    if st != OK:
-        return st, passes
+    tol = SAFE_TOL * ks[S_TOLTH]
+    dm, gm = wk[WK_DM], wk[WK_G]
+    passes = 0
     for _ in range(int(ks[S_MAXROOT])):
+        st, p = refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol)
+        passes += p
+        if st != OK:
+            return st, passes
         wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         norm = _residual_norm(mw, wk)
         if norm <= tol_m:
             return OK, passes
         if not math.isfinite(newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)):
             return ERR_NONFINITE, passes
-        lam = 1.0
-        accepted = False
-        for _h in range(MAX_HALVINGS):
-            for k in range(nm):
-                mt[k, 0] = mw[k, 0] + lam * dm[2 * k]
-                mt[k, 1] = mw[k, 1] + lam * dm[2 * k + 1]
-            _predict(omega, sens, dm, lam, trial)
-            st, it = solve_shape(trial, mt, vforce, kp, km, tol_th, max_shape, frames, chords, new)
-            passes += it
-            if st == OK:
-                wire_mechanics(trial, xp, xm, kp, kw, km, wk)
-                if _residual_norm(mt, wk) < (1.0 - 1e-4 * lam) * norm:
-                    accepted = True
-                    break
-            lam *= 0.5
-        if not accepted:
-            return ERR_ROOT, passes
-        mw[:, :] = mt
-        omega[:, :] = trial
+        ok, p = _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
+        passes += p
+        if not ok:
+            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+            for k in range(mw.shape[0]):
+                dm[2 * k] = gm[k, 0] - mw[k, 0]
+                dm[2 * k + 1] = gm[k, 1] - mw[k, 1]
+            ok, p = _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
+            passes += p
+            if not ok:
+                return ERR_ROOT, passes
     return ERR_ROOT, passes
 
 
