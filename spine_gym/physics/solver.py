@@ -174,13 +174,16 @@ def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
 
 
 @jit
-def is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp, jac, work):
+def is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
     """True if the equilibrium ``dth`` under ``vforce`` is unstable (a load past buckling).
 
-    ``jac`` and ``work`` are (N, N) scratch. See :mod:`.stability` for the criterion.
+    See :mod:`.stability` for the criterion; O(N³), so callers screen with
+    :func:`needs_stability_check` first.
     """
+    n = dth.shape[0]
+    jac = np.empty((n, n))
     equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac)
-    return unstable_modes(jac, work) > 0
+    return unstable_modes(jac, np.empty((n, n))) > 0
 
 
 @jit
@@ -306,7 +309,7 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
 
 
 @jit
-def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, jac, lu):
+def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     """Newton on the whole shape: solve R(Δθ) = Δθ − f(Δθ, G(Δθ)) = 0 with the exact tangent I − J.
 
     The fallback of the coupled Newton near buckling, where the fixed-point shape iteration
@@ -318,6 +321,8 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, jac, lu
     """
     tol_th = ks[S_TOLTH]
     n = dth.shape[0]
+    jac = np.empty((n, n))
+    lu = np.empty((n, n))
     for it in range(int(ks[S_MAXROOT])):
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
         e = shape_pass(dth, gm, vforce, kp, work)
@@ -338,65 +343,74 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, jac, lu
 
 
 @jit
+def _solve_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
+    """The default solve and its fallbacks, each from the untouched starting shape ``saved``.
+
+    Coupled Newton (one shape pass per iteration); then Newton on the whole shape, which is
+    needed near buckling; then the bracketed Illinois solve as the last safeguard.
+
+    Returns:
+        (status, M, passes, ε_R, ε_L, σ_R, σ_L).
+    """
+    n = dth.shape[0]
+    st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+    if st == OK:
+        return st, m, passes, er, el, sr, sl
+    for i in range(n):
+        dth[i] = saved[i]
+    st, m, p2, er, el, sr, sl = composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+    passes += p2
+    if st == OK:
+        return st, m, passes, er, el, sr, sl
+    for i in range(n):
+        dth[i] = saved[i]
+    st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
+    er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
+    return st, m, passes + p2, er, el, sr, sl
+
+
+@jit
 def composite(state, vforce, kp, ks, work, saved, check):
     """Solve the composite module for the state's fractions and the loads ``vforce``, in place.
 
-    Updates Δθ, M, ε_w, σ_w in ``state``. With ``check`` (loads that might buckle the spine, see
-    :func:`needs_stability_check`) a converged shape is also tested for stability and an unstable
-    one is reported as ERR_BUCKLING, state untouched. A solve that fails leaves Δθ at its starting
-    shape; it is reported as ERR_BUCKLING if that shape is unstable under the new loads (no stable
-    equilibrium nearby: the load is past buckling), else with the solver's own status.
+    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. With ``check``
+    (loads that might buckle the spine, see :func:`needs_stability_check`) both the starting shape
+    (the last equilibrium, under the new loads and fractions) and the converged one are tested for
+    stability, and ERR_BUCKLING is returned, state untouched, if either is unstable: the load path
+    has passed a stability limit, even if the solver would find a distant post-buckled equilibrium
+    (a snap the quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING
+    if its starting shape is unstable, else with the solver's own status; Δθ is left at the
+    starting shape.
 
     Returns:
         (status, shape passes used).
     """
     n = work.shape[0]
     dth = state[X_HEAD : X_HEAD + n]
-    s = state[X_HEAD + n : X_HEAD + 2 * n]
     xpr = state[X_PR]
     xmr = state[X_MR]
     xpl = state[X_PL]
     xml = state[X_ML]
-    m0 = state[X_MW]
-    method = int(ks[S_METHOD])
     for i in range(n):
         saved[i] = dth[i]
-    jac = np.empty((0, 0))
-    lu = np.empty((0, 0))
+    if check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+        return ERR_BUCKLING, 0
+    method = int(ks[S_METHOD])
     if method == METHOD_NEWTON:
-        st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
-        if st != OK:  # near buckling: Newton on the whole shape from the untouched starting point
-            jac = np.empty((n, n))
-            lu = np.empty((n, n))
-            for i in range(n):
-                dth[i] = saved[i]
-            st, m, p2, er, el, sr, sl = composite_full_newton(
-                dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, jac, lu
-            )
-            passes += p2
-        if st != OK:  # safeguard: the bracketed solve from the untouched starting point
-            for i in range(n):
-                dth[i] = saved[i]
-            st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
-            passes += p2
-            er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
+        s = state[X_HEAD + n : X_HEAD + 2 * n]
+        st, m, passes, er, el, sr, sl = _solve_newton(
+            dth, s, state[X_MW], xpr, xmr, xpl, xml, vforce, kp, ks, work, saved
+        )
     else:
         st, m, passes = composite_bracketed(
-            dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
+            dth, state[X_MW], xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
         )
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
-    if st != OK or check:
-        if jac.shape[0] != n:
-            jac = np.empty((n, n))
-            lu = np.empty((n, n))
-        if st != OK:
-            for i in range(n):
-                dth[i] = saved[i]
-        if is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp, jac, lu):
-            for i in range(n):
-                dth[i] = saved[i]
+    if st != OK or (check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
+        for i in range(n):
+            dth[i] = saved[i]
+        if st == OK or (not check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
             return ERR_BUCKLING, passes
-    if st != OK:
         return st, passes
     state[X_MW] = m
     state[X_ER] = er
