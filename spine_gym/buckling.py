@@ -71,9 +71,7 @@ def _jacobian(params, kp, dth, state, vforce, wires: bool) -> np.ndarray:
     n = params.n_seg
     jac = np.empty((n, n))
     if wires:
-        equilibrium_jacobian(
-            dth, state[L.X_PR], state[L.X_MR], state[L.X_PL], state[L.X_ML], vforce, kp, jac
-        )
+        equilibrium_jacobian(dth, state[L.X_PR], state[L.X_MR], state[L.X_PL], state[L.X_ML], vforce, kp, jac)
     else:
         shape_jacobian(dth, vforce, kp, jac)
     return jac

@@ -100,7 +100,9 @@ def test_unstable_mode_count_agrees_with_the_eigenvalues():
     for dth in (np.zeros(13), bent):
         for fy in np.linspace(0.0, -40.0, 81):
             jac = np.empty((13, 13))
-            equilibrium_jacobian(dth, st[L.X_PR], st[L.X_MR], st[L.X_PL], st[L.X_ML], tip_loads(13, 0, fy), kp, jac)
+            equilibrium_jacobian(
+                dth, st[L.X_PR], st[L.X_MR], st[L.X_PL], st[L.X_ML], tip_loads(13, 0, fy), kp, jac
+            )
             lam = np.linalg.eigvals(np.eye(13) - jac).real.min()
             if abs(lam) > 1e-6:
                 assert (unstable_modes(jac, work) > 0) == (lam < 0.0), (fy, lam)
