@@ -343,23 +343,17 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
 
 
 @jit
-def _solve_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
-    """The default solve and its fallbacks, each from the untouched starting shape ``saved``.
-
-    Coupled Newton (one shape pass per iteration); then Newton on the whole shape, which is
-    needed near buckling; then the bracketed Illinois solve as the last safeguard.
+def _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
+    """After the coupled Newton failed: Newton on the whole shape (needed near buckling), then the
+    bracketed Illinois solve as the last safeguard, each from the starting shape ``saved``.
 
     Returns:
         (status, M, passes, ε_R, ε_L, σ_R, σ_L).
     """
     n = dth.shape[0]
-    st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
-    if st == OK:
-        return st, m, passes, er, el, sr, sl
     for i in range(n):
         dth[i] = saved[i]
-    st, m, p2, er, el, sr, sl = composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work)
-    passes += p2
+    st, m, passes, er, el, sr, sl = composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work)
     if st == OK:
         return st, m, passes, er, el, sr, sl
     for i in range(n):
@@ -370,48 +364,67 @@ def _solve_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
 
 
 @jit
+def _buckling_status(state, st, vforce, kp, check, saved):
+    """Status of a solve after the stability test (see :func:`composite`); restores Δθ on failure."""
+    n = saved.shape[0]
+    dth = state[X_HEAD : X_HEAD + n]
+    xpr = state[X_PR]
+    xmr = state[X_MR]
+    xpl = state[X_PL]
+    xml = state[X_ML]
+    if st == OK and not is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+        return OK
+    for i in range(n):
+        dth[i] = saved[i]
+    if st == OK or (not check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
+        return ERR_BUCKLING
+    return st
+
+
+@jit
 def composite(state, vforce, kp, ks, work, saved, check):
     """Solve the composite module for the state's fractions and the loads ``vforce``, in place.
 
-    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. With ``check``
-    (loads that might buckle the spine, see :func:`needs_stability_check`) both the starting shape
-    (the last equilibrium, under the new loads and fractions) and the converged one are tested for
-    stability, and ERR_BUCKLING is returned, state untouched, if either is unstable: the load path
-    has passed a stability limit, even if the solver would find a distant post-buckled equilibrium
-    (a snap the quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING
-    if its starting shape is unstable, else with the solver's own status; Δθ is left at the
-    starting shape.
+    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. Default solver:
+    the coupled Newton, then :func:`_fallbacks`. With ``check`` (loads that might buckle the
+    spine, see :func:`needs_stability_check`) both the starting shape (the last equilibrium, under
+    the new loads and fractions) and the converged one are tested for stability, and ERR_BUCKLING
+    is returned, state untouched, if either is unstable: the load path has passed a stability
+    limit, even if the solver would find a distant post-buckled equilibrium (a snap the
+    quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING if its
+    starting shape is unstable, else with the solver's own status; Δθ is left at the starting
+    shape.
 
     Returns:
         (status, shape passes used).
     """
     n = work.shape[0]
     dth = state[X_HEAD : X_HEAD + n]
+    s = state[X_HEAD + n : X_HEAD + 2 * n]
     xpr = state[X_PR]
     xmr = state[X_MR]
     xpl = state[X_PL]
     xml = state[X_ML]
+    m0 = state[X_MW]
+    method = int(ks[S_METHOD])
     for i in range(n):
         saved[i] = dth[i]
     if check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
         return ERR_BUCKLING, 0
-    method = int(ks[S_METHOD])
     if method == METHOD_NEWTON:
-        s = state[X_HEAD + n : X_HEAD + 2 * n]
-        st, m, passes, er, el, sr, sl = _solve_newton(
-            dth, s, state[X_MW], xpr, xmr, xpl, xml, vforce, kp, ks, work, saved
-        )
+        st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+        if st != OK:
+            st, m, p2, er, el, sr, sl = _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved)
+            passes += p2
     else:
         st, m, passes = composite_bracketed(
-            dth, state[X_MW], xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
+            dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
         )
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
-    if st != OK or (check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
-        for i in range(n):
-            dth[i] = saved[i]
-        if st == OK or (not check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
-            return ERR_BUCKLING, passes
-        return st, passes
+    if st != OK or check:
+        st = _buckling_status(state, st, vforce, kp, check, saved)
+        if st != OK:
+            return st, passes
     state[X_MW] = m
     state[X_ER] = er
     state[X_EL] = el

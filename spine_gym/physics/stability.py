@@ -15,7 +15,7 @@ of negative eigenvalues of H (Sylvester's law of inertia): 0 means stable, >= 1 
 past buckling. The check needs only J, so any segmented model (planar or spatial, with any
 number of angles per segment) can use it.
 
-:func:`euler_critical_load` feeds a cheap, conservative screen: Dunkerley's lower bound on the
+:func:`dunkerley_weight` feeds a cheap, conservative screen: Dunkerley's lower bound on the
 buckling load of a clamped column under point loads, used to skip the check where buckling is
 impossible.
 """
@@ -62,17 +62,24 @@ def unstable_modes(jac, work):
 
 
 @jit
-def euler_critical_load(height, ei):
-    """Euler load π² E I / (4 h²) [N] of a clamped-free column of length ``height`` [m] (MODEL.md §4.9).
+def dunkerley_weight(ei):
+    """4 / (π² E I) [1/(N m²)]: a point load F at arc length h above the clamp of a clamped-free
+    column of bending stiffness E I adds F h² · this to Dunkerley's sum (MODEL.md §4.9).
 
-    A point load at arc length h above the clamp of a longer column buckles it at this value (the
-    part above the load carries no axial force). Summed as Dunkerley's Σ_k |F_k| / P_cr(h_k) over
-    the loads of a column without wires, it gives a lower bound on the combined critical load:
-    the column cannot buckle while the sum is below 1 (only the axial component of a force
-    destabilises, and it is at most the magnitude). Self-weight spread as point loads at the
-    segment centres gives q L³/(E I) = 3π²/4 ≈ 7.40 against the exact 7.84 of §4.9.
+    F h² · 4/(π² E I) = F / P_cr(h), with P_cr(h) = π² E I / (4 h²) the Euler load of the column
+    below the load (the part above carries no axial force). Over all loads of a column without
+    wires the sum is a lower bound on the combined critical load factor: the column cannot buckle
+    while it is below 1 (only the axial component of a force destabilises, and it is at most the
+    magnitude). Self-weight spread as point loads at the segment centres gives q L³/(E I) = 3π²/4
+    ≈ 7.40 against the exact 7.84 of §4.9.
     """
-    return math.pi * math.pi * ei / (4.0 * height * height)
+    return 4.0 / (math.pi * math.pi * ei)
+
+
+@jit
+def euler_critical_load(height, ei):
+    """Euler load π² E I / (4 h²) [N] of a clamped-free column of length ``height`` [m] (§4.9)."""
+    return 1.0 / (height * height * dunkerley_weight(ei))
 
 
 @jit

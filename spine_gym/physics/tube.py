@@ -15,7 +15,7 @@ import numpy as np
 
 from ._jit import jit
 from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
-from .stability import euler_critical_load
+from .stability import dunkerley_weight
 
 
 @jit
@@ -211,24 +211,21 @@ def shape_jacobian(dth, vforce, kp, jac):
 
 @jit
 def load_ratio(vforce, kp):
-    """Dunkerley screen of the loads on the tube without wires (see :mod:`.stability`).
+    """Dunkerley screen of the loads on the tube without wires (see :func:`.stability.dunkerley_weight`).
 
     Σ over the load points (tip with the top disk, every vertex force, every segment weight at its
-    centre) of |F| / (π² E I / (4 h²)), h the arc length from the clamp. Below 1 the tube cannot
-    buckle, whatever its shape (the wires only add stiffness).
+    centre) of |F| h² · 4/(π² E I), h the arc length from the clamp. Below 1 the tube cannot
+    buckle, whatever its shape (the wires only add stiffness). One division: it runs every step.
     """
     n = vforce.shape[0]
     ls = kp[K_LS]
-    ei = kp[K_EI]
     g = kp[K_G]
-    w_seg = kp[K_MSEG] * g
-    s = 0.0
+    # segment weights at the centres, h = (j − ½) ls: Σ_{j=1..N} (j − ½)² = N (4N² − 1) / 12
+    s = kp[K_MSEG] * g * ls * ls * n * (4.0 * n * n - 1.0) / 12.0
     for k in range(n):
         fx = vforce[k, 0]
         fy = vforce[k, 1] - (kp[K_MTOP] * g if k == 0 else 0.0)
-        mag = math.sqrt(fx * fx + fy * fy)
-        if mag > 0.0:
-            s += mag / euler_critical_load((n - k) * ls, ei)
-        if w_seg > 0.0:
-            s += w_seg / euler_critical_load((n - k - 0.5) * ls, ei)
-    return s
+        if fx != 0.0 or fy != 0.0:
+            h = (n - k) * ls
+            s += math.sqrt(fx * fx + fy * fy) * h * h
+    return s * dunkerley_weight(kp[K_EI])
