@@ -80,6 +80,7 @@ from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_sha
 X_ACTIVE = 1e-6  # a phase with fraction above this takes part in the step-size rule (§6.1 b)
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
 BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
+NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
 SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 
 
@@ -323,6 +324,8 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     n = dth.shape[0]
     jac = np.empty((n, n))
     lu = np.empty((n, n))
+    trial = np.empty(n)
+    f_trial = np.empty(n)
     for it in range(int(ks[S_MAXROOT])):
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
         e = shape_pass(dth, gm, vforce, kp, work)
@@ -337,8 +340,19 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
             work[i] -= dth[i]  # −R
         if not solve_in_place(lu, work):
             return ERR_ROOT, gm, it + 1, er, el, sr, sl
+        # backtracking: halve the step until the residual falls. A full step can jump across a
+        # slack kink of the wires (σ = max(σ, 0)) and cycle between the two sides forever.
+        lam = 1.0
+        for _ in range(NEWTON_HALVINGS):
+            for i in range(n):
+                trial[i] = dth[i] + lam * work[i]
+            gt = wire_mechanics(trial, xpr, xmr, xpl, xml, kp)[4]
+            et = shape_pass(trial, gt, vforce, kp, f_trial)
+            if et < e:
+                break
+            lam *= 0.5
         for i in range(n):
-            dth[i] += work[i]
+            dth[i] = trial[i]
     return ERR_ROOT, 0.0, int(ks[S_MAXROOT]), 0.0, 0.0, 0.0, 0.0
 
 
@@ -577,7 +591,8 @@ def init_state(state, kp, ks, vforce):
 
     T = T_E, x_A = 0, x₊ = ½(1 + ε0/ε_T) (zero stress at the pre-strain), straight spine. The Newton
     sensitivity s = dΔθ/dM starts as a finite difference of two shape solves, then the mechanics
-    are solved for the given loads (gravity alone keeps a symmetric spine straight).
+    are solved for the given loads (gravity alone keeps a symmetric spine straight, but if it is
+    past buckling that is reported: ERR_BUCKLING).
 
     Returns:
         status of the mechanical solve.
@@ -601,10 +616,10 @@ def init_state(state, kp, ks, vforce):
     tol_th = ks[S_TOLTH]
     max_shape = int(ks[S_MAXSHAPE])
     st, it = solve_shape(probe, dm, zero, kp, tol_th, max_shape)
-    if st != OK:
-        return st
     for i in range(n):
-        s[i] = probe[i] / dm
+        # a tube that buckles under its own weight at a fixed moment has no such response: start
+        # from the weightless one, ls/(E I) (the secant refresh corrects it on the first steps)
+        s[i] = probe[i] / dm if st == OK else kp[K_LS] / kp[K_EI]
     work = np.empty(n)
     saved = np.empty(n)
     st, p = composite(state, vforce, kp, ks, work, saved, needs_stability_check(vforce, kp))
