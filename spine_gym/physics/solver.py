@@ -484,6 +484,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         resolve: solve the mechanics first (needed when the loads changed since the last call;
             callers that know the loads are unchanged pass False to save a solve).
 
+    Under loads that might buckle the spine (:func:`needs_stability_check`) the re-solve is
+    checked for stability and so is the shape the step ends on; a sub-step whose solve fails is
+    classified by :func:`composite`. An unstable equilibrium ends the step with ERR_BUCKLING.
+
     Returns:
         (status, sub-steps, shape passes).
     """
@@ -513,6 +517,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     jl_num = v_l * v_l / l0sq
     rem = dt
     nsub = 0
+    solved = False
     while rem > 0.0:
         xpr = state[X_PR]
         xmr = state[X_MR]
@@ -568,8 +573,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
             state[X_PL] = xpl2
             state[X_ML] = xml2
             m_old = state[X_MW]
-            st, p = composite(state, vforce, kp, ks, work, saved, check)  # saved ← starting shape
+            # unchecked: a failure is still classified; the end of the step is checked below
+            st, p = composite(state, vforce, kp, ks, work, saved, False)  # saved ← starting shape
             passes += p
+            solved = True
             if st != OK:
                 return st, nsub, passes
             if newton:  # refresh the secant sensitivity s = dΔθ/dM (same loads, converged shapes)
@@ -581,6 +588,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
+    # sub-step would triple the cost of a heavily loaded run)
+    if check and solved and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp):
+        return ERR_BUCKLING, nsub, passes
     state[X_TIME] += dt
     return OK, nsub, passes
 
