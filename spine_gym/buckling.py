@@ -28,7 +28,7 @@ from .physics import layout as L
 from .physics.solver import equilibrium_jacobian
 from .physics.stability import unstable_modes
 from .physics.tube import shape_jacobian
-from .simulate import initial_state
+from .simulate import SimulationError, initial_state
 
 __all__ = ["BucklingMargin", "critical_load", "euler_tip_load"]
 
@@ -109,6 +109,7 @@ def critical_load(
 
     Raises:
         ValueError: a wrong shape or a non-finite / zero input (the message names it).
+        SimulationError: the default initial state could not be solved for another reason.
     """
     params = params or ModelParams()
     n = params.n_seg
@@ -119,8 +120,14 @@ def critical_load(
     if d.shape != (2,) or not np.all(np.isfinite(d)) or np.hypot(*d) == 0.0:
         raise ValueError(f"direction must be a finite nonzero (x, y) pair, got {direction!r}")
     d = d / np.hypot(*d)
+    unstable = BucklingMargin(0.0, 0.0, False, (float(d[0]), float(d[1])))
     if state is None:
-        state = initial_state(params, SolverOptions(), vforce)
+        try:
+            state = initial_state(params, SolverOptions(), vforce)
+        except SimulationError as e:
+            if e.status == L.ERR_BUCKLING:  # the straight spine cannot carry even these loads
+                return unstable
+            raise
     state = np.asarray(state, dtype=float)
     if state.shape != (L.state_size(n),) or not np.all(np.isfinite(state)):
         raise ValueError(f"state must be a finite array of shape ({L.state_size(n)},), got {state.shape}")
@@ -137,7 +144,7 @@ def critical_load(
 
     stable = unstable_modes(j0, np.empty((n, n))) == 0
     if not stable:
-        return BucklingMargin(0.0, 0.0, False, (float(d[0]), float(d[1])))
+        return unstable
     p_tip = factor(d)
     p_pay = factor(np.array([0.0, -1.0])) / params.g if params.g > 0.0 else math.inf
     return BucklingMargin(float(p_tip), float(p_pay), True, (float(d[0]), float(d[1])))

@@ -245,3 +245,11 @@ def test_design_that_buckles_under_the_protocol_load_is_marked_so():
     rec = evaluate_design(P0, proto)
     assert rec["status"].startswith("buckled: ") and math.isnan(rec["stable_angle_deg"])
     assert evaluate_design(P0, CapacityProtocol(t_stable=1.0, t_respond=1.0, t_load=2.0))["status"] == "ok"
+
+
+def test_a_tube_its_own_weight_buckles_is_reported_everywhere():
+    soft = P0.replace(E_t=3e6)  # q L³/(E I) = 16.7 > 7.84: the bare tube buckles (§4.9), wires or not
+    assert soft.m_seg * soft.g / soft.ls * 0.455**3 / (soft.E_t * soft.I_tube) > 7.84
+    margin = critical_load(soft)
+    assert not margin.stable and margin.tip_force == 0.0
+    assert evaluate_design(soft, CapacityProtocol())["status"].startswith("buckled: ")
