@@ -26,7 +26,7 @@ import numpy as np
 from .params import ModelParams, SolverOptions
 from .physics import layout as L
 from .physics.solver import equilibrium_jacobian
-from .physics.stability import unstable_modes
+from .physics.stability import euler_critical_load, unstable_modes
 from .physics.tube import shape_jacobian
 from .simulate import SimulationError, initial_state
 
@@ -62,7 +62,7 @@ def euler_tip_load(params: ModelParams) -> float:
     """
     ei = params.E_t * params.I_tube
     length = params.n_seg * params.ls
-    p_euler = math.pi**2 * ei / (4.0 * length**2)
+    p_euler = euler_critical_load(length, ei)
     q = params.m_seg * params.g / params.ls
     return p_euler * (1.0 - q * length**3 / ei / GREENHILL) - params.m_top * params.g
 
