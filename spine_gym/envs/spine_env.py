@@ -132,6 +132,7 @@ class SmaSpineEnv(gym.Env):
       (Dunkerley's lower bound for the bare tube, which itself buckles at 1.48 N straight); the
       payload's weight counts against it. The default loads (<= 0.5 N plus <= 0.05 kg) stay below
       it; ``tip_force_range`` allows up to 20 N, and larger forces may end the episode this way.
+      A payload the straight spine cannot carry makes ``reset`` raise ``ValueError``.
       A bent spine has no bifurcation under a vertical load: it bends further.
 
     ## Info
