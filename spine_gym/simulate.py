@@ -150,7 +150,9 @@ def simulate(
 
     Raises:
         ValueError: an input out of range (the message names it).
-        SimulationError: the model could not advance; never returns NaN.
+        SimulationError: the model could not advance (``status`` a ``layout`` code), e.g. a load
+            past buckling (``ERR_BUCKLING``, see :func:`spine_gym.buckling.critical_load`); never
+            returns NaN.
     """
     if layout is not None:
         if voltage_left is not None or params is not None:
