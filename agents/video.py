@@ -9,9 +9,10 @@ memory). A frame shows the spine, the target as a dashed arc, the wires coloured
 and the time, angle, target, wire temperatures and voltages as text
 (:class:`spine_gym.envs.render.SpineRenderer`).
 
-Rendering costs ~20 ms per frame with matplotlib, so a 60-s episode takes ~10 s more than its
-evaluation; ``--groups``/``--scenarios``/``--baselines``/``--models`` select what to film. Needs the
-``video`` extra (``pip install "spine_gym[video]"``).
+Rendering a frame with matplotlib took ~40 ms on the shared 2-core machine (an upper bound), so
+a 60-s episode takes ~25 s more than its evaluation and the full suite (14 scenarios) ~6 min per
+controller; ``--groups``/``--scenarios``/``--baselines``/``--models`` select what to film. Needs
+the ``video`` extra (``pip install "spine_gym[video]"``).
 """
 
 from __future__ import annotations

@@ -7,8 +7,8 @@ scale from the ambient temperature to ``temperature_limit`` (the colour bar on t
 mark at each wire's temperature); the target is drawn as a dashed circular arc of the spine's
 length that turns by the target angle; an active tip force (plus payload weight) is an arrow on the
 top disk, 0.3 spine lengths per newton. Time, angle, target, wire temperatures and voltages are
-printed in the top-left corner. The artists are made once and updated per frame (a redraw of the
-whole axes cost ~2x more).
+printed in the top-left corner. The artists are made once; per frame only the moving ones are
+drawn over a saved background (redrawn when the temperature scale or the spine length changes).
 """
 
 from __future__ import annotations
@@ -76,12 +76,35 @@ class SpineRenderer:
             )
             for side in ("R", "L")
         ]
+        # what changes per frame is drawn over a saved background (blitting)
+        self._dynamic = sorted(
+            [self._target, self._tube, self._rings, *self._wires, self._arrow, self._text]
+            + [*self._marks, *self._mark_labels],
+            key=lambda a: a.get_zorder(),
+        )
+        for a in self._dynamic:
+            a.set_animated(True)  # left out of the full draw that makes the background
+        self._background = None
+        self._background_key = None
+
+    def _update_background(self, key: tuple[float, float, float]) -> None:
+        """Redraw the static parts (axes limits, colour scale, legend, base) if ``key`` changed."""
+        if key == self._background_key:
+            return
+        t_lo, t_hi, length = key
+        half = 0.62 * length
+        self._ax.set_xlim(-half, half)
+        self._ax.set_ylim(-0.12 * length, 1.12 * length)
+        self._scale.set_clim(t_lo, t_hi)
+        canvas = self._fig.canvas
+        canvas.draw()
+        self._background = canvas.copy_from_bbox(self._fig.bbox)
+        self._background_key = key
 
     def draw(self, s: dict) -> np.ndarray:
         """Frame (H, W, 3) uint8 of a :meth:`SpineBatch.state_summary` dict."""
         if self._fig is None:
             self._setup()
-        ax = self._ax
         kp = s["kp"]
         length = kp[L.K_LS] * s["dth"].shape[0]
         a = kp[L.K_A]
@@ -92,9 +115,7 @@ class SpineRenderer:
         tang /= np.linalg.norm(tang, axis=1, keepdims=True)
         normal = np.column_stack([tang[:, 1], -tang[:, 0]])
         t_lo, t_hi = s["ambient"], max(self.temperature_limit, s["ambient"] + 1.0)
-        half = 0.62 * length
-        ax.set_xlim(-half, half)
-        ax.set_ylim(-0.12 * length, 1.12 * length)
+        self._update_background((float(t_lo), float(t_hi), float(length)))
         # target: constant-curvature arc of the spine's length turning by the target angle
         th = math.radians(s["target_deg"])
         u = np.linspace(0.0, 1.0, 50)
@@ -110,7 +131,6 @@ class SpineRenderer:
             [[q - 1.3 * a * nrm, q + 1.3 * a * nrm] for q, nrm in zip(p, normal, strict=True)]
         )
         # wires coloured by temperature (right wire at +normal)
-        self._scale.set_clim(t_lo, t_hi)
         for k, (sign, temp) in enumerate(((1.0, s["temperature"][0]), (-1.0, s["temperature"][1]))):
             w = p + sign * a * normal
             self._wires[k].set_data(w[:, 0], w[:, 1])
@@ -133,7 +153,9 @@ class SpineRenderer:
             f"V right {s['voltage'][0]:4.2f} V  left {s['voltage'][1]:4.2f} V"
         )
         canvas = self._fig.canvas
-        canvas.draw()
+        canvas.restore_region(self._background)
+        for a in self._dynamic:
+            self._fig.draw_artist(a)
         return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
     def close(self):
