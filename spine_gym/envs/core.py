@@ -35,6 +35,7 @@ __all__ = [
     "validate_actions",
     "RESET_OPTION_KEYS",
     "EPISODE_ATTRS",
+    "status_text",
     "status_texts",
 ]
 
@@ -650,12 +651,16 @@ class SpineBatch:
         }
 
 
+def status_text(code: int) -> str:
+    """``info["status_text"]`` of a step with status ``code`` (from ``layout.STATUS_TEXT``)."""
+    return L.STATUS_TEXT.get(int(code), str(int(code)))
+
+
 def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
-    :data:`spine_gym.physics.layout.STATUS_TEXT` messages as an object array)."""
+    :func:`status_text` as an object array)."""
     failed = np.flatnonzero(status != L.OK)
-    texts = np.array([L.STATUS_TEXT.get(int(c), str(int(c))) for c in status[failed]], dtype=object)
-    return failed, texts
+    return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
 
 
 def config_fields() -> list[str]:

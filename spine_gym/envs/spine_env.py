@@ -15,7 +15,8 @@ import numpy as np
 from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
-from .core import OBS_NAMES, EnvConfig, SpineBatch, status_texts, validate_actions
+from ..physics import layout as L
+from .core import OBS_NAMES, EnvConfig, SpineBatch, status_text, validate_actions
 from .task import TARGET_KINDS
 
 __all__ = ["SmaSpineEnv"]
@@ -332,9 +333,8 @@ class SmaSpineEnv(gym.Env):
         for key, v in arrays.items():
             x = v[j]
             out[key] = x.copy() if isinstance(x, np.ndarray) else x.item()
-        failed, texts = status_texts(arrays["status"][j : j + 1])
-        if failed.size:
-            out["status_text"] = texts[0]
+        if out["status"] != L.OK:
+            out["status_text"] = status_text(out["status"])
         return out
 
     def render(self):
