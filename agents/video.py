@@ -9,10 +9,11 @@ memory). A frame shows the spine, the target as a dashed arc, the wires coloured
 and the time, angle, target, wire temperatures and voltages as text
 (:class:`spine_gym.envs.render.SpineRenderer`).
 
-Rendering a frame with matplotlib took ~40 ms on the shared 2-core machine (an upper bound), so
-a 60-s episode takes ~25 s more than its evaluation and the full suite (14 scenarios) ~6 min per
-controller; ``--groups``/``--scenarios``/``--baselines``/``--models`` select what to film. Needs
-the ``video`` extra (``pip install "spine_gym[video]"``).
+Filming costs ~45 ms per frame (rendering with matplotlib, encoding, the episode itself; measured
+on the shared 2-core machine, an upper bound): ``--suite quick`` (6 scenarios of 20 s) took 5.3 min
+for the 6 controllers, a 60-s episode takes ~27 s, the full suite ~6 min per controller;
+``--groups``/``--scenarios``/``--baselines``/``--models`` select what to film. Needs the ``video``
+extra (``pip install "spine_gym[video]"``).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ __all__ = ["FrameRecorder", "record_episode", "write_videos", "video_path"]
 
 CODEC = "libx264"
 PIX_FMT = "yuv420p"  # plays in browsers and the notebook's Video widget
-QUALITY = 7  # imageio-ffmpeg's 0-10 scale (10 = best); ~0.5 MB per 60-s episode at 480 x 480
+QUALITY = 7  # imageio-ffmpeg's 0-10 scale (10 = best); 0.24-0.42 MB per 20-s episode at 480 x 480
 
 
 class FrameRecorder(gym.Wrapper):
