@@ -34,7 +34,7 @@ import numpy as np
 from .common import ENV_ID, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .scenarios import SUITES, Scenario, get_suite
-from .video import write_videos
+from .video import require_ffmpeg, write_videos
 
 BASELINES = ("step", "bang_bang", "pid")
 
@@ -309,6 +309,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     unknown = set(args.baselines) - set(BASELINES)
     if unknown:
         raise SystemExit(f"unknown baseline(s) {sorted(unknown)}; choose from {BASELINES}")
+    if args.video:
+        require_ffmpeg()  # before the evaluation, not after it
     if args.models is None:
         models = shipped_policies()
     else:

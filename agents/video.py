@@ -32,7 +32,7 @@ try:  # an optional extra: evaluate.py works without it, only --video needs it
 except ImportError:  # pragma: no cover - the [video] extra is installed by scripts/setup.sh
     imageio_ffmpeg = None
 
-__all__ = ["FrameRecorder", "record_episode", "write_videos", "video_path"]
+__all__ = ["FrameRecorder", "record_episode", "require_ffmpeg", "write_videos", "video_path"]
 
 CODEC = "libx264"
 PIX_FMT = "yuv420p"  # plays in browsers and the notebook's Video widget
@@ -62,7 +62,8 @@ class FrameRecorder(gym.Wrapper):
         return out
 
 
-def _require_ffmpeg() -> None:
+def require_ffmpeg() -> None:
+    """RuntimeError unless imageio-ffmpeg (the ``video`` extra) is installed."""
     if imageio_ffmpeg is None:
         raise RuntimeError('videos need the video extra: pip install "spine_gym[video]" (imageio-ffmpeg)')
 
@@ -81,7 +82,7 @@ def record_episode(path: Path, env: gym.Env, run: Callable[[gym.Env], object], *
     Returns:
         ``(number of frames written, what run returned)``.
     """
-    _require_ffmpeg()
+    require_ffmpeg()
     if isinstance(speed, bool) or not isinstance(speed, int | float) or not 0.01 <= speed <= 100.0:
         raise ValueError(f"speed must be a number in [0.01, 100], got {speed!r}")
     if env.render_mode != "rgb_array":
@@ -133,7 +134,7 @@ def write_videos(
     evaluated one; the env gets the controller's ``env_kwargs``, the scenario's duration and
     ``render_mode="rgb_array"``.
     """
-    _require_ffmpeg()
+    require_ffmpeg()
     scenarios = list(scenarios)
     jobs = [(name, sc) for name in controllers for sc in scenarios]
     paths = []
