@@ -7,8 +7,6 @@ import subprocess
 import sys
 import tomllib
 
-from spine_gym.physics import batch, env_kernels
-
 PHYSICS = pathlib.Path(__file__).resolve().parents[1] / "spine_gym" / "physics"
 ALLOWED = {"numpy", "numba", "math", "__future__", "functools"}
 
@@ -65,12 +63,3 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
     assert {"rl", "design", "calibrate", "video", "rllib", "test", "all"} <= set(extras)
     assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
     assert extras["all"] == ["spine_gym[rl,design,calibrate,video,test]"]
-
-
-def test_serial_and_parallel_twins_cache_to_different_files():
-    """numba keys its cache by function name and signature, not by ``parallel``: a shared file would
-    hand one twin's machine code to the other (``_jit.pjit``)."""
-    for par, ser in ((env_kernels.step_many, env_kernels.step_many_serial),
-                     (batch.advance_many, batch.advance_many_serial)):  # fmt: skip
-        assert par.targetoptions.get("parallel") and not ser.targetoptions.get("parallel")
-        assert par._cache._impl._filename_base != ser._cache._impl._filename_base

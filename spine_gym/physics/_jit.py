@@ -18,15 +18,5 @@ def jit(func):
 
 
 def pjit(func):
-    """Parallel kernel (``prange`` loops run across cores): ``@njit(cache=True, parallel=True)``.
-
-    It compiles a copy of ``func`` named ``<name>_parallel``: numba names a cache file after the
-    function and keys its index by signature and bytecode only, not by ``parallel``, so a
-    ``jit(f)`` / ``pjit(f)`` twin pair would share one cache entry per signature and the one
-    compiled last would be loaded for both (seen: the serial twin ran the threaded code, 20-40 ms
-    instead of 0.1 ms per step of 16 envs on the loaded machine).
-    """
-    twin = type(func)(func.__code__, func.__globals__, func.__name__, func.__defaults__, func.__closure__)
-    twin.__qualname__ = func.__qualname__ + "_parallel"
-    twin.__doc__ = func.__doc__
-    return numba.njit(cache=True, nogil=True, parallel=True)(twin)
+    """Parallel kernel (``prange`` loops run across cores): ``@njit(cache=True, parallel=True)``."""
+    return numba.njit(cache=True, nogil=True, parallel=True)(func)

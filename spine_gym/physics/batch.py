@@ -3,8 +3,7 @@
 The per-spine physics is :func:`spine_gym.physics.solver.advance`; nothing here repeats an
 equation. ``run`` records one spine's trajectory (used by :func:`spine_gym.simulate`);
 ``advance_many`` steps a batch of spines by one control period (used by the vector environment and
-the design sweeps), in parallel across cores with ``prange`` (``advance_many_serial`` is the serial
-twin; each has its own cache file, ``_jit.pjit``).
+the design sweeps), in parallel across cores with ``prange``.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ when the loads changed since the last solve, as ``batch.run`` does).
 
 Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines in parallel with
 ``prange``; ``step_many_serial`` is the serial twin used by the single env. Both give bit-identical
-rows (tested); each has its own cache file (``_jit.pjit``).
+rows (tested).
 """
 
 from __future__ import annotations
