@@ -20,11 +20,17 @@ def decode(path):
     return meta, frames
 
 
+class HeatRight:
+    """Right wire at full voltage (SB3's ``predict``): the spine bends, so the frames change."""
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        return np.array([[1.0, -1.0]], dtype=np.float32), state
+
+
 def test_record_episode_writes_one_decodable_frame_per_reset_and_step(tmp_path):
     env = ev.make_env({"episode_duration": 2.0, "render_mode": "rgb_array"})
-    pid = ev.build_baseline("pid", env)
-    path = tmp_path / "pid.mp4"
-    n, traj = video.record_episode(path, env, lambda e: ev.run_episode(e, pid, seed=3))
+    path = tmp_path / "heat.mp4"
+    n, traj = video.record_episode(path, env, lambda e: ev.run_episode(e, HeatRight(), seed=3))
     assert n == 21 and len(traj.time) == 20  # 2 s / 0.1 s steps + the reset frame
     meta, frames = decode(path)
     assert frames.shape == (21, 480, 480, 3) and meta["fps"] == pytest.approx(10.0)
