@@ -260,7 +260,7 @@ def test_render_returns_one_frame_per_env():
 def test_failed_step_carries_status_text_as_sync_vector_env(mode):
     """Issue 12: a failed sub-env step has ``status_text`` (masked to that row), as SyncVectorEnv
     over single envs gives it; in SAME_STEP mode inside ``final_info``."""
-    crush = LoadSchedule(tip_force_events=((2.0, math.inf, (0.0, -5.0)),))
+    crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
     kw = {"tip_force_range": None, "payload_range": None, "episode_duration": 3.0}
     native = SmaSpineVectorEnv(3, autoreset_mode=mode, **kw)
     sync = SyncVectorEnv(
@@ -281,7 +281,7 @@ def test_failed_step_carries_status_text_as_sync_vector_env(mode):
             failed += 1
             info = i1["final_info"] if mode == AutoresetMode.SAME_STEP else i1
             assert info["_status_text"].tolist() == [False, True, False]
-            assert "shape iteration" in info["status_text"][1]
+            assert info["status_text"][1] == L.STATUS_TEXT[L.ERR_BUCKLING]
     assert failed == 1
 
 
