@@ -137,7 +137,7 @@ class Experiment:
             raise ValueError(f"{self.name}: column {name!r} must have {n} rows (like 'time'), got shape {arr.shape}")
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
-            raise ValueError(f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {arr[bad[0]]!r} (NaN/inf)")
+            raise ValueError(f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {float(arr[bad[0]])} (NaN/inf)")
         unit, (lo, hi), hint = (CHANNELS | INPUTS)[name]
         out = np.flatnonzero((arr < lo) | (arr > hi))
         if out.size:
