@@ -292,14 +292,17 @@ def load_preset(path: str | Path) -> tuple[ModelParams, dict]:
         doc = json.loads(text) if kind == "json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as e:
         raise ValueError(f"{path}: not a valid {kind.upper()} file: {e}") from None
-    if not isinstance(doc, dict) or doc.get("format") != PRESET_FORMAT or not isinstance(doc.get("params"), dict):
+    is_preset = isinstance(doc, dict) and doc.get("format") == PRESET_FORMAT
+    if not is_preset or not isinstance(doc.get("params"), dict):
         raise ValueError(
             f"{path}: not a spine_gym preset (expected a mapping with format = {PRESET_FORMAT!r} and a "
             "'params' mapping)"
         )
     unknown = set(doc["params"]) - set(field_names())
     if unknown:
-        raise ValueError(f"{path}: unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}")
+        raise ValueError(
+            f"{path}: unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}"
+        )
     try:
         params = ModelParams(**doc["params"])
     except ValueError as e:

@@ -72,12 +72,16 @@ class ParameterUncertainty:
         }
         for key, (arr, shape) in shapes.items():
             if np.shape(arr) != shape:
-                raise ValueError(f"{self.source or 'fit'}: {key} must have shape {shape}, got {np.shape(arr)}")
+                raise ValueError(
+                    f"{self.source or 'fit'}: {key} must have shape {shape}, got {np.shape(arr)}"
+                )
         if n == 0 or len(self.directions) != n:
             raise ValueError(f"{self.source or 'fit'}: needs one direction per parameter (got {n} names)")
         ok = np.asarray(self.identified, dtype=bool)
         cov = np.asarray(self.covariance, dtype=float)[np.ix_(ok, ok)]
-        if not np.all(np.isfinite(cov)) or (cov.size and np.min(np.linalg.eigvalsh(cov)) < -1e-9 * np.max(np.abs(cov))):
+        if not np.all(np.isfinite(cov)) or (
+            cov.size and np.min(np.linalg.eigvalsh(cov)) < -1e-9 * np.max(np.abs(cov))
+        ):
             raise ValueError(
                 f"{self.source or 'fit'}: the covariance of the identified parameters must be finite and "
                 "positive semi-definite"
@@ -138,7 +142,9 @@ class ParameterUncertainty:
                 return apply_offsets(base, self.directions, self.draw_offsets(rng))
             except ValueError as e:  # e.g. a draw violating eps_T > dsigma/E_M
                 err = e
-        raise ValueError(f"{self.source or 'fit'}: {MAX_REDRAWS} draws in a row left the model's range: {err}")
+        raise ValueError(
+            f"{self.source or 'fit'}: {MAX_REDRAWS} draws in a row left the model's range: {err}"
+        )
 
     def extremes(self, base: ModelParams | None = None) -> list[ModelParams]:
         """``base`` with each parameter at its lower and at its upper draw limit (valid ones only)."""

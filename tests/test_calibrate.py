@@ -28,14 +28,22 @@ ROOT = Path(__file__).resolve().parents[1]
 BASE = ModelParams()
 T_DIRECTION = {"T_low": 1.0, "T_high": 1.0}
 # the known perturbation of the identifiability test (issue 13)
-TRUTH = apply_offsets(BASE, [{"alpha": 1.0}, {"E_t": 1.0}, T_DIRECTION], [0.2 * BASE.alpha, -0.15 * BASE.E_t, 5.0])
+TRUTH = apply_offsets(
+    BASE, [{"alpha": 1.0}, {"E_t": 1.0}, T_DIRECTION], [0.2 * BASE.alpha, -0.15 * BASE.E_t, 5.0]
+)
 
 
-def _protocol(duration: float, rng: np.random.Generator, channels=("angle", "temperature_right", "temperature_left")):
+def _protocol(
+    duration: float, rng: np.random.Generator, channels=("angle", "temperature_right", "temperature_left")
+):
     t = np.arange(0.0, duration + 1e-9, 0.1)
     return [
-        synthetic_experiment(TRUTH, t, np.where(t < 20, 3.2, 0.0), 0.0, channels=channels, rng=rng, name="right"),
-        synthetic_experiment(TRUTH, t, 0.0, np.where(t < 15, 3.2, 0.0), channels=channels, rng=rng, name="left"),
+        synthetic_experiment(
+            TRUTH, t, np.where(t < 20, 3.2, 0.0), 0.0, channels=channels, rng=rng, name="right"
+        ),
+        synthetic_experiment(
+            TRUTH, t, 0.0, np.where(t < 15, 3.2, 0.0), channels=channels, rng=rng, name="left"
+        ),
     ]
 
 
@@ -77,19 +85,38 @@ GOOD = ["0.0,3.2,0,0.0", "0.1,3.2,0,0.1", "0.2,3.2,0,0.3", "0.3,0,0,0.4"]
 @pytest.mark.parametrize(
     "header, rows, pattern",
     [
-        ("time,voltage_right,voltage_left", [r[: r.rindex(",")] for r in GOOD], r"missing column\(s\) \['angle'\]"),
+        (
+            "time,voltage_right,voltage_left",
+            [r[: r.rindex(",")] for r in GOOD],
+            r"missing column\(s\) \['angle'\]",
+        ),
         ("time,voltage_right,voltage_left,angel", GOOD, r"unknown column\(s\) \['angel'\]"),
-        ("time,voltage_right,voltage_left,angle", ["0.0,3.2,0,0", "0.2,3.2,0,0", "0.1,0,0,0"],
-         r"column 'time', line 4: time must increase"),
-        ("time,voltage_right,voltage_left,angle", ["0.0,3.2,0,0", "0.1,3.2,0,nan", "0.2,0,0,0"],
-         r"column 'angle', line 3: value is nan"),
-        ("time,voltage_right,voltage_left,angle", ["0.0,3200,0,0", "0.1,3200,0,0", "0.2,0,0,0"],
-         r"column 'voltage_right', line 2: 3200 V .* is it in mV\?"),
-        ("time,voltage_right,voltage_left,angle,temperature_right", ["0.0,3,0,0,20", "0.1,3,0,0,21", "0.2,0,0,0,22"],
-         r"column 'temperature_right', line 2: 20 K .*°C instead of K"),
+        (
+            "time,voltage_right,voltage_left,angle",
+            ["0.0,3.2,0,0", "0.2,3.2,0,0", "0.1,0,0,0"],
+            r"column 'time', line 4: time must increase",
+        ),
+        (
+            "time,voltage_right,voltage_left,angle",
+            ["0.0,3.2,0,0", "0.1,3.2,0,nan", "0.2,0,0,0"],
+            r"column 'angle', line 3: value is nan",
+        ),
+        (
+            "time,voltage_right,voltage_left,angle",
+            ["0.0,3200,0,0", "0.1,3200,0,0", "0.2,0,0,0"],
+            r"column 'voltage_right', line 2: 3200 V .* is it in mV\?",
+        ),
+        (
+            "time,voltage_right,voltage_left,angle,temperature_right",
+            ["0.0,3,0,0,20", "0.1,3,0,0,21", "0.2,0,0,0,22"],
+            r"column 'temperature_right', line 2: 20 K .*°C instead of K",
+        ),
         ("time,voltage_right,voltage_left,angle", ["0,3,0,0", "100,3,0,0", "200,0,0,0"], r"is time in ms\?"),
-        ("time,voltage_right,voltage_left,angle", ["0.0,3,0,0", "0.1,x,0,0", "0.2,0,0,0"],
-         r"column 'voltage_right', line 3: not a number"),
+        (
+            "time,voltage_right,voltage_left,angle",
+            ["0.0,3,0,0", "0.1,x,0,0", "0.2,0,0,0"],
+            r"column 'voltage_right', line 3: not a number",
+        ),
     ],
 )
 def test_bad_csv_raises_naming_file_column_and_row(tmp_path, header, rows, pattern):
@@ -102,8 +129,15 @@ def test_bad_csv_raises_naming_file_column_and_row(tmp_path, header, rows, patte
 def test_csv_round_trip_and_simulation_on_the_sample_grid(tmp_path):
     rng = np.random.default_rng(0)
     t = np.arange(0.0, 5.0 + 1e-9, 0.05)
-    e = synthetic_experiment(BASE, t, 3.2, 0.0, channels=("angle", "resistance_right"), rng=rng,
-                             tip_force=np.tile([0.0, -0.2], (t.size, 1)))
+    e = synthetic_experiment(
+        BASE,
+        t,
+        3.2,
+        0.0,
+        channels=("angle", "resistance_right"),
+        rng=rng,
+        tip_force=np.tile([0.0, -0.2], (t.size, 1)),
+    )
     back = Experiment.from_csv(e.to_csv(tmp_path / "e.csv"))
     for c in e.measured:
         np.testing.assert_array_equal(back.measured[c], e.measured[c])
@@ -118,7 +152,9 @@ def test_csv_round_trip_and_simulation_on_the_sample_grid(tmp_path):
 @pytest.fixture(scope="module")
 def identifiability_fit():
     exps = _protocol(40.0, np.random.default_rng(1))
-    return fit(exps, ["alpha", "E_t", "T_shift", "tau"], BASE, seed=0, n_starts=1, n_workers=2, progress=False)
+    return fit(
+        exps, ["alpha", "E_t", "T_shift", "tau"], BASE, seed=0, n_starts=1, n_workers=2, progress=False
+    )
 
 
 def test_perturbed_parameters_are_fitted_back_within_the_stated_tolerances(identifiability_fit):
@@ -210,8 +246,15 @@ def test_env_draws_episode_parameters_from_a_fit_file(identifiability_fit, tmp_p
 @pytest.fixture(scope="module")
 def small_experiment():
     t = np.arange(0.0, 20.0 + 1e-9, 0.1)
-    return synthetic_experiment(TRUTH, t, np.where(t < 12, 3.2, 0.0), 0.0, channels=("angle",),
-                                rng=np.random.default_rng(3), name="small")
+    return synthetic_experiment(
+        TRUTH,
+        t,
+        np.where(t < 12, 3.2, 0.0),
+        0.0,
+        channels=("angle",),
+        rng=np.random.default_rng(3),
+        name="small",
+    )
 
 
 def test_fit_is_reproducible_for_a_seed_and_independent_of_the_worker_count(small_experiment):
@@ -268,8 +311,26 @@ def test_bounds_must_be_ordered_and_finite():
 def test_cli_writes_preset_report_and_plots(small_experiment, tmp_path, capsys):
     csv = small_experiment.to_csv(tmp_path / "run.csv")
     out = tmp_path / "out"
-    rc = cli.main([str(csv), "--params", "alpha,T_shift", "--bounds", "T_shift=-20:20", "--cma-evals", "12",
-                   "--max-nfev", "4", "--n-starts", "1", "--out", str(out), "--no-progress", "--workers", "2"])
+    rc = cli.main(
+        [
+            str(csv),
+            "--params",
+            "alpha,T_shift",
+            "--bounds",
+            "T_shift=-20:20",
+            "--cma-evals",
+            "12",
+            "--max-nfev",
+            "4",
+            "--n-starts",
+            "1",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--workers",
+            "2",
+        ]
+    )
     assert rc == 0
     assert ModelParams.from_file(out / "fit.json").alpha != BASE.alpha
     report = (out / "report.md").read_text()
@@ -287,15 +348,24 @@ def test_calibration_notebook_runs_with_a_tiny_budget(monkeypatch):
     monkeypatch.setenv("OMP_NUM_THREADS", "1")
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     nb = nbformat.read(ROOT / "notebooks" / "02_calibration.ipynb", as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
-                                     resources={"metadata": {"path": str(ROOT / "notebooks")}})
+    client = nbclient.NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(ROOT / "notebooks")}}
+    )
     client.execute()
-    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.get("output_type") == "error"]
+    errors = [
+        o
+        for c in nb.cells
+        if c.cell_type == "code"
+        for o in c.get("outputs", [])
+        if o.get("output_type") == "error"
+    ]
     assert not errors
-    text = "".join(o.get("text", "") + str(o.get("data", {}).get("text/plain", "")) for c in nb.cells
-                   if c.cell_type == "code" for o in c.get("outputs", []))
+    text = "".join(
+        o.get("text", "") + str(o.get("data", {}).get("text/plain", ""))
+        for c in nb.cells
+        if c.cell_type == "code"
+        for o in c.get("outputs", [])
+    )
     assert "Calibration report" in text and "RMSE" in text
     images = [o for c in nb.cells for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
     assert len(images) >= 2
-
-

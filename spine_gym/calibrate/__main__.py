@@ -71,14 +71,23 @@ def build_parser() -> argparse.ArgumentParser:
         "voltage_left, angle [+ temperature_*, resistance_*, tip_force_x/y]).",
     )
     ap.add_argument("csv", nargs="+", help="measured experiments (CSV files)")
-    ap.add_argument("--params", default="thermal",
-                    help=f"parameters to fit: one of {sorted(PARAMETER_SETS)} or comma-separated names "
-                    "(e.g. alpha,E_t,T_shift,lam_A); default thermal")
+    ap.add_argument(
+        "--params",
+        default="thermal",
+        help=f"parameters to fit: one of {sorted(PARAMETER_SETS)} or comma-separated names "
+        "(e.g. alpha,E_t,T_shift,lam_A); default thermal",
+    )
     ap.add_argument("--bounds", default=None, help="override bounds: name=lower:upper,... (parameter units)")
-    ap.add_argument("--start", default="baseline",
-                    help=f"start preset: one of {sorted(PRESETS)} or a preset file (.json/.yaml)")
-    ap.add_argument("--noise", default=None,
-                    help="noise levels: channel-or-kind=std,... (angle deg, temperature K, resistance Ohm)")
+    ap.add_argument(
+        "--start",
+        default="baseline",
+        help=f"start preset: one of {sorted(PRESETS)} or a preset file (.json/.yaml)",
+    )
+    ap.add_argument(
+        "--noise",
+        default=None,
+        help="noise levels: channel-or-kind=std,... (angle deg, temperature K, resistance Ohm)",
+    )
     ap.add_argument("--out", default="results/calibration", help="output folder")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--n-starts", type=int, default=2)
@@ -86,7 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--no-global", action="store_true", help="skip the CMA-ES global stage")
     ap.add_argument("--max-nfev", type=int, default=30, help="evaluations per least-squares start")
     ap.add_argument("--loss", default="linear", help="least_squares loss (linear, soft_l1, huber, ...)")
-    ap.add_argument("--workers", type=int, default=None, help="threads simulating candidates (default: all cores)")
+    ap.add_argument(
+        "--workers", type=int, default=None, help="threads simulating candidates (default: all cores)"
+    )
     ap.add_argument("--format", choices=("json", "yaml"), default="json", help="format of the preset file")
     ap.add_argument("--no-progress", action="store_true")
     return ap
@@ -100,9 +111,18 @@ def main(argv: list[str] | None = None) -> int:
         experiments = [Experiment.from_csv(p, noise=noise) for p in args.csv]
         params = _parameters(args.params, args.bounds, start)
         res = fit(
-            experiments, params, start, seed=args.seed, n_starts=args.n_starts, global_stage=not args.no_global,
-            cma_evals=args.cma_evals, max_nfev=args.max_nfev, loss=args.loss, n_workers=args.workers,
-            progress=not args.no_progress, start_name=start_name,
+            experiments,
+            params,
+            start,
+            seed=args.seed,
+            n_starts=args.n_starts,
+            global_stage=not args.no_global,
+            cma_evals=args.cma_evals,
+            max_nfev=args.max_nfev,
+            loss=args.loss,
+            n_workers=args.workers,
+            progress=not args.no_progress,
+            start_name=start_name,
         )
     except (ValueError, FileNotFoundError) as e:
         print(f"error: {e}", file=sys.stderr)
@@ -113,7 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     res.to_json(out / "report.json")
     plots = res.plot(out)
     print(res.report())
-    print(f"wrote {preset}, {out / 'report.md'}, {out / 'report.json'} and {len(plots)} PNG plot(s) to {out}/")
+    print(
+        f"wrote {preset}, {out / 'report.md'}, {out / 'report.json'} and {len(plots)} PNG plot(s) to {out}/"
+    )
     return 130 if res.interrupted else 0
 
 

@@ -64,7 +64,9 @@ def noise_levels(source: str, noise, channels) -> dict[str, float]:
     kinds = {_kind(c) for c in CHANNELS}
     unknown = set(noise) - set(CHANNELS) - kinds
     if unknown:
-        raise ValueError(f"{source}: noise has unknown key(s) {sorted(unknown)}; valid: {sorted(kinds | set(CHANNELS))}")
+        raise ValueError(
+            f"{source}: noise has unknown key(s) {sorted(unknown)}; valid: {sorted(kinds | set(CHANNELS))}"
+        )
     out = {}
     for ch in channels:
         v = noise.get(ch, noise.get(_kind(ch), DEFAULT_NOISE[_kind(ch)]))
@@ -105,7 +107,9 @@ class Experiment:
         cols = {"time": self.time, "voltage_right": self.voltage_right, "voltage_left": self.voltage_left}
         unknown = set(self.measured) - set(CHANNELS)
         if unknown:
-            raise ValueError(f"{self.name}: unknown measured column(s) {sorted(unknown)}; valid: {list(CHANNELS)}")
+            raise ValueError(
+                f"{self.name}: unknown measured column(s) {sorted(unknown)}; valid: {list(CHANNELS)}"
+            )
         if "angle" not in self.measured:
             raise ValueError(f"{self.name}: missing column 'angle' (the measured bending angle [deg])")
         cols.update(self.measured)
@@ -134,10 +138,14 @@ class Experiment:
     def _column(self, name: str, values, n: int) -> np.ndarray:
         arr = np.asarray(values, dtype=float)
         if arr.ndim != 1 or arr.shape[0] != n:
-            raise ValueError(f"{self.name}: column {name!r} must have {n} rows (like 'time'), got shape {arr.shape}")
+            raise ValueError(
+                f"{self.name}: column {name!r} must have {n} rows (like 'time'), got shape {arr.shape}"
+            )
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
-            raise ValueError(f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {float(arr[bad[0]])} (NaN/inf)")
+            raise ValueError(
+                f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {float(arr[bad[0]])} (NaN/inf)"
+            )
         unit, (lo, hi), hint = (CHANNELS | INPUTS)[name]
         out = np.flatnonzero((arr < lo) | (arr > hi))
         if out.size:
@@ -156,7 +164,8 @@ class Experiment:
         if bad.size:
             i = bad[0] + 1
             raise ValueError(
-                f"{self.name}: column 'time', {self._row(i)}: time must increase, got {t[i]:g} s after {t[i - 1]:g} s"
+                f"{self.name}: column 'time', {self._row(i)}: time must increase, "
+                f"got {t[i]:g} s after {t[i - 1]:g} s"
             )
         dt = (t[-1] - t[0]) / (t.shape[0] - 1)
         if dt > MAX_DT:
@@ -188,8 +197,14 @@ class Experiment:
 
     # ------------------------------------------------------------------ I/O
     @classmethod
-    def from_csv(cls, path: str | Path, *, noise: Mapping[str, float] | None = None, weight: float = 1.0,
-                 name: str | None = None) -> Experiment:
+    def from_csv(
+        cls,
+        path: str | Path,
+        *,
+        noise: Mapping[str, float] | None = None,
+        weight: float = 1.0,
+        name: str | None = None,
+    ) -> Experiment:
         """Read a CSV with the columns of the module table (header names exactly as listed)."""
         path = Path(path)
         with path.open(newline="") as fh:
@@ -197,7 +212,9 @@ class Experiment:
             try:
                 header = [h.strip() for h in next(reader)]
             except StopIteration:
-                raise ValueError(f"{path}: empty file (expected a header row with {list(REQUIRED)})") from None
+                raise ValueError(
+                    f"{path}: empty file (expected a header row with {list(REQUIRED)})"
+                ) from None
             rows = list(reader)
         known = set(CHANNELS) | set(INPUTS)
         unknown = [h for h in header if h not in known]

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import cma
 import numpy as np
 from scipy.optimize import least_squares
-from tqdm.auto import tqdm
+from tqdm import tqdm
 
 from ..params import ModelParams, SolverOptions
 from .data import Experiment
@@ -99,7 +99,11 @@ def _local_stage(ev: Evaluator, u0: np.ndarray, max_nfev: int, loss: str, step: 
     )
     r = ev.residuals(sol.x)
     return _Stage(
-        "least_squares", u0, sol.x, 0.5 * float(r @ r), ev.n_simulations - n0,
+        "least_squares",
+        u0,
+        sol.x,
+        0.5 * float(r @ r),
+        ev.n_simulations - n0,
         {"nfev": int(sol.nfev), "status": int(sol.status), "message": str(sol.message)},
     )
 
@@ -152,8 +156,10 @@ def _identifiability(params, u, se, unseen, snr, step, fraction) -> tuple[np.nda
         if unseen[j]:
             ok[j] = False
             why = (
-                "the residuals do not change along it" if snr[j] == 0 else
-                f"over ±{step[j] * width:.3g} {p.unit} it changes the residuals only {snr[j]:.2g}× as much as "
+                "the residuals do not change along it"
+                if snr[j] == 0
+                else f"over ±{step[j] * width:.3g} {p.unit} it changes the residuals only {snr[j]:.2g}× "
+                "as much as "
                 "the model's numerical roughness does; a standard error from it would be a false precision"
             )
             notes.append(f"{p.name}: the data cannot identify it ({why})")
@@ -285,13 +291,38 @@ def fit(
     finally:
         bar.close()
         ev.close()
-    return _result(ev, params, start, start_name, u_best, r, jac, snr, steps, stages, interrupted, identify_fraction,
-                   time.perf_counter() - t0, seed, dict(n_starts=n_starts, global_stage=global_stage,
-                   cma_evals=cma_evals, cma_sigma=cma_sigma, max_nfev=max_nfev, loss=loss, fd_step=fd_step,
-                   identify_fraction=identify_fraction, n_workers=ev.n_workers))
+    return _result(
+        ev,
+        params,
+        start,
+        start_name,
+        u_best,
+        r,
+        jac,
+        snr,
+        steps,
+        stages,
+        interrupted,
+        identify_fraction,
+        time.perf_counter() - t0,
+        seed,
+        dict(
+            n_starts=n_starts,
+            global_stage=global_stage,
+            cma_evals=cma_evals,
+            cma_sigma=cma_sigma,
+            max_nfev=max_nfev,
+            loss=loss,
+            fd_step=fd_step,
+            identify_fraction=identify_fraction,
+            n_workers=ev.n_workers,
+        ),
+    )
 
 
-def _result(ev, params, start, start_name, u, r, jac, snr, steps, stages, interrupted, fraction, wall, seed, settings):
+def _result(
+    ev, params, start, start_name, u, r, jac, snr, steps, stages, interrupted, fraction, wall, seed, settings
+):
     n = len(params)
     values = ev.to_values(u)
     width = ev.upper - ev.lower
@@ -304,13 +335,16 @@ def _result(ev, params, start, start_name, u, r, jac, snr, steps, stages, interr
             corr = cov / np.outer(se, se)
         corr[~np.isfinite(corr)] = 0.0
         np.fill_diagonal(corr, 1.0)
-        identified, warnings = _identifiability(params, u, se, unseen | (snr < MIN_SIGNAL), snr, steps,
-                                                fraction)
+        identified, warnings = _identifiability(
+            params, u, se, unseen | (snr < MIN_SIGNAL), snr, steps, fraction
+        )
         warnings += _correlation_notes(params, corr, identified)
     else:
         cov = corr = se = snr = None
         identified = np.zeros(n, dtype=bool)
-        warnings.append("the fit was interrupted: parameters are the best point seen, uncertainties not computed")
+        warnings.append(
+            "the fit was interrupted: parameters are the best point seen, uncertainties not computed"
+        )
     if ev.n_failed:
         warnings.append(f"{ev.n_failed} of {ev.n_simulations} candidate simulations failed (penalised)")
     return FitResult(
@@ -333,8 +367,16 @@ def _result(ev, params, start, start_name, u, r, jac, snr, steps, stages, interr
         wall_time=wall,
         seed=seed,
         interrupted=interrupted,
-        stages=[dict(kind=s.kind, cost=s.cost, n_simulations=s.n_simulations,
-                     start=parameter_rows(params, ev.to_values(s.start)),
-                     end=parameter_rows(params, ev.to_values(s.end)), **s.info) for s in stages],
+        stages=[
+            dict(
+                kind=s.kind,
+                cost=s.cost,
+                n_simulations=s.n_simulations,
+                start=parameter_rows(params, ev.to_values(s.start)),
+                end=parameter_rows(params, ev.to_values(s.end)),
+                **s.info,
+            )
+            for s in stages
+        ],
         settings=settings,
     )

@@ -74,7 +74,9 @@ class FitParameter:
             if not (isinstance(v, int | float | np.floating) and math.isfinite(v)):
                 raise ValueError(f"{self.name}: {key} bound must be a finite number, got {v!r}")
         if not self.lower < self.upper:
-            raise ValueError(f"{self.name}: lower bound must be < upper bound, got ({self.lower!r}, {self.upper!r})")
+            raise ValueError(
+                f"{self.name}: lower bound must be < upper bound, got ({self.lower!r}, {self.upper!r})"
+            )
 
     @property
     def unit(self) -> str:
@@ -113,7 +115,11 @@ def resolve_parameters(spec, start: ModelParams) -> tuple[FitParameter, ...]:
     sequence of names (default bounds), a mapping {name: (lower, upper) or None}, or FitParameters.
     """
     if isinstance(spec, str):
-        spec = PARAMETER_SETS[spec] if spec in PARAMETER_SETS else [s.strip() for s in spec.split(",") if s.strip()]
+        spec = (
+            PARAMETER_SETS[spec]
+            if spec in PARAMETER_SETS
+            else [s.strip() for s in spec.split(",") if s.strip()]
+        )
     if isinstance(spec, Mapping):
         items = [
             FitParameter.around(k, start) if b is None else FitParameter(k, float(b[0]), float(b[1]))
@@ -137,5 +143,7 @@ def resolve_parameters(spec, start: ModelParams) -> tuple[FitParameter, ...]:
     for p in items:
         v = p.value(start)
         if not p.lower <= v <= p.upper:
-            raise ValueError(f"{p.name}: start value {v:g} must lie within the bounds [{p.lower:g}, {p.upper:g}]")
+            raise ValueError(
+                f"{p.name}: start value {v:g} must lie within the bounds [{p.lower:g}, {p.upper:g}]"
+            )
     return tuple(items)

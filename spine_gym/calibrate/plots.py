@@ -44,7 +44,9 @@ def plot_experiment_fit(exp: Experiment, traces: dict, path: str | Path, dpi: in
     return _save(fig, path, dpi)
 
 
-def plot_correlation(names: Sequence[str], corr: np.ndarray, identified, path: str | Path, dpi: int = 120) -> Path:
+def plot_correlation(
+    names: Sequence[str], corr: np.ndarray, identified, path: str | Path, dpi: int = 120
+) -> Path:
     """Heat map of the parameter correlation matrix; unidentified parameters marked with '?'."""
     n = len(names)
     fig, axs = _figure(1, 1, 1.0 + 0.9 * n, 0.6 + 0.8 * n)

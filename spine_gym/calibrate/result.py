@@ -33,7 +33,11 @@ def parameter_rows(params, values) -> dict[str, float]:
 
 
 def _finite_or_none(a):
-    return None if a is None else [[None if not np.isfinite(x) else float(x) for x in row] for row in np.atleast_2d(a)]
+    return (
+        None
+        if a is None
+        else [[None if not np.isfinite(x) else float(x) for x in row] for row in np.atleast_2d(a)]
+    )
 
 
 @dataclass
@@ -43,7 +47,8 @@ class FitResult:
     ``std_errors`` is ``inf`` for a parameter the data do not see at all; ``std_errors``,
     ``covariance``, ``correlation`` and ``signal_to_roughness`` are None for an interrupted fit.
     ``signal_to_roughness``: per parameter, the residuals' change over the Jacobian step divided by
-    their change over a negligible step (below 3 the parameter is flagged not identified). ``residuals`` are the
+    their change over a negligible step (below 3 the parameter is flagged not identified).
+    ``residuals`` are the
     weighted residuals (model − measurement)/noise at the optimum; ``cost`` = ½ Σ residuals².
     """
 
@@ -130,8 +135,9 @@ class FitResult:
                 "identified": bool(ok),
                 "signal_to_roughness": None if q is None or not np.isfinite(q) else float(q),
             }
-            for p, v, s0, e, ok, q in zip(self.parameters, self.values, self.start_values, se, self.identified,
-                                          snr, strict=True)
+            for p, v, s0, e, ok, q in zip(
+                self.parameters, self.values, self.start_values, se, self.identified, snr, strict=True
+            )
         ]
         return {
             "source": "spine_gym.calibrate",
@@ -141,8 +147,15 @@ class FitResult:
             "seed": self.seed,
             "settings": self.settings,
             "experiments": [
-                {"name": e.name, "n_samples": e.n_samples, "dt": e.dt, "duration": e.duration,
-                 "channels": list(e.measured), "noise": dict(e.noise), "weight": e.weight}
+                {
+                    "name": e.name,
+                    "n_samples": e.n_samples,
+                    "dt": e.dt,
+                    "duration": e.duration,
+                    "channels": list(e.measured),
+                    "noise": dict(e.noise),
+                    "weight": e.weight,
+                }
                 for e in self.experiments
             ],
             "fit": {
@@ -180,29 +193,44 @@ class FitResult:
             f"{self.wall_time:.1f} s; cost {self.cost:.6g}; reduced chi² {self.reduced_chi2:.3f}"
             + (" (INTERRUPTED)" if self.interrupted else ""),
             "",
-            "| parameter | unit | start | fitted | std. error | rel. error | bounds | signal/roughness | identified |",
+            "| parameter | unit | start | fitted | std. error | rel. error | bounds | signal/roughness "
+            "| identified |",
             "|---|---|--:|--:|--:|--:|---|--:|---|",
         ]
         se = self.std_errors if self.std_errors is not None else [None] * len(self.names)
         snr = self.signal_to_roughness if self.signal_to_roughness is not None else [None] * len(self.names)
-        for p, s0, v, e, ok, q in zip(self.parameters, self.start_values, self.values, se, self.identified, snr,
-                                      strict=True):
+        for p, s0, v, e, ok, q in zip(
+            self.parameters, self.start_values, self.values, se, self.identified, snr, strict=True
+        ):
             e_txt = "—" if e is None else ("inf" if not np.isfinite(e) else f"{e:.4g}")
             rel = "—" if e is None or not np.isfinite(e) or v == 0 else f"{abs(e / v):.2%}"
             lines.append(
-                f"| {p.name} | {p.unit} | {s0:.5g} | {v:.5g} | {e_txt} | {rel} | [{p.lower:.4g}, {p.upper:.4g}] | "
+                f"| {p.name} | {p.unit} | {s0:.5g} | {v:.5g} | {e_txt} | {rel} | "
+                f"[{p.lower:.4g}, {p.upper:.4g}] | "
                 f"{'—' if q is None else f'{q:.3g}'} | {'yes' if ok else '**no**'} |"
             )
         if self.correlation is not None:
-            lines += ["", "Correlation matrix:", "", "| | " + " | ".join(self.names) + " |",
-                      "|---|" + "--:|" * len(self.names)]
+            lines += [
+                "",
+                "Correlation matrix:",
+                "",
+                "| | " + " | ".join(self.names) + " |",
+                "|---|" + "--:|" * len(self.names),
+            ]
             for name, row in zip(self.names, self.correlation, strict=True):
                 lines.append(f"| {name} | " + " | ".join(f"{x:+.3f}" for x in row) + " |")
-        lines += ["", "RMSE at the fitted parameters:", "", "| experiment | channel | RMSE | noise level |",
-                  "|---|---|--:|--:|"]
+        lines += [
+            "",
+            "RMSE at the fitted parameters:",
+            "",
+            "| experiment | channel | RMSE | noise level |",
+            "|---|---|--:|--:|",
+        ]
         for e in self.experiments:
             for c, val in self.rmse()[e.name].items():
-                lines.append(f"| {e.name} | {c} | {val:.4g} {CHANNELS[c][0]} | {e.noise[c]:.4g} {CHANNELS[c][0]} |")
+                lines.append(
+                    f"| {e.name} | {c} | {val:.4g} {CHANNELS[c][0]} | {e.noise[c]:.4g} {CHANNELS[c][0]} |"
+                )
         lines += ["", "Warnings:", ""] + ([f"- {w}" for w in self.warnings] or ["- none"])
         return "\n".join(lines) + "\n"
 
@@ -220,8 +248,12 @@ class FitResult:
         out = []
         for e in self.experiments:
             sims = {k: simulate_experiment(p, e) for k, p in (("start", self.start), ("fitted", self.params))}
-            out.append({c: {"measured": e.measured[c], **{k: channel(r, c) for k, r in sims.items()}}
-                        for c in e.measured})
+            out.append(
+                {
+                    c: {"measured": e.measured[c], **{k: channel(r, c) for k, r in sims.items()}}
+                    for c in e.measured
+                }
+            )
         return out
 
     def plot(self, out_dir: str | Path, dpi: int = 120) -> list[Path]:
@@ -233,7 +265,11 @@ class FitResult:
             for i, (e, tr) in enumerate(zip(self.experiments, self.traces(), strict=True))
         ]
         if self.correlation is not None and len(self.names) > 1:
-            paths.append(plot_correlation(self.names, self.correlation, self.identified, out_dir / "correlation.png", dpi))
+            paths.append(
+                plot_correlation(
+                    self.names, self.correlation, self.identified, out_dir / "correlation.png", dpi
+                )
+            )
         return paths
 
 
