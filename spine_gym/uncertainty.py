@@ -100,6 +100,8 @@ class ParameterUncertainty:
                 f"{path}: the preset carries no fit uncertainty (provenance['fit'] with 'parameters' and "
                 "'covariance'); write it with spine_gym.calibrate (FitResult.to_file)"
             )
+        if fit["covariance"] is None:
+            raise ValueError(f"{path}: the fit was interrupted and has no covariance to draw from")
         items = fit["parameters"]
         try:
             cov = np.array(

@@ -238,6 +238,10 @@ def test_env_draws_episode_parameters_from_a_fit_file(identifiability_fit, tmp_p
     env.reset(seed=1)
     again = env.unwrapped._core.episodes[0][2]
     assert again == seen[1]  # seeded
+    venv = gym.make_vec("SmaSpine-v0", num_envs=2, domain_randomization=str(path), episode_duration=1.0)
+    venv.reset(seed=0)
+    venv.step(np.zeros((2, 2), dtype=np.float32))
+    venv.close()
     with pytest.raises(ValueError, match="carries no fit uncertainty"):
         gym.make("SmaSpine-v0", domain_randomization=str(BASE.to_file(tmp_path / "plain.json")))
 

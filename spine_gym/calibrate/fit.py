@@ -11,8 +11,9 @@ Stages (all in the unit box of the chosen parameters, so that every coordinate i
 3. **Uncertainty** at the optimum: central-difference Jacobian J; covariance s² (JᵀJ)⁻¹ with
    s² = Σr²/(m − n) (the noise levels' scale is estimated from the residuals, as ``curve_fit``
    does by default), standard errors and the correlation matrix. A parameter is flagged *not
-   identified* when J has (numerically) no component along it, when its standard error exceeds
-   ``identify_fraction`` of its bound width, or when it ends on a bound.
+   identified* when J has (numerically) no component along it, when its effect does not stand
+   ``MIN_SIGNAL``× out of the model's numerical roughness (below), when its standard error
+   exceeds ``identify_fraction`` of its bound width, or when it ends on a bound.
 
 The model's outputs are not smooth in its parameters at the ~0.05° rms level (the antagonist's
 detwinning and the fast swings move in jerks, MODEL.md §10.3): a 1e-4 relative change of E_t moves
@@ -197,7 +198,13 @@ def _starts(ev: Evaluator, u0, n_starts, global_best, rng) -> list[np.ndarray]:
     return starts[: max(n_starts, 1)]
 
 
-def _check_options(n_starts, cma_evals, max_nfev, identify_fraction, loss):
+def _check_options(seed, n_starts, cma_evals, cma_sigma, max_nfev, fd_step, identify_fraction, loss):
+    if isinstance(seed, bool) or not (isinstance(seed, int | np.integer) and 0 <= seed < 2**31):
+        raise ValueError(f"seed must be an integer in [0, 2**31), got {seed!r}")
+    if not (isinstance(cma_sigma, int | float) and 0.0 < cma_sigma <= 1.0):
+        raise ValueError(f"cma_sigma must be in (0, 1] (unit-box coordinates), got {cma_sigma!r}")
+    if not (isinstance(fd_step, int | float) and 0.0 < fd_step <= MAX_STEP):
+        raise ValueError(f"fd_step must be in (0, {MAX_STEP}] (unit-box coordinates), got {fd_step!r}")
     if not (isinstance(n_starts, int) and 1 <= n_starts <= 100):
         raise ValueError(f"n_starts must be an integer in [1, 100], got {n_starts!r}")
     if cma_evals is not None and not (isinstance(cma_evals, int) and 1 <= cma_evals <= 10**7):
@@ -257,7 +264,7 @@ def fit(
     start = start or ModelParams()
     if not isinstance(start, ModelParams):
         raise ValueError(f"start must be a ModelParams, got {type(start).__name__}")
-    _check_options(n_starts, cma_evals, max_nfev, identify_fraction, loss)
+    _check_options(seed, n_starts, cma_evals, cma_sigma, max_nfev, fd_step, identify_fraction, loss)
     params: tuple[FitParameter, ...] = resolve_parameters(parameters, start)
     bar = tqdm(desc="calibrate", unit="sim", disable=not progress, leave=False)
     ev = Evaluator(experiments, params, start, solver, n_workers, on_simulation=lambda k: bar.update(1))
