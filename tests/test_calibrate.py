@@ -242,7 +242,9 @@ def test_env_draws_episode_parameters_from_a_fit_file(identifiability_fit, tmp_p
     venv.reset(seed=0)
     venv.step(np.zeros((2, 2), dtype=np.float32))
     venv.close()
-    with pytest.raises(ValueError, match="carries no fit uncertainty"):
+    with pytest.raises(ValueError, match="domain_randomization.*missing.json"):
+        gym.make("SmaSpine-v0", domain_randomization=str(tmp_path / "missing.json"))
+    with pytest.raises(ValueError, match="domain_randomization.*carries no fit uncertainty"):
         gym.make("SmaSpine-v0", domain_randomization=str(BASE.to_file(tmp_path / "plain.json")))
 
 

@@ -192,7 +192,13 @@ class EnvConfig:
         s = object.__setattr__
         dr = self.domain_randomization
         if isinstance(dr, str | os.PathLike):  # a fitted preset: its uncertainty, and its values by default
-            dr = ParameterUncertainty.from_file(dr)
+            try:
+                dr = ParameterUncertainty.from_file(dr)
+            except (ValueError, OSError) as e:
+                raise ValueError(
+                    f"domain_randomization must be False, True, a dict or the path of a fit preset "
+                    f"(.json/.yaml written by spine_gym.calibrate); {dr!r}: {e}"
+                ) from None
             s(self, "domain_randomization", dr)
         fitted = dr.params if isinstance(dr, ParameterUncertainty) else None
         params = self.params if self.params is not None else (fitted or ModelParams())
@@ -254,8 +260,8 @@ class EnvConfig:
             value = default_randomization(params)
         if not isinstance(value, Mapping):
             raise ValueError(
-                "domain_randomization must be False, True (default ranges) or a dict "
-                f"{{ModelParams field: (low, high)}}, got {value!r}"
+                "domain_randomization must be False, True (default ranges), a dict "
+                f"{{ModelParams field: (low, high)}} or the path of a fit preset, got {value!r}"
             )
         allowed = [f for f in field_names() if f not in ("n_w", "n_seg")]
         out = []
