@@ -57,7 +57,8 @@ def plot_correlation(
     ax.set_yticks(range(n), labels, fontsize=8)
     for i in range(n):
         for j in range(n):
-            ax.text(j, i, f"{corr[i, j]:+.2f}", ha="center", va="center", fontsize=7)
+            colour = "w" if abs(corr[i, j]) > 0.6 else "k"  # readable on the dark ends of the map
+            ax.text(j, i, f"{corr[i, j]:+.2f}", ha="center", va="center", fontsize=7, color=colour)
     fig.colorbar(im, ax=ax, shrink=0.8, label="correlation")
     ax.set_title("parameter correlations ((?) = not identified)", fontsize=9)
     return _save(fig, path, dpi)
