@@ -36,6 +36,9 @@ __all__ = [
     "default_randomization",
     "validate_actions",
     "RESET_OPTION_KEYS",
+    "EPISODE_ATTRS",
+    "status_text",
+    "status_texts",
 ]
 
 # observation layout (indices 0..3 are fixed by the env contract)
@@ -73,6 +76,8 @@ TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at f
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
 N_CHANNELS = bk.N_CHANNELS  # measured channels: angle, T_R, T_L, R_R, R_L
 RESET_OPTION_KEYS = ("target", "loads", "params")
+# the env attributes held in SpineBatch.episodes[i], in that order
+EPISODE_ATTRS = ("target_profile", "load_schedule", "model_params")
 
 # default domain randomisation: field -> ("scale" | "shift", low, high) about the nominal value
 _DEFAULT_DR = {
@@ -515,7 +520,8 @@ class SpineBatch:
         return obs.astype(np.float32)
 
     def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        """Info arrays (keys as in :meth:`step`) of freshly reset environments ``rows``."""
+        """Info arrays (the keys of :meth:`step`) of freshly reset environments ``rows``; no step
+        was taken, so voltage, power, energy and both reward terms are 0."""
         n = rows.shape[0]
         m = self.meas[rows]
         angle = np.degrees(m[:, batch.OUT_ANGLE])
@@ -534,6 +540,8 @@ class SpineBatch:
             "time": np.zeros(n),
             "tip_force": self._weights(rows),
             "status": np.zeros(n, dtype=np.int64),
+            "reward_tracking": np.zeros(n),
+            "reward_energy": np.zeros(n),
         }
 
     def _weights(self, rows):
@@ -662,6 +670,18 @@ class SpineBatch:
             "time": k * self.cfg.control_period,
             "voltage": (self.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,
         }
+
+
+def status_text(code: int) -> str:
+    """``info["status_text"]`` of a step with status ``code`` (from ``layout.STATUS_TEXT``)."""
+    return L.STATUS_TEXT.get(int(code), str(int(code)))
+
+
+def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
+    :func:`status_text` as an object array)."""
+    failed = np.flatnonzero(status != L.OK)
+    return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
 
 
 def config_fields() -> list[str]:

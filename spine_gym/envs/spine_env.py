@@ -17,7 +17,7 @@ from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
 from ..physics import layout as L
-from .core import OBS_NAMES, EnvConfig, SpineBatch, validate_actions
+from .core import OBS_NAMES, EnvConfig, SpineBatch, status_text, validate_actions
 from .task import TARGET_KINDS
 
 __all__ = ["SmaSpineEnv"]
@@ -142,8 +142,9 @@ class SmaSpineEnv(gym.Env):
     (= target − angle); ``energy_J`` electrical energy of the step (both sides); ``power_W`` (2,) mean
     electrical power per side; ``cost``; ``temperature`` (2,) [K]; ``resistance`` (2,) [Ohm];
     ``time`` [s]; ``tip_force`` (2,) [N] total force on the top disk over the step (events + payload
-    weight, global x/y); ``status`` (int, 0 = ok); ``reward_tracking``, ``reward_energy``. ``reset``
-    returns the same keys (zero voltage and energy).
+    weight, global x/y); ``status`` (int, 0 = ok); ``reward_tracking``, ``reward_energy``; on a
+    failed step (``status`` != 0) also ``status_text`` (str, what failed). ``reset`` returns the
+    same keys (zero voltage, energy and reward terms).
 
     ## Arguments
 
@@ -349,7 +350,7 @@ class SmaSpineEnv(gym.Env):
             x = v[j]
             out[key] = x.copy() if isinstance(x, np.ndarray) else x.item()
         if out["status"] != L.OK:
-            out["status_text"] = L.STATUS_TEXT.get(out["status"], str(out["status"]))
+            out["status_text"] = status_text(out["status"])
         return out
 
     def render(self):
