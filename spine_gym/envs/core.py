@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +24,7 @@ from ..params import ModelParams, SolverOptions, field_names
 from ..physics import batch, env_kernels
 from ..physics import layout as L
 from ..physics.solver import init_state
+from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
@@ -193,7 +195,18 @@ class EnvConfig:
 
     def __post_init__(self):
         s = object.__setattr__
-        params = self.params if self.params is not None else ModelParams()
+        dr = self.domain_randomization
+        if isinstance(dr, str | os.PathLike):  # a fitted preset: its uncertainty, and its values by default
+            try:
+                dr = ParameterUncertainty.from_file(dr)
+            except (ValueError, OSError) as e:
+                raise ValueError(
+                    f"domain_randomization must be False, True, a dict or the path of a fit preset "
+                    f"(.json/.yaml written by spine_gym.calibrate); {dr!r}: {e}"
+                ) from None
+            s(self, "domain_randomization", dr)
+        fitted = dr.params if isinstance(dr, ParameterUncertainty) else None
+        params = self.params if self.params is not None else (fitted or ModelParams())
         if not isinstance(params, ModelParams):
             raise ValueError(f"params must be a spine_gym.ModelParams, got {type(self.params).__name__}")
         solver = self.solver if self.solver is not None else SolverOptions()
@@ -246,12 +259,14 @@ class EnvConfig:
     def _check_dr(value, params: ModelParams) -> tuple[tuple[str, float, float], ...]:
         if value is False or value is None:
             return ()
+        if isinstance(value, ParameterUncertainty):
+            return value
         if value is True:
             value = default_randomization(params)
         if not isinstance(value, Mapping):
             raise ValueError(
-                "domain_randomization must be False, True (default ranges) or a dict "
-                f"{{ModelParams field: (low, high)}}, got {value!r}"
+                "domain_randomization must be False, True (default ranges), a dict "
+                f"{{ModelParams field: (low, high)}} or the path of a fit preset, got {value!r}"
             )
         allowed = [f for f in field_names() if f not in ("n_w", "n_seg")]
         out = []
@@ -311,8 +326,11 @@ class EnvConfig:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters (values above it are clipped)."""
         cands = [self.params]
-        for name, lo, hi in self.domain_randomization:
-            cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        if isinstance(self.domain_randomization, ParameterUncertainty):
+            cands += self.domain_randomization.extremes(self.params)
+        else:
+            for name, lo, hi in self.domain_randomization:
+                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
         r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.sensor_noise[2])
 
@@ -445,7 +463,10 @@ class SpineBatch:
             )
         params = opts.get("params")
         if params is None:
-            if cfg.domain_randomization:
+            if isinstance(cfg.domain_randomization, ParameterUncertainty):
+                params = cfg.domain_randomization.draw(rng, cfg.params)
+                kp = params.to_kernel()
+            elif cfg.domain_randomization:
                 draws = {name: float(rng.uniform(lo, hi)) for name, lo, hi in cfg.domain_randomization}
                 try:
                     params = cfg.params.replace(**draws)

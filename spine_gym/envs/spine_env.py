@@ -8,6 +8,7 @@ vector env runs too) and returns observations, rewards and infos.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -167,7 +168,11 @@ class SmaSpineEnv(gym.Env):
     * ``domain_randomization``: ``False`` (default), ``True`` (convection ×[0.75, 1.25], tube
       modulus ×[0.8, 1.2], ambient ±10 K, resistivities ×[0.95, 1.05]; see
       :func:`spine_gym.envs.default_randomization`) or a dict ``{ModelParams field: (low, high)}``
-      of absolute ranges; drawn uniformly per episode.
+      of absolute ranges; drawn uniformly per episode. Or the path of a preset written by a fit
+      (``spine_gym.calibrate``, e.g. ``"fit.json"``): each episode draws the fitted parameters
+      from the fit's uncertainty (multivariate normal within the fit bounds; parameters the data
+      could not identify uniformly within their bounds), and ``params`` defaults to the fitted
+      preset (:class:`spine_gym.uncertainty.ParameterUncertainty`).
     * ``sensor_noise``: ``None`` (default) or ``{"angle": deg, "temperature": K, "resistance": Ohm}``
       standard deviations. ``sensor_delay``: whole control periods (default 0).
     * ``temperature_limit`` [K]: threshold of ``info["cost"]``. Default 423 (150 °C).
@@ -209,7 +214,7 @@ class SmaSpineEnv(gym.Env):
         tip_force_count: tuple[int, int] = (0, 2),
         tip_force_duration: tuple[float, float] = (1.0, 10.0),
         payload_range: tuple[float, float] | None = (0.0, 0.05),
-        domain_randomization: bool | dict = False,
+        domain_randomization: bool | dict | str | os.PathLike = False,
         sensor_noise: dict | None = None,
         sensor_delay: int = 0,
         temperature_limit: float = 423.0,
