@@ -31,6 +31,7 @@ import numpy as np
 
 from ._jit import jit, pjit
 from .layout import (
+    ERR_BUCKLING,
     ERR_NONFINITE,
     ERR_ROOT,
     ERR_SUBSTEPS,
@@ -79,6 +80,8 @@ from .spatial_layout import (
     sens_offset,
     wire_offset,
 )
+from .spatial_stability import add_wire_term, is_buckled, needs_stability_check, tube_jacobian
+from .stability import solve_in_place
 from .spatial_tube import (
     bending_vector,
     half_sinc,
@@ -457,16 +460,74 @@ def copy_pairs(dst, src):
 
 
 @jit
-def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
+def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
+    """Newton on the whole shape, R(ω) = ω − f(ω, G(ω)) = 0 with the tangent I − J (cf.
+    :func:`.solver.composite_full_newton`): the fallback near buckling, where the coupled Newton's
+    fixed-point passes contract only by ≈ load / critical load. J is the stability Jacobian of
+    :mod:`.spatial_stability`; O(N³) per iteration. M_w = G(ω) at every iterate.
+
+    Returns:
+        (status, iterations); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
+    """
+    ns = omega.shape[0]
+    n2 = 2 * ns
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial = wk[WK_WTRIAL]
+    gm = wk[WK_G]
+    jac = np.empty((n2, n2))
+    step = np.empty(n2)
+    for it in range(int(ks[S_MAXROOT])):
+        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+        copy_pairs(mw, gm)
+        e = shape_pass(omega, mw, vforce, kp, km, frames, chords, new)
+        if not math.isfinite(e):
+            return ERR_NONFINITE, it
+        if e < ks[S_TOLTH]:
+            return OK, it + 1
+        tube_jacobian(omega, mw, vforce, kp, km, jac)
+        add_wire_term(omega, xp, xm, kp, kw, km, jac)
+        for r in range(n2):
+            for c in range(n2):
+                jac[r, c] = (1.0 if r == c else 0.0) - jac[r, c]
+            step[r] = new[r // 2, r % 2] - omega[r // 2, r % 2]  # −R
+        if not solve_in_place(jac, step):
+            return ERR_ROOT, it + 1
+        lam = 1.0  # back-tracking: a full step can jump across a wire's slack kink and cycle
+        for _ in range(MAX_HALVINGS):
+            for i in range(ns):
+                trial[i, 0] = omega[i, 0] + lam * step[2 * i]
+                trial[i, 1] = omega[i, 1] + lam * step[2 * i + 1]
+            wire_mechanics(trial, xp, xm, kp, kw, km, wk)
+            if shape_pass(trial, gm, vforce, kp, km, frames, chords, new) < e:
+                break
+            lam *= 0.5
+        copy_pairs(omega, trial)
+    return ERR_ROOT, int(ks[S_MAXROOT])
+
+
+@jit
+def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False):
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
-    Newton first, then the safeguard from the untouched starting point (cf. solver.composite).
+    Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
+    from the untouched starting point (cf. solver.composite).
+    With ``check`` (loads that might buckle the spine, :func:`.spatial_stability.needs_stability_check`)
+    the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
+    state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
+    reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
     Returns (status, shape passes used).
     """
     saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
     copy_pairs(saved_w, omega)
     copy_pairs(saved_m, mw)
+    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        return ERR_BUCKLING, 0
     st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    if st != OK:
+        copy_pairs(omega, saved_w)
+        copy_pairs(mw, saved_m)
+        st, p2 = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
+        passes += p2
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
@@ -475,7 +536,13 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
         if st != OK:
             copy_pairs(omega, saved_w)
             copy_pairs(mw, saved_m)
+            if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+                return ERR_BUCKLING, passes
             return st, passes
+    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        copy_pairs(omega, saved_w)
+        copy_pairs(mw, saved_m)
+        return ERR_BUCKLING, passes
     e_new = wk[WK_EPS]
     s_new = wk[WK_SIG]
     for j in range(eps.shape[0]):
@@ -485,10 +552,10 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
 
 
 @jit
-def composite(state, vforce, kp, ks, kw, km, wk):
+def composite(state, vforce, kp, ks, kw, km, wk, check=False):
     """Solve the composite module for the state's fractions and the loads, in place (cf. solver.composite).
 
-    Updates M_w, ω, ε, σ in ``state``. Returns (status, shape passes used).
+    Updates M_w, ω, ε, σ in ``state``; ``check`` as :func:`solve_mechanics`. Returns (status, shape passes used).
     """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
@@ -506,6 +573,7 @@ def composite(state, vforce, kp, ks, kw, km, wk):
         kw,
         km,
         wk,
+        check,
     )
 
 
@@ -603,6 +671,10 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
         dt: output step [s].
         resolve: solve the mechanics first (the loads changed since the last call).
 
+    Under loads that might buckle the spine (:func:`.spatial_stability.needs_stability_check`)
+    the re-solve and the shape the step ends on are checked for stability, as in the planar
+    core; an unstable equilibrium ends the step with ERR_BUCKLING.
+
     Returns:
         (status, sub-steps, shape passes).
     """
@@ -622,10 +694,12 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
     saved_w = np.empty((ns, 2))
     saved_m = np.empty((nm, 2))
     passes = 0
+    check = needs_stability_check(vforce, kp, km)
     if resolve:
-        st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+        st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check)
         if st != OK:
             return st, 0, passes
+    solved = False
     max_sub = int(ks[S_MAXSUB])
     rem = dt
     nsub = 0
@@ -653,13 +727,17 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
             copy_pairs(saved_m, mw)
             st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
             passes += p
-            if st != OK:
+            solved = True
+            if st != OK:  # unchecked (a failure is still classified); the step's end is checked below
                 return st, nsub, passes
             _secant_update(sens, omega, saved_w, mw, saved_m)
         rem -= h
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    # h. stability of the shape the step ends on (once per output step, as solver.advance)
+    if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        return ERR_BUCKLING, nsub, passes
     state[S_TIME] += dt
     return OK, nsub, passes
 
@@ -707,7 +785,7 @@ def init_state(state, kp, ks, kw, km, vforce):
         for i in range(ns):
             sens[2 * i, c] = probe[i, 0] / INIT_DM
             sens[2 * i + 1, c] = probe[i, 1] / INIT_DM
-    st, _ = composite(state, vforce, kp, ks, kw, km, wk)
+    st, _ = composite(state, vforce, kp, ks, kw, km, wk, needs_stability_check(vforce, kp, km))
     return st
 
 
