@@ -19,11 +19,16 @@ from spine_gym.design.space import evaluate_design
 from spine_gym.envs import SmaSpineEnv
 from spine_gym.envs.core import EnvConfig
 from spine_gym.envs.task import LoadSchedule
+from spine_gym.layout import SpineLayout
 from spine_gym.physics import layout as L
+from spine_gym.physics import spatial_layout as SL
 from spine_gym.physics.solver import BUCKLING_SCREEN, equilibrium_jacobian
+from spine_gym.physics.spatial_stability import load_ratio as spatial_load_ratio
+from spine_gym.physics.spatial_stability import needs_stability_check
 from spine_gym.physics.stability import unstable_modes
 from spine_gym.physics.tube import load_ratio, shape_jacobian, shape_pass
 from spine_gym.simulate import SimulationError
+from spine_gym.simulate_spatial import simulate_spatial
 
 P0 = ModelParams()
 NUDGE = 0.01  # [N] lateral tip force that breaks the symmetry of the straight spine
@@ -253,3 +258,115 @@ def test_a_tube_its_own_weight_buckles_is_reported_everywhere():
     margin = critical_load(soft)
     assert not margin.stable and margin.tip_force == 0.0
     assert evaluate_design(soft, CapacityProtocol())["status"].startswith("buckled: ")
+
+
+# ---------------------------------------------------------------- the spatial core (SPATIAL.md §8.3)
+
+
+def straight_column_critical_load(layout: SpineLayout) -> float:
+    """Critical downward tip force [N] of a straight layout at rest, from MODEL.md §4.9 / SPATIAL.md §2–§4.
+
+    A plain-numpy linearisation in one bending plane, independent of the kernels: tilts δ of the
+    segments, the disks (at the modules' top vertices, the top disk with the tip force P) and the
+    segment weights (chord midpoints) give M_v = Σ_{loads above v} w (x_load − x_v), and
+    δ_new,i = ls_i ½ (M_i + M_{i+1})/(E_t I) − ls_i/(E_t I) D_k Σ_{l in module k} δ_l, the wires'
+    moment at rest: wires at their stress-free length, fully martensite (E_M), each antiparallel
+    pair resisting with the one it stretches, D_k = Σ_pairs n_w A_w a² E_M (e·plane)² / L_ref.
+    The critical P is where I − A(P) first has a non-positive eigenvalue (bisection).
+    """
+    pr = layout.params
+    ei = pr.E_t * pr.I_tube
+    kp, kw, km = layout.to_kernel()
+    n = layout.n_seg
+    ls = np.empty(n)
+    w_seg = np.empty(n)
+    w_vert = np.zeros(n + 1)
+    mod = np.empty(n, dtype=int)
+    dk = np.zeros(km.shape[0])
+    for k in range(km.shape[0]):
+        s0, nk = int(km[k, SL.M_SEG0]), int(km[k, SL.M_NSEG])
+        ls[s0 : s0 + nk] = km[k, SL.M_LS]
+        w_seg[s0 : s0 + nk] = km[k, SL.M_MSEG] * pr.g
+        w_vert[s0] += km[k, SL.M_MDISK] * pr.g
+        mod[s0 : s0 + nk] = k
+        rows = np.flatnonzero(kw[:, SL.W_MOD] == k)
+        for i in rows:  # the pair partner of wire i: e_q = −e_i
+            for q in rows:
+                if q > i and np.allclose(kw[q, [SL.W_EX, SL.W_EY]], -kw[i, [SL.W_EX, SL.W_EY]], atol=1e-9):
+                    d = [kw[j, SL.W_NW] * kp[L.K_AW] * kw[j, SL.W_A] ** 2 * kp[L.K_EM] / kw[j, SL.W_LREF] for j in (i, q)]
+                    dk[k] += min(d) * kw[i, SL.W_EX] ** 2  # bending in the x plane
+    tilt = np.triu(np.ones((n, n)), 1) + 0.5 * np.eye(n)
+    x = np.zeros((n + 1, n))
+    for v in range(n - 1, -1, -1):
+        x[v] = x[v + 1] + ls[v] * tilt[v]
+    xc = x[1:] + 0.5 * ls[:, None] * tilt
+    same = (mod[:, None] == mod[None, :]).astype(float)
+    wire = (ls / ei * dk[mod])[:, None] * same
+
+    def tangent(p: float) -> np.ndarray:
+        wv = w_vert.copy()
+        wv[0] += p
+        mom = np.zeros((n + 1, n))
+        for v in range(1, n + 1):
+            mom[v] = (wv[:v, None] * (x[:v] - x[v])).sum(0) + (w_seg[:v, None] * (xc[:v] - x[v])).sum(0)
+        return np.eye(n) - ((0.5 * ls / ei)[:, None] * (mom[:-1] + mom[1:]) - wire)
+
+    lo, hi = 0.0, 100.0
+    assert np.linalg.eigvals(tangent(lo)).real.min() > 0.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if np.linalg.eigvals(tangent(mid)).real.min() > 0.0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def _spatial_status(layout, tip, duration=0.3):
+    try:
+        r = simulate_spatial(duration, np.zeros(layout.n_wires), layout=layout, tip_force=tip)
+    except SimulationError as e:
+        return e.status, None
+    return L.OK, r.tip_theta_deg[-1]
+
+
+def test_reference_column_reproduces_the_planar_critical_load():
+    # the seed's four-wire module at rest is isotropic: its critical load is the planar one
+    assert straight_column_critical_load(SpineLayout.seed()) == pytest.approx(critical_load(P0).tip_force, rel=1e-6)
+
+
+@pytest.mark.parametrize("layout", [SpineLayout.seed(), SpineLayout.chain(2)], ids=["module", "chain2"])
+def test_spatial_just_below_and_above_the_critical_load_with_and_without_a_nudge(layout):
+    p_cr = straight_column_critical_load(layout)
+    for f, expected in ((0.97 * p_cr, L.OK), (1.03 * p_cr, L.ERR_BUCKLING)):
+        st0, _ = _spatial_status(layout, (0.0, 0.0, -f))
+        stx, thx = _spatial_status(layout, (NUDGE, 0.0, -f))
+        sty, thy = _spatial_status(layout, (0.0, NUDGE, -f))
+        assert (st0, stx, sty) == (expected,) * 3, (f, p_cr)
+        if expected == L.OK:  # a nudge in x and one in y bend the isotropic spine alike
+            assert thx > 0.1 and thx == pytest.approx(thy, rel=1e-6)
+
+
+def test_spatial_two_wire_layout_buckles_sideways_at_the_bare_tube_load():
+    # wires at 0°/180° only: nothing resists bending about the other axis, so the straight spine
+    # buckles out of its plane at the bare tube's load although the plane's critical load is 5.6 N
+    p_tube = critical_load(P0, wires=False).tip_force
+    lay = SpineLayout.planar()
+    assert _spatial_status(lay, (0.0, 0.0, -0.97 * p_tube))[0] == L.OK
+    assert _spatial_status(lay, (0.0, 0.0, -1.03 * p_tube))[0] == L.ERR_BUCKLING
+    assert _spatial_status(lay, (0.0, NUDGE, -1.03 * p_tube))[0] == L.ERR_BUCKLING
+
+
+def test_spatial_load_applied_later_buckles_the_spine_during_the_run():
+    lay = SpineLayout.seed()
+    tip = np.zeros((100, 3))
+    tip[50:] = (0.0, NUDGE, -8.0)
+    with pytest.raises(SimulationError, match="buckling") as exc:
+        simulate_spatial(1.0, np.zeros(lay.n_wires), layout=lay, tip_force=tip)
+    assert exc.value.status == L.ERR_BUCKLING and exc.value.time == pytest.approx(0.5)
+
+
+def test_spatial_dunkerley_screen_is_conservative_and_skips_light_loads():
+    lay = SpineLayout.chain(2)
+    kp, kw, km = lay.to_kernel()
+    vf = np.zeros((lay.n_seg, 3))
+    assert not needs_stability_check(vf, kp, km)  # own weight: the hot path pays no check
+    vf[0] = (0.0, 0.0, -straight_column_critical_load(lay))
+    assert spatial_load_ratio(vf, kp, km) >= 1.0 > BUCKLING_SCREEN  # a lower bound on buckling
