@@ -8,7 +8,9 @@ of the shape that M produces (SPATIAL.md §3–§4); the solve finds M = G(M).
   pass per iteration; M updated by the Newton step ΔM = (I − J)⁻¹ (G − M) with the loop gain
   J = ∂G/∂ω · S from the wires' tangent moduli and the shape sensitivity S = dω/dM, a secant
   (Broyden) matrix carried in the state; the shape predicted by ω += S ΔM.
-* Safeguard, if Newton does not converge within the caps: from the untouched starting point,
+* Whole-shape Newton (:func:`composite_full_newton`), if the coupled Newton does not converge
+  (near buckling): Newton on ω with the stability Jacobian of :mod:`.spatial_stability`.
+* Safeguard, if that does not converge either: from the untouched starting point,
   S is refreshed by finite differences of full shape solves and a back-tracking Newton with a
   full shape solve per evaluation drives max|G − M| below the tolerance (the step is halved
   until the residual falls). Failure returns a status, never NaN.
