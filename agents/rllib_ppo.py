@@ -18,9 +18,13 @@ runner expects. ``vectorize="sync"`` gives RLlib's default instead (a ``SyncVect
 ``gym.make`` single envs), the peer of ``benchmarks/bench_rllib.py``.
 
 Hyperparameters are those of ``agents/hyperparams/ppo.yml`` (the SB3 entry) translated to RLlib's
-names (:func:`ppo_settings`); observations are normalised by RLlib's ``MeanStdFilter`` (the
-counterpart of SB3's ``VecNormalize``), whose statistics live in the checkpoint.
-:class:`RLlibPolicy` loads a checkpoint's module and filter behind SB3's ``predict``, so
+names (:func:`ppo_settings`). Observations are standardised by :class:`FrozenObsNorm` with a mean and
+std measured once, before training, on a seeded random-action rollout of the native env
+(:func:`observation_stats`); the statistics are constructor arguments of the connector, so the
+checkpoint carries them. RLlib's own ``MeanStdFilter`` is not used: with several env runners its
+merged statistics drift (ray 2.60: after a few iterations the stored mean wire temperature was
+116 K, below the 293 K ambient that no observation goes under).
+:class:`RLlibPolicy` loads a checkpoint's module and normaliser behind SB3's ``predict``, so
 :func:`agents.evaluate.evaluate` scores it like the shipped policies.
 
 Needs ``ray[rllib]`` (which pins its own gymnasium, e.g. 1.2.2); install it in a separate venv
@@ -34,6 +38,7 @@ import json
 import shlex
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import gymnasium as gym
@@ -43,12 +48,14 @@ import torch
 from ray.rllib.algorithms.algorithm import Algorithm
 from ray.rllib.algorithms.ppo import PPOConfig
 from ray.rllib.connectors.connector_v2 import ConnectorV2
-from ray.rllib.connectors.env_to_module import MeanStdFilter
+from ray.rllib.connectors.env_to_module.observation_preprocessor import SingleAgentObservationPreprocessor
 from ray.rllib.core import DEFAULT_MODULE_ID
 from ray.rllib.core.columns import Columns
 from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 from ray.rllib.core.rl_module.rl_module import RLModule
 from ray.rllib.utils.spaces.space_utils import unsquash_action
+
+from spine_gym.envs import SmaSpineVectorEnv
 
 from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
 from .evaluate import evaluate, format_tables, summarize
@@ -57,8 +64,10 @@ from .scenarios import SUITES, get_suite
 __all__ = [
     "RLLIB_ENV",
     "VECTORIZE",
+    "FrozenObsNorm",
     "RLlibPolicy",
     "build_config",
+    "observation_stats",
     "ppo_settings",
     "runner_env_classes",
     "sample_throughput",
@@ -69,7 +78,7 @@ RLLIB_ENV = f"spine_gym:{ENV_ID}"  # "module:id": gymnasium imports spine_gym in
 VECTORIZE = {"native": gym.VectorizeMode.VECTOR_ENTRY_POINT, "sync": gym.VectorizeMode.SYNC}
 CHECKPOINT = "checkpoint"
 MODULE_DIR = Path("learner_group") / "learner" / "rl_module" / DEFAULT_MODULE_ID
-FILTER_DIR = Path("env_runner") / "env_to_module_connector"
+NORM_DIR = Path("env_runner") / "env_to_module_connector"
 
 
 # --------------------------------------------------------------------------- configuration
@@ -94,6 +103,53 @@ def ppo_settings() -> dict:
     return {"training": training, "hiddens": hiddens, "rollout_fragment_length": int(hp["n_steps"])}
 
 
+class FrozenObsNorm(SingleAgentObservationPreprocessor):
+    """Env-to-module connector: ``clip((obs - mean) / std, -clip, clip)`` with fixed statistics
+    (SB3's ``VecNormalize`` frozen). The statistics are constructor arguments, so RLlib's
+    checkpoint of the connector pipeline restores them."""
+
+    def __init__(self, input_observation_space=None, input_action_space=None, mean=(), std=(), clip=10.0):
+        self.mean = np.asarray(mean, dtype=np.float32)
+        self.std = np.asarray(std, dtype=np.float32)
+        self.clip = float(clip)
+        if self.mean.shape != self.std.shape or self.mean.ndim != 1 or not np.all(self.std > 0):
+            raise ValueError(
+                f"mean and std must be 1-D of one length with std > 0, got {self.mean.shape}, {self.std.shape}"
+            )
+        super().__init__(input_observation_space, input_action_space)
+
+    def recompute_output_observation_space(self, input_observation_space, input_action_space):
+        return gym.spaces.Box(-self.clip, self.clip, self.mean.shape, np.float32)
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        """Standardise one observation or a batch (rows)."""
+        return np.clip((np.asarray(obs, np.float32) - self.mean) / self.std, -self.clip, self.clip)
+
+    def preprocess(self, observation, episode):
+        return self.normalize(observation)
+
+
+def observation_stats(steps: int = 200, num_envs: int = 8, seed: int = 0, **env_kwargs) -> tuple[list, list]:
+    """Mean and std of the observations of a seeded random-action rollout of the native vector env
+    (``num_envs`` sub-envs, ``steps`` steps each; std floored as ``sqrt(var + 1e-8)``)."""
+    if steps < 2 or num_envs < 1:
+        raise ValueError(f"steps must be >= 2 and num_envs >= 1, got {steps}, {num_envs}")
+    env = SmaSpineVectorEnv(num_envs, **{"parallel": False, **env_kwargs})
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    rows = [obs]
+    for _ in range(steps - 1):
+        obs, *_ = env.step(env.action_space.sample())
+        rows.append(obs)
+    env.close()
+    x = np.concatenate(rows).astype(np.float64)
+    return x.mean(axis=0).tolist(), np.sqrt(x.var(axis=0) + 1e-8).tolist()
+
+
+def _obs_norm_connector(env=None, spaces=None, device=None, *, mean, std):
+    return FrozenObsNorm(mean=mean, std=std)
+
+
 def build_config(
     *,
     env_runners: int = 2,
@@ -112,22 +168,23 @@ def build_config(
         vectorize: ``"native"`` (the registration's ``vector_entry_point``: one
             ``SmaSpineVectorEnv`` per runner) or ``"sync"`` (RLlib's default ``SyncVectorEnv``).
         rollout_fragment_length: steps per sub-env per sample (default: ``n_steps`` of ppo.yml).
-        seed: RLlib's seed (runner k resets its vector env with ``seed + k``; None: random).
+        seed: RLlib's seed (runner k resets its vector env with ``seed + k``; None: random) and
+            the seed of the normalisation rollout (0 when None).
         env_config: ``SmaSpine-v0`` keyword arguments; the native env defaults to
             ``parallel=False`` (one core per runner process is the better split on a shared machine).
         num_epochs: override of ppo.yml's ``n_epochs`` (e.g. 1 for a smoke run).
     """
     if vectorize not in VECTORIZE:
         raise ValueError(f"vectorize must be one of {sorted(VECTORIZE)}, got {vectorize!r}")
-    for name, value in (("env_runners", env_runners), ("envs_per_runner", envs_per_runner)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < (0 if name == "env_runners" else 1):
-            low = 0 if name == "env_runners" else 1
+    for name, value, low in (("env_runners", env_runners, 0), ("envs_per_runner", envs_per_runner, 1)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
             raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
     s = ppo_settings()
     fragment = int(rollout_fragment_length or s["rollout_fragment_length"])
     if fragment < 1:
         raise ValueError(f"rollout_fragment_length must be >= 1, got {fragment}")
     env_config = dict(env_config or {})
+    mean, std = observation_stats(seed=seed or 0, **env_config)
     if vectorize == "native":
         env_config.setdefault("parallel", False)
     training = dict(s["training"])
@@ -143,16 +200,12 @@ def build_config(
             num_envs_per_env_runner=envs_per_runner,
             gym_env_vectorize_mode=VECTORIZE[vectorize].value,
             rollout_fragment_length=fragment,
-            env_to_module_connector=_mean_std_filter,
+            env_to_module_connector=partial(_obs_norm_connector, mean=mean, std=std),
         )
         .training(train_batch_size_per_learner=batch, **training)
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=s["hiddens"], vf_share_layers=False))
         .debugging(seed=seed)
     )
-
-
-def _mean_std_filter(env=None, spaces=None, device=None):
-    return MeanStdFilter(multi_agent=False)
 
 
 def runner_env_classes(algo: Algorithm) -> list[str]:
@@ -177,36 +230,35 @@ def sample_throughput(algo: Algorithm, steps_per_runner: int) -> float:
 class RLlibPolicy:
     """An RLlib PPO checkpoint as a controller with SB3's ``predict`` (for ``agents.evaluate``).
 
-    Observations go through the checkpoint's ``MeanStdFilter`` (frozen: no statistics update), the
-    module's inference pass and RLlib's own ``unsquash_action`` to the action space, exactly as an
-    env runner does with ``explore=False`` (``deterministic=True``: the Gaussian's mean).
+    Observations go through the checkpoint's :class:`FrozenObsNorm`, the module's inference pass
+    and RLlib's own ``unsquash_action`` to the action space, as an env runner does with
+    ``explore=False`` (``deterministic=True``: the Gaussian's mean).
     """
 
-    def __init__(self, module: RLModule, obs_filter, action_space: gym.spaces.Box, name: str = "rllib_ppo"):
+    def __init__(self, module: RLModule, obs_norm: FrozenObsNorm, name: str = "rllib_ppo"):
         self.module = module
-        self.obs_filter = obs_filter
-        self.action_space = action_space
+        self.obs_norm = obs_norm
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.name = name
         self._dist_cls = module.get_inference_action_dist_cls()
 
     @classmethod
     def from_checkpoint(cls, path: str | Path, name: str = "rllib_ppo") -> RLlibPolicy:
         path = Path(path)
-        if not (path / MODULE_DIR).is_dir():
-            raise ValueError(f"{path} is not an RLlib PPO checkpoint (no {MODULE_DIR})")
+        if not (path / MODULE_DIR).is_dir() or not (path / NORM_DIR).is_dir():
+            raise ValueError(f"{path} is not a checkpoint of agents.rllib_ppo (no {MODULE_DIR} or {NORM_DIR})")
         module = RLModule.from_checkpoint(str(path / MODULE_DIR))
-        pipeline = ConnectorV2.from_checkpoint(str(path / FILTER_DIR))
-        filters = [c for c in pipeline.connectors if isinstance(c, MeanStdFilter)]
-        obs_filter = filters[0]._filters[None] if filters else None  # RLlib's own running stats
-        return cls(module, obs_filter, gym.spaces.Box(-1.0, 1.0, (2,), np.float32), name)
+        pipeline = ConnectorV2.from_checkpoint(str(path / NORM_DIR))
+        norms = [c for c in pipeline.connectors if isinstance(c, FrozenObsNorm)]
+        if len(norms) != 1:
+            raise ValueError(f"{path}: expected one FrozenObsNorm in the env-to-module pipeline, got {norms}")
+        return cls(module, norms[0], name)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
         obs = np.asarray(observation, dtype=np.float32)
         if obs.ndim not in (1, 2) or not np.all(np.isfinite(obs)):
             raise ValueError(f"observation must be a finite array (d,) or (n_envs, d), got shape {obs.shape}")
-        batch = obs.reshape(-1, obs.shape[-1])
-        if self.obs_filter is not None:
-            batch = np.stack([self.obs_filter(o, update=False) for o in batch]).astype(np.float32)
+        batch = self.obs_norm.normalize(obs.reshape(-1, obs.shape[-1]))
         with torch.no_grad():
             out = self.module.forward_inference({Columns.OBS: torch.from_numpy(batch)})
         dist = self._dist_cls.from_logits(out[Columns.ACTION_DIST_INPUTS])
@@ -299,4 +351,8 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    # run the package module's main, not this __main__ copy: the classes and functions that Ray
+    # ships to the runners and pickles into checkpoints must be importable as agents.rllib_ppo
+    from agents.rllib_ppo import main as package_main
+
+    package_main()
