@@ -114,7 +114,8 @@ class FrozenObsNorm(SingleAgentObservationPreprocessor):
         self.clip = float(clip)
         if self.mean.shape != self.std.shape or self.mean.ndim != 1 or not np.all(self.std > 0):
             raise ValueError(
-                f"mean and std must be 1-D of one length with std > 0, got {self.mean.shape}, {self.std.shape}"
+                f"mean and std must be 1-D of one length with std > 0, got shapes {self.mean.shape}, "
+                f"{self.std.shape}"
             )
         super().__init__(input_observation_space, input_action_space)
 
@@ -246,7 +247,9 @@ class RLlibPolicy:
     def from_checkpoint(cls, path: str | Path, name: str = "rllib_ppo") -> RLlibPolicy:
         path = Path(path)
         if not (path / MODULE_DIR).is_dir() or not (path / NORM_DIR).is_dir():
-            raise ValueError(f"{path} is not a checkpoint of agents.rllib_ppo (no {MODULE_DIR} or {NORM_DIR})")
+            raise ValueError(
+                f"{path} is not a checkpoint of agents.rllib_ppo (no {MODULE_DIR} or {NORM_DIR})"
+            )
         module = RLModule.from_checkpoint(str(path / MODULE_DIR))
         pipeline = ConnectorV2.from_checkpoint(str(path / NORM_DIR))
         norms = [c for c in pipeline.connectors if isinstance(c, FrozenObsNorm)]
@@ -278,13 +281,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--envs-per-runner", type=int, default=8, help="sub-envs per runner (default 8)")
     p.add_argument("--vectorize", choices=sorted(VECTORIZE), default="native")
     p.add_argument("--iterations", type=int, default=20, help="training iterations (default 20)")
-    p.add_argument("--rollout-fragment-length", type=int, default=None, help="steps per sub-env per iteration")
+    p.add_argument(
+        "--rollout-fragment-length", type=int, default=None, help="steps per sub-env per iteration"
+    )
     p.add_argument("--num-epochs", type=int, default=None, help="override ppo.yml's n_epochs")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--restore", default=None, help="continue from this checkpoint folder")
-    p.add_argument("--suite", choices=sorted(SUITES), default="quick", help="evaluation suite (default quick)")
+    p.add_argument(
+        "--suite", choices=sorted(SUITES), default="quick", help="evaluation suite (default quick)"
+    )
     p.add_argument("--no-eval", action="store_true", help="skip the evaluation")
-    p.add_argument("--address", default=None, help="Ray cluster to join ('auto' or host:port); default: local")
+    p.add_argument(
+        "--address", default=None, help="Ray cluster to join ('auto' or host:port); default: local"
+    )
     p.add_argument("--num-cpus", type=int, default=None, help="CPUs of a local Ray cluster (default: all)")
     p.add_argument("--out", default="runs/rllib/ppo", help="run folder (checkpoint, result.json)")
     return p

@@ -28,7 +28,6 @@ import json
 import os
 import platform
 import subprocess
-import time
 from pathlib import Path
 
 import gymnasium as gym
@@ -100,8 +99,12 @@ def main(argv=None) -> dict:
         scale = np.array(rates[(vec, 2)]) / np.array(rates[(vec, 1)])
         results[f"{vec}_2_runners"]["ratio_vs_1_runner"] = float(np.median(scale))
     out = {
-        "settings": {"envs_per_runner": args.envs_per_runner, "steps_per_runner": args.steps,
-                     "repeats": args.repeats, "num_cpus_logical": args.num_cpus},  # fmt: skip
+        "settings": {
+            "envs_per_runner": args.envs_per_runner,
+            "steps_per_runner": args.steps,
+            "repeats": args.repeats,
+            "num_cpus_logical": args.num_cpus,
+        },
         "results": results,
         "machine": info,
     }

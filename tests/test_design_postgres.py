@@ -76,7 +76,9 @@ def test_two_workers_on_postgres_equal_a_journal_run(tmp_path):
     assert pg["best"] is not None and pg["n_feasible"] == journal["n_feasible"] > 0
     assert pg["best"]["value"] == journal["best"]["value"]
     assert pg["best"]["params"] == journal["best"]["params"]
-    designs = [sorted((t["a"], t["n_w"], t["stable_angle_deg"]) for t in run) for run in (pg_trials, journal_trials)]
+    designs = [
+        sorted((t["a"], t["n_w"], t["stable_angle_deg"]) for t in run) for run in (pg_trials, journal_trials)
+    ]
     assert designs[0] == designs[1]  # the same six designs, whichever process ran which
     assert len({t["worker"] for t in pg_trials}) == 2  # both processes wrote to PostgreSQL
     password = make_url(PG_URL).password

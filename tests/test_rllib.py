@@ -59,9 +59,7 @@ def test_each_runner_steps_the_native_vector_env(runs):
 def test_restore_continues_the_run(runs):
     restored = runs[1]
     # the restored algorithm goes on from iteration 3 and the saved step count, not from scratch
-    assert restored["history"] == [
-        {**restored["history"][0], "iteration": 3, "env_steps": 3 * BATCH}
-    ]
+    assert restored["history"] == [{**restored["history"][0], "iteration": 3, "env_steps": 3 * BATCH}]
     # the normalisation statistics travel with the checkpoints: those measured before training
     mean, std = observation_stats(seed=0)
     for r in runs:

@@ -241,8 +241,8 @@ def _cmd_optimize(args, parser) -> int:
         f"with {args.n_workers} worker(s)"
     )
     print(
-        f"study saved in {display_storage(storage)} (name {args.study_name!r}); wrote {best_json}, {trials_csv}, "
-        f"{out / 'history.png'}"
+        f"study saved in {display_storage(storage)} (name {args.study_name!r}); "
+        f"wrote {best_json}, {trials_csv}, {out / 'history.png'}"
     )
     return 0
 

@@ -223,7 +223,9 @@ def make_storage(url: str | None):
             return optuna.storages.RDBStorage(url, engine_kwargs=kw)
         except Exception as e:  # bad URL, missing DB driver, server unreachable, ...
             reason = " ".join(str(getattr(e, "orig", None) or e).split())  # the driver's words, one line
-            raise ValueError(f"cannot open storage {_hide_password(url)}: {type(e).__name__}: {reason}") from e
+            raise ValueError(
+                f"cannot open storage {_hide_password(url)}: {type(e).__name__}: {reason}"
+            ) from e
     Path(url).parent.mkdir(parents=True, exist_ok=True)
     return JournalStorage(JournalFileBackend(str(url)))
 
