@@ -54,6 +54,7 @@ from ray.rllib.core.columns import Columns
 from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 from ray.rllib.core.rl_module.rl_module import RLModule
 from ray.rllib.utils.spaces.space_utils import unsquash_action
+from tqdm.auto import tqdm
 
 from spine_gym.envs import SmaSpineVectorEnv
 
@@ -300,8 +301,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _train(algo: Algorithm, iterations: int) -> list[dict]:
-    from tqdm.auto import tqdm
-
     history = []
     with tqdm(range(iterations), desc="rllib ppo", unit="it") as bar:
         for _ in bar:
@@ -318,24 +317,33 @@ def _train(algo: Algorithm, iterations: int) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     if args.iterations < 0:
-        raise SystemExit(f"--iterations must be >= 0, got {args.iterations}")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    ray.init(address=args.address, num_cpus=args.num_cpus, include_dashboard=False)
-    try:
-        if args.restore:
-            algo = Algorithm.from_checkpoint(str(Path(args.restore).resolve()))
-        else:
-            algo = build_config(
+        parser.error(f"--iterations must be >= 0, got {args.iterations}")
+    if args.restore and not (Path(args.restore) / "rllib_checkpoint.json").is_file():
+        parser.error(f"--restore: {args.restore} is not an RLlib checkpoint (no rllib_checkpoint.json)")
+    config = None
+    if not args.restore:
+        try:
+            config = build_config(
                 env_runners=args.env_runners,
                 envs_per_runner=args.envs_per_runner,
                 vectorize=args.vectorize,
                 rollout_fragment_length=args.rollout_fragment_length,
                 seed=args.seed,
                 num_epochs=args.num_epochs,
-            ).build_algo()
+            )
+        except ValueError as e:
+            parser.error(str(e))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    ray.init(address=args.address, num_cpus=args.num_cpus, include_dashboard=False)
+    try:
+        if config is None:
+            algo = Algorithm.from_checkpoint(str(Path(args.restore).resolve()))
+        else:
+            algo = config.build_algo()
         envs = runner_env_classes(algo)
         print(f"env runners: {len(envs)}, env per runner: {sorted(set(envs))}")
         history = _train(algo, args.iterations)
