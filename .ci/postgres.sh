@@ -14,6 +14,11 @@ PG_TMP_USER=spine
 PG_TMP_PASSWORD=spine-ci-pw
 PG_TMP_DB=spine_design
 
+# as the postgres user, from a directory it can enter (the caller's may be root-only)
+pg_tmp_as_postgres() {
+  (cd / && runuser -u postgres -- "$@")
+}
+
 pg_tmp_bindir() {
   ls -d /usr/lib/postgresql/*/bin 2>/dev/null | sort -V | tail -n 1
 }
@@ -40,14 +45,12 @@ pg_tmp_start() {
   chown postgres: "$dir"
   chmod 700 "$dir"
   port=$(pg_tmp_free_port)
-  printf '%s\n' "$PG_TMP_PASSWORD" >"$dir/pw"
-  chown postgres: "$dir/pw"
-  runuser -u postgres -- "$bin/initdb" -D "$dir/data" -U postgres --auth-local=trust \
+  pg_tmp_as_postgres "$bin/initdb" -D "$dir/data" -U postgres --auth-local=trust \
     --auth-host=scram-sha-256 -E UTF8 >"$dir/initdb.log"
-  runuser -u postgres -- "$bin/pg_ctl" -D "$dir/data" -l "$dir/server.log" -w -t 60 \
+  pg_tmp_as_postgres "$bin/pg_ctl" -D "$dir/data" -l "$dir/server.log" -w -t 60 \
     -o "-c listen_addresses=127.0.0.1 -c port=$port -c unix_socket_directories=$dir -c fsync=off" start \
     >/dev/null
-  runuser -u postgres -- "$bin/psql" -h "$dir" -p "$port" -U postgres -d postgres -v ON_ERROR_STOP=1 -q \
+  pg_tmp_as_postgres "$bin/psql" -h "$dir" -p "$port" -U postgres -d postgres -v ON_ERROR_STOP=1 -q \
     -c "CREATE ROLE $PG_TMP_USER LOGIN PASSWORD '$PG_TMP_PASSWORD'" \
     -c "CREATE DATABASE $PG_TMP_DB OWNER $PG_TMP_USER"
   export SPINE_GYM_TEST_PG_URL="postgresql+psycopg2://$PG_TMP_USER:$PG_TMP_PASSWORD@127.0.0.1:$port/$PG_TMP_DB"
@@ -58,7 +61,7 @@ pg_tmp_stop() {
   local dir=$1 bin
   bin=$(pg_tmp_bindir)
   if [ -n "$bin" ] && [ -f "$dir/data/postmaster.pid" ]; then
-    runuser -u postgres -- "$bin/pg_ctl" -D "$dir/data" -m fast -w stop >/dev/null
+    pg_tmp_as_postgres "$bin/pg_ctl" -D "$dir/data" -m fast -w stop >/dev/null
     echo "postgres: server stopped"
   fi
 }
