@@ -14,7 +14,9 @@ and time over the temperature limit [s], and writes to ``--out``:
   (controller, group);
 * ``trajectories/<controller>/<scenario>.csv`` — the step-by-step record;
 * ``plots/<controller>_<group>.png`` — angle and target, voltages and temperatures vs time for
-  each scenario of the group.
+  each scenario of the group;
+* with ``--video``: ``videos/<controller>/<scenario>.mp4`` — the episode as the env renders it
+  (:mod:`agents.video`).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import numpy as np
 from .common import ENV_ID, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .scenarios import SUITES, Scenario, get_suite
+from .video import require_ffmpeg, write_videos
 
 BASELINES = ("step", "bang_bang", "pid")
 
@@ -288,6 +291,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
     p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
+    p.add_argument("--video", action="store_true", help="also write videos/<controller>/<scenario>.mp4")
+    p.add_argument("--video-speed", type=float, default=1.0, help="video playback speed (default: real time)")
     return p
 
 
@@ -304,6 +309,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     unknown = set(args.baselines) - set(BASELINES)
     if unknown:
         raise SystemExit(f"unknown baseline(s) {sorted(unknown)}; choose from {BASELINES}")
+    if args.video:
+        require_ffmpeg()  # before the evaluation, not after it
     if args.models is None:
         models = shipped_policies()
     else:
@@ -348,6 +355,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             for g in groups:
                 scs = [s for s in scenarios if s.group == g]
                 plot_controller(out / "plots" / f"{ctrl}_{g}.png", ctrl, g, scs, trajs, limit)
+    if args.video:
+        videos = write_videos(
+            controllers, scenarios, out / "videos", env_kwargs,
+            make_env=make_env, run_episode=run_episode, speed=args.video_speed,
+        )  # fmt: skip
+        print(f"wrote {len(videos)} videos to {out / 'videos'}")
     wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")
     print(f"wrote {wrote} to {out} in {time.perf_counter() - t_start:.1f} s total")
     return summary
