@@ -293,8 +293,8 @@ def straight_column_critical_load(layout: SpineLayout) -> float:
         for i in rows:  # the pair partner of wire i: e_q = −e_i
             for q in rows:
                 if q > i and np.allclose(kw[q, [SL.W_EX, SL.W_EY]], -kw[i, [SL.W_EX, SL.W_EY]], atol=1e-9):
-                    d = [kw[j, SL.W_NW] * kp[L.K_AW] * kw[j, SL.W_A] ** 2 * kp[L.K_EM] / kw[j, SL.W_LREF] for j in (i, q)]
-                    dk[k] += min(d) * kw[i, SL.W_EX] ** 2  # bending in the x plane
+                    d = [kw[j, SL.W_NW] * kw[j, SL.W_A] ** 2 / kw[j, SL.W_LREF] for j in (i, q)]
+                    dk[k] += min(d) * kp[L.K_AW] * kp[L.K_EM] * kw[i, SL.W_EX] ** 2  # x plane
     tilt = np.triu(np.ones((n, n)), 1) + 0.5 * np.eye(n)
     x = np.zeros((n + 1, n))
     for v in range(n - 1, -1, -1):
@@ -329,7 +329,8 @@ def _spatial_status(layout, tip, duration=0.3):
 
 def test_reference_column_reproduces_the_planar_critical_load():
     # the seed's four-wire module at rest is isotropic: its critical load is the planar one
-    assert straight_column_critical_load(SpineLayout.seed()) == pytest.approx(critical_load(P0).tip_force, rel=1e-6)
+    p_cr = straight_column_critical_load(SpineLayout.seed())
+    assert p_cr == pytest.approx(critical_load(P0).tip_force, rel=1e-6)
 
 
 @pytest.mark.parametrize("layout", [SpineLayout.seed(), SpineLayout.chain(2)], ids=["module", "chain2"])

@@ -557,7 +557,8 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
 def composite(state, vforce, kp, ks, kw, km, wk, check=False):
     """Solve the composite module for the state's fractions and the loads, in place (cf. solver.composite).
 
-    Updates M_w, ω, ε, σ in ``state``; ``check`` as :func:`solve_mechanics`. Returns (status, shape passes used).
+    Updates M_w, ω, ε, σ in ``state``; ``check`` as :func:`solve_mechanics`.
+    Returns (status, shape passes used).
     """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)

@@ -79,7 +79,7 @@ def load_ratio(vforce, kp, km):
 
 @jit
 def needs_stability_check(vforce, kp, km):
-    """False when the loads cannot buckle the spatial spine in any shape (cf. solver.needs_stability_check)."""
+    """False when the loads cannot buckle the spatial spine in any shape (cf. the planar solver's)."""
     return load_ratio(vforce, kp, km) > BUCKLING_SCREEN
 
 
