@@ -29,82 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import ENV_ID, POLICIES_DIR
+from .common import POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
+from .registry import BASELINES, REGISTRY
+from .runtime import build_controller, env_temperature_limit, load_policy, make_env, run_episode
 from .scenarios import SUITES, Scenario, get_suite
 
-BASELINES = ("step", "bang_bang", "pid")
-
-
-# --------------------------------------------------------------------------- running
-def make_env(env_kwargs: dict | None = None):
-    """A plain ``SmaSpine-v0`` env (no time-limit surprises: the episode length is the env's)."""
-    import gymnasium as gym
-
-    import spine_gym  # noqa: F401 - registers the env
-
-    return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
-
-
-def run_episode(
-    env, policy, scenario: Scenario | None = None, deterministic: bool = True, *, seed: int | None = None
-) -> Trajectory:
-    """Roll ``policy`` through one scenario and return its :class:`Trajectory`.
-
-    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``, or, without a
-    scenario, with ``seed`` alone (an episode drawn by the env's own samplers); the policy's
-    memory is restarted through ``episode_start`` (and ``reset()`` if it has one).
-    """
-    if (scenario is None) == (seed is None):
-        raise ValueError("give either a scenario or a seed")
-    if hasattr(policy, "reset"):
-        policy.reset()
-    if scenario is not None:
-        obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
-    else:
-        obs, _ = env.reset(seed=seed)
-    state = None
-    start = np.ones((1,), dtype=bool)
-    infos, actions, rewards = [], [], []
-    while True:
-        action, state = policy.predict(
-            obs[None, :], state=state, episode_start=start, deterministic=deterministic
-        )
-        action = np.asarray(action, dtype=np.float32).reshape(2)
-        start = np.zeros((1,), dtype=bool)
-        obs, reward, terminated, truncated, info = env.step(action)
-        infos.append(info)
-        actions.append(action)
-        rewards.append(reward)
-        if terminated or truncated:
-            break
-    return Trajectory.from_infos(infos, actions, rewards)
-
-
-def env_temperature_limit(env) -> float:
-    """The env's wire-temperature limit [K] (the threshold of ``info['cost']``)."""
-    for attr in ("temperature_limit", "T_limit", "temp_limit"):
-        if hasattr(env, attr):
-            return float(getattr(env, attr))
-    raise AttributeError("the env exposes no temperature_limit attribute")
-
-
-def build_baseline(name: str, env, tuned: dict | None = None):
-    """Baseline controller ``name`` configured for ``env`` (its v_max, control period, limit)."""
-    from spine_gym.controllers import BangBangController, PIDController, StepVoltageController
-
-    from .tune import GUARD_MARGIN_K, load_tuned
-
-    common = {"v_max": float(env.v_max), "dt": float(env.control_period)}
-    tuned = load_tuned() if tuned is None else tuned
-    if name == "step":
-        return StepVoltageController(**common)
-    guard = {"temperature_limit": env_temperature_limit(env) - GUARD_MARGIN_K}  # as in agents.tune
-    if name == "bang_bang":
-        return BangBangController(**tuned["bang_bang"], **common, **guard)
-    if name == "pid":
-        return PIDController(**tuned["pid"], **common, **guard)
-    raise ValueError(f"unknown baseline {name!r}; choose from {BASELINES}")
+MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
 
 def evaluate(
@@ -270,7 +201,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--baselines",
         nargs="*",
         default=list(BASELINES),
-        help=f"baselines to run (default: all of {BASELINES})",
+        help=f"registered controllers to run (default: {' '.join(BASELINES)}; all: {' '.join(REGISTRY)})",
+    )
+    p.add_argument(
+        "--mpc",
+        action="store_true",
+        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI; ~0.05-0.1 s per step, several minutes per suite)",
     )
     p.add_argument(
         "--models",
@@ -301,9 +237,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = build_parser().parse_args(argv)
     t_start = time.perf_counter()
     scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios)
-    unknown = set(args.baselines) - set(BASELINES)
+    baselines = list(dict.fromkeys(args.baselines + (list(MPC_CONTROLLERS) if args.mpc else [])))
+    unknown = set(baselines) - set(REGISTRY)
     if unknown:
-        raise SystemExit(f"unknown baseline(s) {sorted(unknown)}; choose from {BASELINES}")
+        raise SystemExit(f"unknown controller(s) {sorted(unknown)}; choose from {list(REGISTRY)}")
     if args.models is None:
         models = shipped_policies()
     else:
@@ -317,14 +254,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     env_kwargs: dict[str, dict] = {}
     probe = make_env()
     limit = env_temperature_limit(probe)
-    for b in args.baselines:
-        controllers[b] = build_baseline(b, probe)
+    for b in baselines:
+        controllers[b] = build_controller(b, probe)
     if models:
         import torch
 
         torch.set_num_threads(1)
-        from .common import load_policy
-
         for name, path in models.items():
             pol = load_policy(path, name=name)
             controllers[name] = pol

@@ -13,7 +13,8 @@ import pytest
 import yaml
 
 from agents import evaluate as ev
-from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, load_policy, preprocess_hyperparams
+from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
+from agents.runtime import load_policy
 from agents.metrics import Trajectory, episode_metrics, settling_times
 from agents.scenarios import EVAL_SEED_BASE, get_suite
 from agents.tune import TRAIN_SEED_BASE, load_tuned, tune
@@ -160,7 +161,7 @@ def test_settling_time_and_metrics_on_a_synthetic_trajectory():
 def test_evaluation_is_deterministic():
     suite = get_suite("quick", groups=["disturbed"])
     env = ev.make_env()
-    ctrls = lambda: {b: ev.build_baseline(b, env) for b in ev.BASELINES}  # noqa: E731
+    ctrls = lambda: {b: ev.build_controller(b, env) for b in ev.BASELINES}  # noqa: E731
     rows1, trajs1 = ev.evaluate(ctrls(), suite)
     rows2, trajs2 = ev.evaluate(ctrls(), suite)
     assert len(rows1) == len(rows2)
@@ -263,7 +264,7 @@ def test_residual_env_with_zero_correction_is_the_tuned_pid():
     venv = ResidualVecEnv(make_vec_env(n_envs=2, seed=5, env_kwargs=kw), spec)
     assert venv.observation_space.shape == (12,)
     obs = venv.reset()
-    pid = ev.build_baseline("pid", env)
+    pid = ev.build_controller("pid", env)
     ref_obs = np.stack([ev.make_env(kw).reset(seed=5 + i)[0] for i in range(2)])
     np.testing.assert_array_equal(obs[:, :10], ref_obs)
     for k in range(25):  # past the 20-step episode end: autoreset restarts the PID memory
@@ -291,7 +292,7 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
         def predict(self, obs, state=None, episode_start=None, deterministic=True):
             return -np.ones((np.atleast_2d(obs).shape[0], 2), dtype=np.float32), None
 
-    r_pid, e_pid = validation_scores(ev.build_baseline("pid", env), 2, kw)
+    r_pid, e_pid = validation_scores(ev.build_controller("pid", env), 2, kw)
     r_off, e_off = validation_scores(Off(), 2, kw)
     assert e_off == 0.0 and e_pid > 0.0
     assert np.isfinite(r_pid) and r_pid < r_off

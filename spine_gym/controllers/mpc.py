@@ -49,6 +49,8 @@ __all__ = ["MPPIConfig", "MPPIController", "MODES", "FAILED_COST"]
 
 MODES = ("oracle", "estimated")
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
+# EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
+PLAN_FIELDS = ("v_max", "control_period", "physics_dt", "target_preview", "temperature_limit", "params", "solver")
 
 
 @dataclass(frozen=True)
@@ -74,12 +76,12 @@ class MPPIConfig:
     """
 
     n_samples: int = 48
-    horizon: float = 3.0
-    knot_period: float = 0.5
-    noise_std: float = 0.8
-    temperature: float = 0.1
+    horizon: float = 4.0
+    knot_period: float = 1.0
+    noise_std: float = 1.0
+    temperature: float = 0.02
     w_track: float = 1.0
-    w_energy: float = 0.3
+    w_energy: float = 0.05
     w_temp: float = 10.0
     temp_margin: float = 5.0
     plan_physics_dt: float | None = 0.05
@@ -169,10 +171,12 @@ class MPPIController(BaseController):
 
     # ------------------------------------------------------------------ wiring
     def bind(self, env) -> None:
-        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its config differs."""
+        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its config differs
+        in a field of :data:`PLAN_FIELDS`. ``agents.runtime.run_episode`` binds each episode's env."""
         env = getattr(env, "unwrapped", env)
-        if getattr(env, "config", None) != self.env_config:
-            raise ValueError("env.config differs from the config this controller was built for")
+        cfg = getattr(env, "config", None)
+        if not isinstance(cfg, EnvConfig) or any(getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS):
+            raise ValueError(f"env.config differs from the config this controller was built for in {PLAN_FIELDS}")
         if not hasattr(env, "snapshot"):
             raise ValueError(f"env must have snapshot() (a SmaSpineEnv), got {type(env).__name__}")
         self.env = env
