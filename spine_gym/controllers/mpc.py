@@ -24,7 +24,7 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
     infers the state (phase fractions from the resistances), the parameters are nominal, the loads
     are unknown (none assumed) and the targets over the horizon come from the observed target and
-    its 1-s preview (linear in between, held after). The observed angle minus the estimated one is
+    its 1-s preview (linear in between, then continued at the preview's rate of change). The observed angle minus the estimated one is
     an output disturbance held over the horizon (offset-free MPC).
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
@@ -39,7 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.core import OBS_ANGLE, OBS_PREVIEW, OBS_TARGET, EnvConfig
+from ..envs.core import OBS_PREVIEW, OBS_TARGET, EnvConfig
+from ..envs.task import ANGLE_LIMIT
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
@@ -50,6 +51,7 @@ __all__ = ["MPPIConfig", "MPPIController", "MODES", "FAILED_COST"]
 MODES = ("oracle", "estimated")
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
 # EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
+MAX_EXTRAPOLATED_RATE = 10.0  # [deg/s] faster preview changes are taken as steps (not extrapolated)
 PLAN_FIELDS = ("v_max", "control_period", "physics_dt", "target_preview", "temperature_limit", "params", "solver")
 
 
@@ -189,6 +191,7 @@ class MPPIController(BaseController):
         if self.estimator is not None:
             self.estimator.reset()
         self.last_cost = math.nan
+        self._last_preview = None
 
     # ------------------------------------------------------------------ predict
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
@@ -230,10 +233,28 @@ class MPPIController(BaseController):
         state0 = est.update(obs)
         loads = np.broadcast_to(est.loads, (h, *est.loads.shape))
         resolve = np.zeros(h, dtype=np.bool_)
-        p_steps = max(self.env_config.preview_steps, 1)
-        frac = np.minimum(np.arange(1, h + 1) / p_steps, 1.0)
-        targets = obs[OBS_TARGET] + frac * (obs[OBS_PREVIEW] - obs[OBS_TARGET])
+        targets = self._preview_targets(obs)
         return state0, est.kp, loads, resolve, targets, est.angle_offset, self._side_volume
+
+    def _preview_targets(self, obs) -> np.ndarray:
+        """Targets over the horizon from the observation alone [deg].
+
+        Linear from the current target to the preview (``target_preview`` ahead), then continued
+        with the preview's own rate of change (its difference over the last period) if that is
+        at most :data:`MAX_EXTRAPOLATED_RATE` (a ramp or a sine; a jump of the preview is a step,
+        which is then held), clipped to the env's target bounds.
+        """
+        h = self.horizon_steps
+        p_steps = max(self.env_config.preview_steps, 1)
+        steps = np.arange(1, h + 1)
+        target, preview = obs[OBS_TARGET], obs[OBS_PREVIEW]
+        rate = 0.0 if self._last_preview is None else (preview - self._last_preview) / self.dt
+        self._last_preview = preview
+        if abs(rate) > MAX_EXTRAPOLATED_RATE:
+            rate = 0.0
+        ahead = np.maximum(steps - p_steps, 0) * self.dt
+        out = target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+        return np.clip(out, -ANGLE_LIMIT, ANGLE_LIMIT)
 
     def _improve(self, state0, kp, loads, resolve, targets, offset, side_volume) -> None:
         s = self.settings
