@@ -28,6 +28,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from .common import POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
@@ -52,7 +53,7 @@ def evaluate(
         scenarios: the suite.
         env_kwargs: per-controller env kwargs (e.g. a policy's training env kwargs); the
             scenario's ``episode_duration`` always wins.
-        progress: print one line per controller.
+        progress: a progress bar over the scenarios and one line per controller.
 
     Returns:
         ``(rows, trajectories)``: one metrics dict per (controller, scenario) and the
@@ -64,7 +65,8 @@ def evaluate(
         t0 = time.perf_counter()
         kw = dict((env_kwargs or {}).get(name, {}))
         envs: dict[float, object] = {}
-        for sc in scenarios:
+        bar = tqdm(scenarios, desc=f"  {name}", unit="scenario", leave=False, disable=not progress)
+        for sc in bar:
             if sc.duration not in envs:
                 envs[sc.duration] = make_env({**kw, "episode_duration": sc.duration})
             env = envs[sc.duration]

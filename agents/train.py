@@ -14,7 +14,7 @@ flags override them (``-params key:value``). The training env is the package's n
 
 Each run gets a folder ``<log folder>/<algo>/<env id>_<k>/`` holding ``command.txt`` (the exact
 command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparameters used),
-``meta.json`` (what :func:`agents.common.load_policy` needs), ``checkpoints/`` (model +
+``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model +
 ``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
 ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
 logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its

@@ -117,8 +117,8 @@ def test_hyperparameter_errors_and_store_dict():
 def test_suite_is_fixed_named_and_disjoint_from_training_seeds():
     full = get_suite("full")
     names = [s.name for s in full]
-    assert len(names) == len(set(names)) == 14
-    assert {s.group for s in full} == {"nominal", "disturbed"}
+    assert len(names) == len(set(names)) == 21
+    assert {s.group for s in full} == {"nominal", "disturbed", "hard"}
     assert {s.kind for s in full} == {"step", "ramp", "sine"}
     assert all(s.seed >= EVAL_SEED_BASE for s in full)
     assert TRAIN_SEED_BASE + 10_000 <= EVAL_SEED_BASE  # tuning seeds stay below the evaluation ones
@@ -298,3 +298,47 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
     assert np.isfinite(r_pid) and r_pid < r_off
     with pytest.raises(ValueError, match="n_episodes"):
         validation_scores(Off(), 0, kw)
+
+
+def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
+    from agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
+
+    from spine_gym.envs import default_randomization
+
+    hard = get_suite("full", groups=["hard"])
+    assert len(hard) == 7 and all(s.name.endswith("_hard") for s in hard)
+    ranges = default_randomization()
+    for sc in hard:
+        assert HARD_PAYLOAD_KG[0] <= sc.payload_kg <= HARD_PAYLOAD_KG[1]
+        assert len(sc.tip_pulses) == 3
+        fx = [p[2] for p in sc.tip_pulses]
+        assert all(a * b < 0 for a, b in zip(fx, fx[1:]))  # directions change from push to push
+        for _, _, px, py in sc.tip_pulses:
+            assert HARD_PUSH_N[0] - 1e-3 <= np.hypot(px, py) <= HARD_PUSH_N[1] + 1e-3
+            assert abs(np.degrees(np.arctan2(py, abs(px)))) <= HARD_TILT_DEG + 0.1
+        params = sc.reset_options()["params"]
+        assert set(dict(sc.params)) == set(ranges)
+        for name, (lo, hi) in ranges.items():
+            assert lo <= getattr(params, name) <= hi
+    # the plants differ between scenarios and from the nominal one
+    assert len({s.params for s in hard}) == 7
+
+
+def test_registry_is_the_one_place_controllers_are_chosen():
+    from agents import registry
+    from agents.runtime import build_controller
+
+    from spine_gym.controllers import MPPIController
+
+    env = ev.make_env()
+    assert set(registry.BASELINES) == {"step", "bang_bang", "pid"}
+    assert set(registry.TUNABLE) == {"bang_bang", "pid"}
+    for name in registry.REGISTRY:
+        ctrl = build_controller(name, env)
+        assert isinstance(ctrl, registry.REGISTRY[name].cls)
+        guard = env.temperature_limit - registry.GUARD_MARGIN_K
+        assert ctrl.temperature_limit == (guard if registry.REGISTRY[name].guard else None)
+    assert build_controller("mpc_oracle", env).mode == "oracle"
+    assert isinstance(build_controller("mpc_estimated", env), MPPIController)
+    with pytest.raises(ValueError, match="unknown controller 'lqr'"):
+        build_controller("lqr", env)

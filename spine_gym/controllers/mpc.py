@@ -73,12 +73,14 @@ class MPPIConfig:
         plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
             rollouts then reproduce the env exactly); a whole fraction of the control period.
         iterations: MPPI updates per control step, in [1, 100].
-        parallel: run the rollouts with the ``prange`` kernel (else its serial twin).
+        parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
+            shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
+            a plan took up to 10x longer, see benchmarks/bench_mpc.py).
         seed: seed of the perturbation generator.
     """
 
-    n_samples: int = 48
-    horizon: float = 4.0
+    n_samples: int = 32
+    horizon: float = 3.0
     knot_period: float = 1.0
     noise_std: float = 1.0
     temperature: float = 0.02
@@ -86,9 +88,9 @@ class MPPIConfig:
     w_energy: float = 0.05
     w_temp: float = 10.0
     temp_margin: float = 5.0
-    plan_physics_dt: float | None = 0.05
+    plan_physics_dt: float | None = 0.1
     iterations: int = 1
-    parallel: bool = True
+    parallel: bool = False
     seed: int = 0
 
     def __post_init__(self):
