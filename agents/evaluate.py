@@ -103,6 +103,41 @@ def summarize(rows: list[dict]) -> list[dict]:
     return out
 
 
+def relative_rows(summary: list[dict], reference: str) -> list[dict]:
+    """Per (controller, group): RMSE and energy as ratios to ``reference``'s in the same group, and
+    the time over the temperature limit minus the reference's [s] (a ratio of zeros is undefined)."""
+    ref = {s["group"]: s for s in summary if s["controller"] == reference}
+    if not ref:
+        raise ValueError(f"reference controller {reference!r} is not in the summary")
+    out = []
+    for s in summary:
+        r = ref.get(s["group"])
+        if r is None:
+            continue
+        out.append(
+            {
+                "controller": s["controller"],
+                "group": s["group"],
+                "rmse_ratio": s["rmse_deg"] / r["rmse_deg"],
+                "energy_ratio": s["energy_J"] / r["energy_J"],
+                "over_limit_diff_s": s["time_over_limit_s"] - r["time_over_limit_s"],
+            }
+        )
+    return out
+
+
+def format_relative(rel: list[dict], reference: str) -> str:
+    """Plain-text table of :func:`relative_rows`, one block per group."""
+    lines = []
+    for g in dict.fromkeys(r["group"] for r in rel):
+        lines.append(f"relative to {reference}, group {g}: RMSE ratio, energy ratio, T>limit difference [s]")
+        for r in (r for r in rel if r["group"] == g):
+            lines.append(
+                f"  {r['controller']:<14s} {r['rmse_ratio']:6.2f}  {r['energy_ratio']:6.2f}  {r['over_limit_diff_s']:+6.1f}"
+            )
+    return "\n".join(lines) + "\n"
+
+
 def format_tables(summary: list[dict], use_rich: bool = True) -> str:
     """One table per scenario group (rows: controllers), as text."""
     groups = list(dict.fromkeys(s["group"] for s in summary))
@@ -226,6 +261,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
     p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
+    p.add_argument(
+        "--relative-to",
+        default=None,
+        metavar="NAME",
+        help="also print RMSE/energy ratios and T>limit differences to this controller (e.g. mpc_estimated)",
+    )
     return p
 
 
@@ -269,12 +310,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
     probe.close()
     if not controllers:
         raise SystemExit("nothing to evaluate: no baselines and no models")
+    if args.relative_to and args.relative_to not in controllers:
+        raise SystemExit(f"--relative-to {args.relative_to!r} is not among the controllers {list(controllers)}")
     print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
     summary = summarize(rows)
     print()
     print(format_tables(summary, use_rich=not args.plain))
     out = Path(args.out)
+    if args.relative_to:
+        rel = relative_rows(summary, args.relative_to)
+        print(format_relative(rel, args.relative_to))
+        write_csv(out / "relative.csv", rel)
     write_csv(out / "metrics.csv", rows)
     write_csv(out / "summary.csv", summary)
     if not args.no_trajectories:

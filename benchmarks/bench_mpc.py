@@ -12,13 +12,13 @@ is timed with ``time.perf_counter``. Reported per configuration:
   costs — a ratio that survives a busier machine better than the absolute times);
 * RMSE [deg] and energy [J] over the episodes, and the same for the tuned PID as a reference.
 
-Configurations: the defaults (``MPPIConfig()``) in both modes, the default with the serial kernel
-(numba ``prange`` vs serial on a shared machine), then the estimated mode with N in
+Configurations: the defaults (``MPPIConfig()``) in both modes, the default with the parallel
+``prange`` kernel instead of the serial one (numba threads on a shared machine), then the estimated mode with N in
 ``--samples`` at the default horizon and with the horizon in ``--horizons`` at the default N.
 Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
 
-    .venv/bin/python benchmarks/bench_mpc.py [--duration 30] [--scenarios staircase sine_fast_dist]
-        [--samples 16 32 48 96] [--horizons 2 4 6]
+    .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
+        [--samples 16 32 64] [--horizons 2 3 5]
 
 The machine is shared: the load average at start and end is recorded, and the absolute times are
 upper bounds of what a quiet machine gives.
@@ -110,7 +110,7 @@ def configurations(samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
     out = [
         ("default oracle", "oracle", d),
         ("default estimated", "estimated", d),
-        ("default estimated, serial kernel", "estimated", dataclasses.replace(d, parallel=False)),
+        ("default estimated, parallel kernel", "estimated", dataclasses.replace(d, parallel=not d.parallel)),
     ]
     out += [(f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n)) for n in samples if n != d.n_samples]
     out += [(f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h)) for h in horizons if h != d.horizon]
@@ -127,7 +127,7 @@ def plot(res: dict, path: Path) -> None:
     rows = res["configs"]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for key, label, ax_i in (("n_samples", "rollouts N", 0), ("horizon", "horizon [s]", 1)):
-        sel = [r for r in rows if r["mode"] == "estimated" and r["parallel"]
+        sel = [r for r in rows if r["mode"] == "estimated" and r["parallel"] == d.parallel
                and all(r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon") if k != key)]
         sel.sort(key=lambda r: r["settings"][key])
         x = [r["settings"][key] for r in sel]
@@ -157,10 +157,10 @@ def plot(res: dict, path: Path) -> None:
 
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--duration", type=float, default=30.0, help="episode length [s] (default: %(default)s)")
-    p.add_argument("--scenarios", nargs="+", default=["staircase", "sine_fast_dist"])
-    p.add_argument("--samples", nargs="+", type=int, default=[16, 32, 48, 96])
-    p.add_argument("--horizons", nargs="+", type=float, default=[2.0, 4.0, 6.0])
+    p.add_argument("--duration", type=float, default=15.0, help="episode length [s] (default: %(default)s)")
+    p.add_argument("--scenarios", nargs="+", default=["step_cross", "sine_fast_dist"])
+    p.add_argument("--samples", nargs="+", type=int, default=[16, 32, 64])
+    p.add_argument("--horizons", nargs="+", type=float, default=[2.0, 3.0, 5.0])
     p.add_argument("--out", default=str(OUT))
     args = p.parse_args(argv)
     names = sorted({n.removesuffix("_dist") for n in args.scenarios})

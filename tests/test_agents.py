@@ -342,3 +342,22 @@ def test_registry_is_the_one_place_controllers_are_chosen():
     assert isinstance(build_controller("mpc_estimated", env), MPPIController)
     with pytest.raises(ValueError, match="unknown controller 'lqr'"):
         build_controller("lqr", env)
+
+
+def test_relative_rows_are_ratios_to_the_reference_in_the_same_group():
+    summary = [
+        {"controller": c, "group": g, "rmse_deg": r, "energy_J": e, "time_over_limit_s": t}
+        for c, g, r, e, t in [
+            ("mpc_estimated", "nominal", 2.0, 100.0, 0.0),
+            ("pid", "nominal", 3.0, 150.0, 1.5),
+            ("mpc_estimated", "hard", 4.0, 200.0, 0.5),
+            ("pid", "hard", 2.0, 100.0, 0.0),
+        ]
+    ]
+    rel = {(r["controller"], r["group"]): r for r in ev.relative_rows(summary, "mpc_estimated")}
+    assert rel[("pid", "nominal")]["rmse_ratio"] == pytest.approx(1.5)
+    assert rel[("pid", "hard")]["energy_ratio"] == pytest.approx(0.5)
+    assert rel[("pid", "hard")]["over_limit_diff_s"] == pytest.approx(-0.5)
+    assert rel[("mpc_estimated", "hard")]["rmse_ratio"] == 1.0
+    with pytest.raises(ValueError, match="reference"):
+        ev.relative_rows(summary, "ppo")
