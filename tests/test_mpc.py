@@ -235,3 +235,15 @@ def test_mpc_estimated_needs_no_env_and_oracle_needs_one():
         est.predict(np.stack([obs, obs]))
     with pytest.raises(ValueError, match="config differs"):
         oracle.bind(_env(v_max=4.0))
+
+
+@pytest.mark.parametrize("name", ["mpc_oracle", "mpc_estimated"])
+def test_mpc_runs_behind_predict_in_the_evaluation_path(name):
+    from agents.runtime import build_controller, make_env, run_episode
+
+    probe = make_env()
+    ctrl = build_controller(name, probe)  # built for the default 60-s env ...
+    env = make_env({"episode_duration": 2.0})  # ... and bound to each episode's env by run_episode
+    tr = run_episode(env, ctrl, seed=4)
+    assert len(tr.time) == 20 and ctrl.env is env.unwrapped
+    assert np.all(np.isfinite(tr.angle_deg)) and np.all(np.abs(tr.action) <= 1.0)
