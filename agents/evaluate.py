@@ -133,7 +133,8 @@ def format_relative(rel: list[dict], reference: str) -> str:
         lines.append(f"relative to {reference}, group {g}: RMSE ratio, energy ratio, T>limit difference [s]")
         for r in (r for r in rel if r["group"] == g):
             lines.append(
-                f"  {r['controller']:<14s} {r['rmse_ratio']:6.2f}  {r['energy_ratio']:6.2f}  {r['over_limit_diff_s']:+6.1f}"
+                f"  {r['controller']:<14s} {r['rmse_ratio']:6.2f}  {r['energy_ratio']:6.2f}  "
+                f"{r['over_limit_diff_s']:+6.1f}"
             )
     return "\n".join(lines) + "\n"
 
@@ -243,7 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--mpc",
         action="store_true",
-        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI; ~0.05-0.1 s per step, several minutes per suite)",
+        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI: ~0.1 s per step, ~15 min per mode on the full suite)",
     )
     p.add_argument(
         "--models",
@@ -311,7 +312,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if not controllers:
         raise SystemExit("nothing to evaluate: no baselines and no models")
     if args.relative_to and args.relative_to not in controllers:
-        raise SystemExit(f"--relative-to {args.relative_to!r} is not among the controllers {list(controllers)}")
+        raise SystemExit(f"--relative-to {args.relative_to!r} is not one of {list(controllers)}")
     print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
     summary = summarize(rows)

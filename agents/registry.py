@@ -97,7 +97,9 @@ class ControllerSpec:
 
 
 REGISTRY: dict[str, ControllerSpec] = {
-    "step": ControllerSpec(StepVoltageController, "open-loop steady-state step voltage (the paper)", guard=False),
+    "step": ControllerSpec(
+        StepVoltageController, "open-loop steady-state step voltage (the paper)", guard=False
+    ),
     "bang_bang": ControllerSpec(BangBangController, "three-level relay with hysteresis", _bang_bang_space),
     "pid": ControllerSpec(PIDController, "PID with feedforward, preview and anti-windup", _pid_space),
     "mpc_oracle": ControllerSpec(

@@ -13,8 +13,9 @@ is timed with ``time.perf_counter``. Reported per configuration:
 * RMSE [deg] and energy [J] over the episodes, and the same for the tuned PID as a reference.
 
 Configurations: the defaults (``MPPIConfig()``) in both modes, the default with the parallel
-``prange`` kernel instead of the serial one (numba threads on a shared machine), then the estimated mode with N in
-``--samples`` at the default horizon and with the horizon in ``--horizons`` at the default N.
+``prange`` kernel instead of the serial one (numba threads on a shared machine), then the
+estimated mode with N in ``--samples`` at the default horizon and with the horizon in
+``--horizons`` at the default N.
 Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
 
     .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
@@ -49,7 +50,9 @@ OUT = Path(__file__).resolve().parent / "results"
 
 def machine() -> dict:
     try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+        ).stdout.strip()
     except OSError:
         commit = "unknown"
     return {
@@ -112,8 +115,16 @@ def configurations(samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
         ("default estimated", "estimated", d),
         ("default estimated, parallel kernel", "estimated", dataclasses.replace(d, parallel=not d.parallel)),
     ]
-    out += [(f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n)) for n in samples if n != d.n_samples]
-    out += [(f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h)) for h in horizons if h != d.horizon]
+    out += [
+        (f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n))
+        for n in samples
+        if n != d.n_samples
+    ]
+    out += [
+        (f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h))
+        for h in horizons
+        if h != d.horizon
+    ]
     return out
 
 
@@ -127,8 +138,13 @@ def plot(res: dict, path: Path) -> None:
     rows = res["configs"]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for key, label, ax_i in (("n_samples", "rollouts N", 0), ("horizon", "horizon [s]", 1)):
-        sel = [r for r in rows if r["mode"] == "estimated" and r["parallel"] == d.parallel
-               and all(r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon") if k != key)]
+        sel = [
+            r
+            for r in rows
+            if r["mode"] == "estimated"
+            and r["parallel"] == d.parallel
+            and all(r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon") if k != key)
+        ]
         sel.sort(key=lambda r: r["settings"][key])
         x = [r["settings"][key] for r in sel]
         ax = axes[ax_i]
@@ -164,13 +180,19 @@ def main(argv=None) -> dict:
     p.add_argument("--out", default=str(OUT))
     args = p.parse_args(argv)
     names = sorted({n.removesuffix("_dist") for n in args.scenarios})
-    suite = [s for s in build_suite(args.duration, names, groups=("nominal", "disturbed")) if s.name in args.scenarios]
+    suite = [
+        s
+        for s in build_suite(args.duration, names, groups=("nominal", "disturbed"))
+        if s.name in args.scenarios
+    ]
     env = make_env({"episode_duration": args.duration})
     info = machine()
     warm = MPPIController(env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2))
     env.reset(seed=0)
     warm.predict(env.reset(seed=0)[0])  # compile / load the kernels outside the timing
-    warm = MPPIController(env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2, parallel=False))
+    warm = MPPIController(
+        env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2, parallel=False)
+    )
     warm.predict(env.reset(seed=0)[0])
     cfgs = configurations(args.samples, args.horizons)
     steps = len(suite) * env.unwrapped.config.n_steps
@@ -178,10 +200,18 @@ def main(argv=None) -> dict:
     with tqdm(total=steps * (len(cfgs) + 1), desc="bench_mpc", unit="step") as bar:
         res["pid"] = run(build_controller("pid", env), env, suite, bar)
         for name, mode, settings in cfgs:
-            ctrl = MPPIController(env.config, mode, env=env, settings=settings, temperature_limit=env.temperature_limit - 5.0)
+            ctrl = MPPIController(
+                env.config, mode, env=env, settings=settings, temperature_limit=env.temperature_limit - 5.0
+            )
             r = run(ctrl, env, suite, bar)
             res["configs"].append(
-                {"name": name, "mode": mode, "parallel": settings.parallel, "settings": dataclasses.asdict(settings), **r}
+                {
+                    "name": name,
+                    "mode": mode,
+                    "parallel": settings.parallel,
+                    "settings": dataclasses.asdict(settings),
+                    **r,
+                }
             )
             bar.write(
                 f"{name:<36s} plan {r['plan_ms_median']:6.1f} ms (p95 {r['plan_ms_p95']:6.1f}), RTF "

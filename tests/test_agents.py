@@ -14,8 +14,8 @@ import yaml
 
 from agents import evaluate as ev
 from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
-from agents.runtime import load_policy
 from agents.metrics import Trajectory, episode_metrics, settling_times
+from agents.runtime import load_policy
 from agents.scenarios import EVAL_SEED_BASE, get_suite
 from agents.tune import TRAIN_SEED_BASE, load_tuned, tune
 
@@ -302,7 +302,6 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
 
 def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
     from agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
-
     from spine_gym.envs import default_randomization
 
     hard = get_suite("full", groups=["hard"])
@@ -312,7 +311,7 @@ def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
         assert HARD_PAYLOAD_KG[0] <= sc.payload_kg <= HARD_PAYLOAD_KG[1]
         assert len(sc.tip_pulses) == 3
         fx = [p[2] for p in sc.tip_pulses]
-        assert all(a * b < 0 for a, b in zip(fx, fx[1:]))  # directions change from push to push
+        assert all(a * b < 0 for a, b in zip(fx, fx[1:], strict=False))  # directions change from push to push
         for _, _, px, py in sc.tip_pulses:
             assert HARD_PUSH_N[0] - 1e-3 <= np.hypot(px, py) <= HARD_PUSH_N[1] + 1e-3
             assert abs(np.degrees(np.arctan2(py, abs(px)))) <= HARD_TILT_DEG + 0.1
@@ -327,7 +326,6 @@ def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
 def test_registry_is_the_one_place_controllers_are_chosen():
     from agents import registry
     from agents.runtime import build_controller
-
     from spine_gym.controllers import MPPIController
 
     env = ev.make_env()

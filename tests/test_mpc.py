@@ -5,14 +5,22 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
-from spine_gym.controllers import MPPIConfig, MPPIController, PhaseEstimator, PIDController, austenite_from_resistance
+from agents.runtime import load_tuned
+from spine_gym.controllers import (
+    MPPIConfig,
+    MPPIController,
+    PhaseEstimator,
+    PIDController,
+    austenite_from_resistance,
+)
 from spine_gym.envs.task import LoadSchedule, TargetProfile
 from spine_gym.physics import layout as L
 from spine_gym.physics.rollout import rollout_many, rollout_many_serial
 
-from agents.runtime import load_tuned
-
-NOISY = {"sensor_noise": {"angle": 0.2, "temperature": 0.5, "resistance": 0.002}, "domain_randomization": True}
+NOISY = {
+    "sensor_noise": {"angle": 0.2, "temperature": 0.5, "resistance": 0.002},
+    "domain_randomization": True,
+}
 
 
 def _env(**kw):
@@ -113,8 +121,20 @@ def test_rollout_batch_equals_single_env_rollouts_with_the_same_voltages(kernel)
     status = np.empty(n, dtype=np.int64)
     cfg = env.config
     kernel(
-        snap.state, snap.kp, cfg.solver.to_kernel(), np.ascontiguousarray(volts[:, :, 0]),
-        np.ascontiguousarray(volts[:, :, 1]), lv, resolve, cfg.physics_dt, cfg.n_sub, work, angle, temp, joule, status,
+        snap.state,
+        snap.kp,
+        cfg.solver.to_kernel(),
+        np.ascontiguousarray(volts[:, :, 0]),
+        np.ascontiguousarray(volts[:, :, 1]),
+        lv,
+        resolve,
+        cfg.physics_dt,
+        cfg.n_sub,
+        work,
+        angle,
+        temp,
+        joule,
+        status,
     )
     assert (status == L.OK).all()
     side = snap.arrays["side_volume"]
@@ -205,13 +225,18 @@ def test_mpc_oracle_tracks_better_than_pid(target, loads):
     straight spine is at the wires' physical limit for both)."""
     env = _env(episode_duration=15.0)
     guard = env.temperature_limit - 5.0
-    pid = PIDController(**load_tuned()["pid"], v_max=env.v_max, dt=env.control_period, temperature_limit=guard)
+    pid = PIDController(
+        **load_tuned()["pid"], v_max=env.v_max, dt=env.control_period, temperature_limit=guard
+    )
     mpc = MPPIController(env.config, "oracle", env=env, settings=FAST, temperature_limit=guard)
     e_pid, _ = _episode(env, pid, target, loads)
     e_mpc, _ = _episode(env, mpc, target, loads)
     rmse = lambda e: float(np.sqrt(np.mean(e**2)))  # noqa: E731
     late = slice(50, None)  # t > 5 s: after the first rise, the push acts at 7-10 s
-    print(f"RMSE mpc {rmse(e_mpc):.3f} pid {rmse(e_pid):.3f}; t > 5 s: mpc {rmse(e_mpc[late]):.3f} pid {rmse(e_pid[late]):.3f}")
+    print(
+        f"RMSE mpc {rmse(e_mpc):.3f} pid {rmse(e_pid):.3f}; "
+        f"t > 5 s: mpc {rmse(e_mpc[late]):.3f} pid {rmse(e_pid[late]):.3f}"
+    )
     assert rmse(e_mpc) < rmse(e_pid)
     assert rmse(e_mpc[late]) < 0.7 * rmse(e_pid[late])
 

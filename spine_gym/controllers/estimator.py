@@ -113,7 +113,9 @@ class PhaseEstimator:
         v_l = (np.clip(obs[OBS_PREV_L], -1.0, 1.0) + 1.0) * 0.5 * v_max
         backup = self.state.copy()
         for _ in range(self.config.n_sub):
-            st, _, _ = advance(self.state, self.kp, self.ks, v_r, v_l, self.loads, self.config.physics_dt, False)
+            st, _, _ = advance(
+                self.state, self.kp, self.ks, v_r, v_l, self.loads, self.config.physics_dt, False
+            )
             if st != L.OK:  # keep the last valid estimate; the correction re-anchors it
                 self.state[:] = backup
                 return

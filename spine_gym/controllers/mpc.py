@@ -24,8 +24,9 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
     infers the state (phase fractions from the resistances), the parameters are nominal, the loads
     are unknown (none assumed) and the targets over the horizon come from the observed target and
-    its 1-s preview (linear in between, then continued at the preview's rate of change). The observed angle minus the estimated one is
-    an output disturbance held over the horizon (offset-free MPC).
+    its 1-s preview (linear in between, then continued at the preview's rate of change). The
+    observed angle minus the estimated one is an output disturbance held over the horizon
+    (offset-free MPC).
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
 SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
@@ -52,7 +53,15 @@ MODES = ("oracle", "estimated")
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
 # EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
 MAX_EXTRAPOLATED_RATE = 10.0  # [deg/s] faster preview changes are taken as steps (not extrapolated)
-PLAN_FIELDS = ("v_max", "control_period", "physics_dt", "target_preview", "temperature_limit", "params", "solver")
+PLAN_FIELDS = (
+    "v_max",
+    "control_period",
+    "physics_dt",
+    "target_preview",
+    "temperature_limit",
+    "params",
+    "solver",
+)
 
 
 @dataclass(frozen=True)
@@ -94,9 +103,17 @@ class MPPIConfig:
     seed: int = 0
 
     def __post_init__(self):
-        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int) or not 4 <= self.n_samples <= 100_000:
+        if (
+            isinstance(self.n_samples, bool)
+            or not isinstance(self.n_samples, int)
+            or not 4 <= self.n_samples <= 100_000
+        ):
             raise ValueError(f"n_samples must be an integer in [4, 100000], got {self.n_samples!r}")
-        if isinstance(self.iterations, bool) or not isinstance(self.iterations, int) or not 1 <= self.iterations <= 100:
+        if (
+            isinstance(self.iterations, bool)
+            or not isinstance(self.iterations, int)
+            or not 1 <= self.iterations <= 100
+        ):
             raise ValueError(f"iterations must be an integer in [1, 100], got {self.iterations!r}")
         _check_range("horizon", self.horizon, 0.0, 60.0, lo_open=True)
         _check_range("knot_period", self.knot_period, 0.0, 60.0, lo_open=True)
@@ -131,7 +148,15 @@ class MPPIController(BaseController):
 
     name = "mpc"
 
-    def __init__(self, config: EnvConfig, mode: str = "estimated", *, env=None, settings: MPPIConfig | None = None, **kwargs):
+    def __init__(
+        self,
+        config: EnvConfig,
+        mode: str = "estimated",
+        *,
+        env=None,
+        settings: MPPIConfig | None = None,
+        **kwargs,
+    ):
         if not isinstance(config, EnvConfig):
             raise ValueError(f"config must be an EnvConfig (env.config), got {type(config).__name__}")
         if mode not in MODES:
@@ -179,8 +204,12 @@ class MPPIController(BaseController):
         in a field of :data:`PLAN_FIELDS`. ``agents.runtime.run_episode`` binds each episode's env."""
         env = getattr(env, "unwrapped", env)
         cfg = getattr(env, "config", None)
-        if not isinstance(cfg, EnvConfig) or any(getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS):
-            raise ValueError(f"env.config differs from the config this controller was built for in {PLAN_FIELDS}")
+        if not isinstance(cfg, EnvConfig) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
+            )
         if not hasattr(env, "snapshot"):
             raise ValueError(f"env must have snapshot() (a SmaSpineEnv), got {type(env).__name__}")
         self.env = env
@@ -200,7 +229,9 @@ class MPPIController(BaseController):
         """SB3 ``predict`` for one env (observation ``(10,)`` or ``(1, 10)``); ``state`` is unused."""
         obs, _ = self._check_obs(observation)
         if obs.shape[0] != 1:
-            raise ValueError(f"MPPIController plans for one env: observation batch must have 1 row, got {obs.shape[0]}")
+            raise ValueError(
+                f"MPPIController plans for one env: observation batch must have 1 row, got {obs.shape[0]}"
+            )
         if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
             self.reset()
         action, _ = super().predict(observation, None, None, deterministic)
@@ -220,7 +251,9 @@ class MPPIController(BaseController):
         h = self.horizon_steps
         if self.mode == "oracle":
             if self.env is None:
-                raise ValueError("oracle mode needs the env: MPPIController(config, 'oracle', env=env) or bind(env)")
+                raise ValueError(
+                    "oracle mode needs the env: MPPIController(config, 'oracle', env=env) or bind(env)"
+                )
             snap = self.env.snapshot()
             a = snap.arrays
             k = snap.step_index
@@ -260,7 +293,7 @@ class MPPIController(BaseController):
 
     def _improve(self, state0, kp, loads, resolve, targets, offset, side_volume) -> None:
         s = self.settings
-        n, h = s.n_samples, self.horizon_steps
+        n = s.n_samples
         knots = self.rng.normal(0.0, s.noise_std, size=(n, self._n_knots, 2))
         knots[0] = 0.0  # the current plan itself
         noise = np.einsum("hk,nkc->nhc", self._interp, knots)
@@ -269,9 +302,20 @@ class MPPIController(BaseController):
         volts[2, :, 0], volts[2, :, 1] = self.v_max, 0.0  # full heating of one side ...
         volts[3, :, 0], volts[3, :, 1] = 0.0, self.v_max  # ... or the other
         self._kernel(
-            state0, kp, self._ks, np.ascontiguousarray(volts[:, :, 0]), np.ascontiguousarray(volts[:, :, 1]),
-            np.ascontiguousarray(loads), np.ascontiguousarray(resolve), self.plan_dt, self.plan_sub,
-            self._work, self._angle, self._temp, self._joule, self._status,
+            state0,
+            kp,
+            self._ks,
+            np.ascontiguousarray(volts[:, :, 0]),
+            np.ascontiguousarray(volts[:, :, 1]),
+            np.ascontiguousarray(loads),
+            np.ascontiguousarray(resolve),
+            self.plan_dt,
+            self.plan_sub,
+            self._work,
+            self._angle,
+            self._temp,
+            self._joule,
+            self._status,
         )
         cost = self._cost(state0, targets, offset, side_volume)
         best = cost.min()

@@ -280,7 +280,8 @@ class SmaSpineVectorEnv(VectorEnv):
             raise RuntimeError("call reset() before snapshot()")
         i = self._check_index(i)
         snap = self._core.snapshot(i)
-        return snap.with_rng(self._rngs[i].bit_generator.state, autoreset=bool(self._autoreset[i]), obs=self._obs[i].copy())
+        state = self._rngs[i].bit_generator.state
+        return snap.with_rng(state, autoreset=bool(self._autoreset[i]), obs=self._obs[i].copy())
 
     def restore(self, i: int, snap: SpineSnapshot) -> None:
         """Put a snapshot (of any sub-env or single env of the same configuration) into sub-env ``i``."""

@@ -52,7 +52,9 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
         for h in range(horizon):
             if status[i] == OK:
                 for j in range(n_sub):
-                    code, _, _ = advance(st, kp, ks, v_r[i, h], v_l[i, h], loads[h], dt, resolve[h] and j == 0)
+                    code, _, _ = advance(
+                        st, kp, ks, v_r[i, h], v_l[i, h], loads[h], dt, resolve[h] and j == 0
+                    )
                     if code != OK:
                         status[i] = code
                         break
