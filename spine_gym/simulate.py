@@ -170,7 +170,9 @@ def simulate(
 
     Raises:
         ValueError: an input out of range (the message names it).
-        SimulationError: the model could not advance; never returns NaN.
+        SimulationError: the model could not advance (``status`` a ``layout`` code), e.g. a load
+            past buckling (``ERR_BUCKLING``, see :func:`spine_gym.buckling.critical_load`); never
+            returns NaN.
     """
     params = params or ModelParams()
     solver = solver or SolverOptions()

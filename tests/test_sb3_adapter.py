@@ -54,7 +54,7 @@ def test_adapter_equals_dummy_vec_env_of_single_envs():
 
 
 def test_terminated_episode_is_not_marked_truncated():
-    crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -5.0)),))
+    crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
     env = SmaSpineSB3VecEnv(2, tip_force_range=None, payload_range=None)
     env.set_options([{"loads": crush}, {}])
     env.reset()

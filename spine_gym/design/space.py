@@ -30,6 +30,7 @@ import numpy as np
 
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
 from ..params import ModelParams, SolverOptions, field_names
+from ..physics import layout as L
 from ..simulate import SimulationError
 
 __all__ = [
@@ -359,10 +360,14 @@ def evaluate_design(
 
     Returns:
         dict with every :data:`METRICS` key (floats; ``inf`` where a level is never reached, NaN
-        only when the simulation failed) and ``status`` (``"ok"`` or ``"failed: <reason>"``).
+        only when the simulation failed) and ``status``: ``"ok"``, ``"buckled: <reason>"`` when a
+        load of the protocol (gravity, the tip force) is past the design's buckling load
+        (``layout.ERR_BUCKLING``, see :func:`spine_gym.buckling.critical_load`), or
+        ``"failed: <reason>"`` for any other failure of the simulation.
     """
     try:
         m = capacity_metrics(params, protocol, solver)
     except SimulationError as e:
-        return {k: math.nan for k in METRICS} | {"status": f"failed: {e}"}
+        cause = "buckled" if e.status == L.ERR_BUCKLING else "failed"
+        return {k: math.nan for k in METRICS} | {"status": f"{cause}: {e}"}
     return {k: float(v) for k, v in m.as_dict().items()} | {"status": "ok"}

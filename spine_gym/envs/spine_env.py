@@ -119,10 +119,21 @@ class SmaSpineEnv(gym.Env):
       ``max_episode_steps=episode_duration / control_period`` (the TimeLimit wrapper of ``gym.make``
       truncates at the smaller of the two).
     * **Termination** only when the model fails (``info["status"]`` != 0, a
-      ``spine_gym.physics.layout`` status code, e.g. a load beyond buckling: a downward tip force
-      of ~2 N on a bent spine). The observation is then that of the last valid state (the failed
-      step is rolled back, so nothing is ever NaN). With the default load ranges it did not happen
-      in 2 × 128 randomised 60-s episodes of held full-voltage switching at ``v_max`` = 5 and 8 V.
+      ``spine_gym.physics.layout`` status code, ``info["status_text"]`` its meaning). The
+      observation is then that of the last valid state (the failed step is rolled back, so nothing
+      is ever NaN). With the default load ranges it did not happen in 2 × 128 randomised 60-s
+      episodes of held full-voltage switching at ``v_max`` = 5 and 8 V.
+    * **Buckling** is one such failure: ``layout.ERR_BUCKLING`` ("load beyond buckling"), decided
+      from the stability of the equilibrium, not from the solver's convergence, so a straight
+      spine is never held up by its exact but unstable straight shape. At the default design
+      (:func:`spine_gym.buckling.critical_load`) the straight spine at reset, its wires at their
+      stress-free length, holds a downward tip force below 5.59 N (a payload below 0.570 kg). A tip
+      force up to 1.42 N is safe in every state, in any direction, even with both wires slack
+      (Dunkerley's lower bound for the bare tube, which itself buckles at 1.48 N straight); the
+      payload's weight counts against it. The default loads (<= 0.5 N plus <= 0.05 kg) stay below
+      it; ``tip_force_range`` allows up to 20 N, and larger forces may end the episode this way.
+      A payload the straight spine cannot carry makes ``reset`` raise ``ValueError``.
+      A bent spine has no bifurcation under a vertical load: it bends further.
 
     ## Info
 

@@ -96,17 +96,20 @@ def state_size(n_seg: int) -> int:
 
 # ---------------------------------------------------------------- status codes
 OK = 0
-ERR_SHAPE = 1  # shape iteration did not converge (e.g. beyond buckling)
+ERR_SHAPE = 1  # shape iteration did not converge (and the starting shape is stable: a solver limit)
 ERR_ROOT = 2  # composite solve did not converge
 ERR_NONFINITE = 3  # a non-finite number appeared
 ERR_SUBSTEPS = 4  # more sub-steps than allowed in one output step
 ERR_TEMPERATURE = 5  # wire temperature outside the model's range
+ERR_BUCKLING = 6  # the equilibrium is unstable: a load past buckling (physics.stability)
 
 STATUS_TEXT = {
     OK: "ok",
-    ERR_SHAPE: "shape iteration did not converge (load beyond buckling or iteration cap too small)",
+    ERR_SHAPE: "shape iteration did not converge (iteration cap too small, or the bracketed solvers' "
+    "tube-only shape iteration is past the bare tube's buckling load: use method='newton')",
     ERR_ROOT: "composite constitutive/bending solve did not converge",
     ERR_NONFINITE: "a non-finite value appeared in the model state",
     ERR_SUBSTEPS: "more adaptive sub-steps than allowed in one output step",
     ERR_TEMPERATURE: "a wire temperature left the model's valid range",
+    ERR_BUCKLING: "load beyond buckling: the spine's equilibrium under these loads is unstable",
 }

@@ -23,6 +23,7 @@ import numpy as np
 
 from ._jit import jit
 from .layout import (
+    ERR_BUCKLING,
     ERR_NONFINITE,
     ERR_ROOT,
     ERR_SUBSTEPS,
@@ -30,6 +31,7 @@ from .layout import (
     K_A,
     K_ASV,
     K_AW,
+    K_EI,
     K_EPS0,
     K_EPST,
     K_L0,
@@ -72,10 +74,14 @@ from .layout import (
     X_TR,
 )
 from .sma import compliance, latent_heats, phase_step, rates, resistivity, stress
-from .tube import shape_pass, solve_shape, wire_lengths
+from .stability import solve_in_place, unstable_modes
+from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, wire_lengths
 
 X_ACTIVE = 1e-6  # a phase with fraction above this takes part in the step-size rule (§6.1 b)
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
+BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
+NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
+SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 
 
 @jit
@@ -114,6 +120,71 @@ def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
         sum_k += a * (1.0 - x * x / 8.0) * s[i]
     pref = kp[K_NW] * kp[K_AW] * a / kp[K_LREF]
     return pref * (er_stiff * (sum_c - sum_k) - el_stiff * (sum_c + sum_k))
+
+
+@jit
+def _tangent_moduli(er, el, xpr, xmr, xpl, xml, kp):
+    """Tangent moduli dσ/dε [Pa] of the right and left wire for the stability check (§3.6).
+
+    A taut wire (ε above its stress-free strain ε_T (x₊ − x₋)) has 1/compliance, a slack one 0.
+    A wire exactly at its stress-free strain (within ``SLACK_TOL``, e.g. the initial straight
+    spine of §3.10) resists bending only in the direction that stretches it. If the other wire is
+    taut or slack, the weaker direction is the one in which it does not count; if both sit at the
+    threshold, each direction is resisted by one of them and the weaker is the softer wire.
+    """
+    ex_r = er - kp[K_EPST] * (xpr - xmr)
+    ex_l = el - kp[K_EPST] * (xpl - xml)
+    kr = 1.0 / compliance(xpr, xmr, kp) if ex_r > SLACK_TOL else 0.0
+    kl = 1.0 / compliance(xpl, xml, kp) if ex_l > SLACK_TOL else 0.0
+    if abs(ex_r) <= SLACK_TOL and abs(ex_l) <= SLACK_TOL:
+        kr_t = 1.0 / compliance(xpr, xmr, kp)
+        kl_t = 1.0 / compliance(xpl, xml, kp)
+        if kr_t <= kl_t:
+            kr = kr_t
+        else:
+            kl = kl_t
+    return kr, kl
+
+
+@jit
+def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
+    """Jacobian of the coupled shape map Δθ ↦ f(Δθ, G(Δθ)) (MODEL.md §4.9 with §5), into ``jac``.
+
+    The tube part (wire moment fixed) is :func:`tube.shape_jacobian`. The wire moment G = n_w A_w a
+    (σ_R − σ_L) follows the shape through the wire lengths (§4.8): ∂ε_R/∂Δθ_n = (c'_n − a cos(Δθ_n/2))
+    / L_ref, ∂ε_L/∂Δθ_n = (c'_n + a cos(Δθ_n/2)) / L_ref, and enters every segment angle with
+    ∂f_i/∂M_w = ls/(E I). A rank-one term: the wires stiffen the modes that turn the top disk.
+    """
+    shape_jacobian(dth, vforce, kp, jac)
+    lr, ll = wire_lengths(dth, kp)
+    lref = kp[K_LREF]
+    kr, kl = _tangent_moduli(lr / lref - 1.0, ll / lref - 1.0, xpr, xmr, xpl, xml, kp)
+    if kr == 0.0 and kl == 0.0:
+        return jac
+    a = kp[K_A]
+    ls = kp[K_LS]
+    pref = kp[K_NW] * kp[K_AW] * a / lref * ls / kp[K_EI]
+    n = dth.shape[0]
+    for j in range(n):
+        cs = chord_slope(dth[j], ls)
+        lever = a * math.cos(0.5 * dth[j])
+        col = pref * (kr * (cs - lever) - kl * (cs + lever))
+        for i in range(n):
+            jac[i, j] += col
+    return jac
+
+
+@jit
+def is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+    """True if the equilibrium ``dth`` under ``vforce`` is unstable (a load past buckling).
+
+    See :mod:`.stability` for the criterion; O(N³), so callers screen with
+    :func:`needs_stability_check` first.
+    """
+    n = dth.shape[0]
+    jac = np.empty((n, n))
+    equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac)
+    return unstable_modes(jac, np.empty((n, n))) > 0
 
 
 @jit
@@ -239,10 +310,107 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
 
 
 @jit
-def composite(state, vforce, kp, ks, work, saved):
+def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
+    """Newton on the whole shape: solve R(Δθ) = Δθ − f(Δθ, G(Δθ)) = 0 with the exact tangent I − J.
+
+    The fallback of the coupled Newton near buckling, where the fixed-point shape iteration
+    contracts only by ≈ (load / critical load) per pass and runs out of iterations. J is
+    :func:`equilibrium_jacobian`; each iteration costs O(N³).
+
+    Returns:
+        (status, M, iterations, ε_R, ε_L, σ_R, σ_L) with ``dth`` the converged shape.
+    """
+    tol_th = ks[S_TOLTH]
+    n = dth.shape[0]
+    jac = np.empty((n, n))
+    lu = np.empty((n, n))
+    trial = np.empty(n)
+    f_trial = np.empty(n)
+    for it in range(int(ks[S_MAXROOT])):
+        er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
+        e = shape_pass(dth, gm, vforce, kp, work)
+        if not math.isfinite(e):
+            return ERR_NONFINITE, gm, it, er, el, sr, sl
+        if e < tol_th:
+            return OK, gm, it + 1, er, el, sr, sl
+        equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac)
+        for i in range(n):
+            for j in range(n):
+                lu[i, j] = (1.0 if i == j else 0.0) - jac[i, j]
+            work[i] -= dth[i]  # −R
+        if not solve_in_place(lu, work):
+            return ERR_ROOT, gm, it + 1, er, el, sr, sl
+        # backtracking: halve the step until the residual falls. A full step can jump across a
+        # slack kink of the wires (σ = max(σ, 0)) and cycle between the two sides forever.
+        lam = 1.0
+        for _ in range(NEWTON_HALVINGS):
+            for i in range(n):
+                trial[i] = dth[i] + lam * work[i]
+            gt = wire_mechanics(trial, xpr, xmr, xpl, xml, kp)[4]
+            et = shape_pass(trial, gt, vforce, kp, f_trial)
+            if et < e:
+                break
+            lam *= 0.5
+        for i in range(n):
+            dth[i] = trial[i]
+    return ERR_ROOT, 0.0, int(ks[S_MAXROOT]), 0.0, 0.0, 0.0, 0.0
+
+
+@jit
+def _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
+    """After the coupled Newton failed: Newton on the whole shape (needed near buckling), then the
+    bracketed Illinois solve as the last safeguard, each from the starting shape ``saved``.
+
+    Returns:
+        (status, M, passes, ε_R, ε_L, σ_R, σ_L).
+    """
+    n = dth.shape[0]
+    for i in range(n):
+        dth[i] = saved[i]
+    st, m, passes, er, el, sr, sl = composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+    if st == OK:
+        return st, m, passes, er, el, sr, sl
+    for i in range(n):
+        dth[i] = saved[i]
+    st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
+    er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
+    return st, m, passes + p2, er, el, sr, sl
+
+
+@jit
+def _buckling_status(state, st, vforce, kp, check, saved):
+    """Status of a solve after the stability test (see :func:`composite`); restores Δθ on failure."""
+    n = saved.shape[0]
+    dth = state[X_HEAD : X_HEAD + n]
+    xpr = state[X_PR]
+    xmr = state[X_MR]
+    xpl = state[X_PL]
+    xml = state[X_ML]
+    if st == OK and not is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+        return OK
+    for i in range(n):
+        dth[i] = saved[i]
+    if st == OK or (not check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
+        return ERR_BUCKLING
+    return st
+
+
+@jit
+def composite(state, vforce, kp, ks, work, saved, check):
     """Solve the composite module for the state's fractions and the loads ``vforce``, in place.
 
-    Updates Δθ, M, ε_w, σ_w in ``state``. Returns (status, shape passes used).
+    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. Default solver:
+    the coupled Newton, then :func:`_fallbacks`. With ``check`` (loads that might buckle the
+    spine, see :func:`needs_stability_check`) both the starting shape (the last equilibrium, under
+    the new loads and fractions) and the converged one are tested for stability, and ERR_BUCKLING
+    is returned, state untouched, if either is unstable: the load path has passed a stability
+    limit, even if the solver would find a distant post-buckled equilibrium (a snap the
+    quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING if its
+    starting shape is unstable, else with the solver's own status; Δθ is left at the starting
+    shape.
+
+    Returns:
+        (status, shape passes used).
     """
     n = work.shape[0]
     dth = state[X_HEAD : X_HEAD + n]
@@ -253,30 +421,41 @@ def composite(state, vforce, kp, ks, work, saved):
     xml = state[X_ML]
     m0 = state[X_MW]
     method = int(ks[S_METHOD])
-    passes = 0
+    for i in range(n):
+        saved[i] = dth[i]
+    if check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+        return ERR_BUCKLING, 0
     if method == METHOD_NEWTON:
-        for i in range(n):
-            saved[i] = dth[i]
         st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
-        if st != OK:  # safeguard: the bracketed solve from the untouched starting point
-            for i in range(n):
-                dth[i] = saved[i]
-            st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
+        if st != OK:
+            st, m, p2, er, el, sr, sl = _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved)
             passes += p2
-            er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     else:
         st, m, passes = composite_bracketed(
             dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
         )
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
-    if st != OK:
-        return st, passes
+    if st != OK or check:
+        st = _buckling_status(state, st, vforce, kp, check, saved)
+        if st != OK:
+            return st, passes
     state[X_MW] = m
     state[X_ER] = er
     state[X_EL] = el
     state[X_SR] = sr
     state[X_SL] = sl
     return OK, passes
+
+
+@jit
+def needs_stability_check(vforce, kp):
+    """False when the loads cannot buckle the spine in any shape (Dunkerley screen, §4.9).
+
+    The screen :func:`tube.load_ratio` is a lower bound for the bare tube (the wires only add
+    stiffness); below ``BUCKLING_SCREEN`` the O(N³) stability test of :func:`composite` is skipped,
+    so the unloaded and lightly loaded spine (the §10 runs, the env's default loads) pay nothing.
+    """
+    return load_ratio(vforce, kp) > BUCKLING_SCREEN
 
 
 @jit
@@ -305,6 +484,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         resolve: solve the mechanics first (needed when the loads changed since the last call;
             callers that know the loads are unchanged pass False to save a solve).
 
+    Under loads that might buckle the spine (:func:`needs_stability_check`) the re-solve is
+    checked for stability and so is the shape the step ends on; a sub-step whose solve fails is
+    classified by :func:`composite`. An unstable equilibrium ends the step with ERR_BUCKLING.
+
     Returns:
         (status, sub-steps, shape passes).
     """
@@ -316,8 +499,9 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     s = state[X_HEAD + n : X_HEAD + 2 * n]
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
     passes = 0
+    check = needs_stability_check(vforce, kp)
     if resolve:
-        st, passes = composite(state, vforce, kp, ks, work, saved)
+        st, passes = composite(state, vforce, kp, ks, work, saved, check)
         if st != OK:
             return st, 0, passes
     c_crit = ks[S_C]
@@ -333,6 +517,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     jl_num = v_l * v_l / l0sq
     rem = dt
     nsub = 0
+    solved = False
     while rem > 0.0:
         xpr = state[X_PR]
         xmr = state[X_MR]
@@ -388,11 +573,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
             state[X_PL] = xpl2
             state[X_ML] = xml2
             m_old = state[X_MW]
-            if newton:
-                for i in range(n):
-                    saved[i] = dth[i]
-            st, p = composite(state, vforce, kp, ks, work, saved)
+            # unchecked: a failure is still classified; the end of the step is checked below
+            st, p = composite(state, vforce, kp, ks, work, saved, False)  # saved ← starting shape
             passes += p
+            solved = True
             if st != OK:
                 return st, nsub, passes
             if newton:  # refresh the secant sensitivity s = dΔθ/dM (same loads, converged shapes)
@@ -404,6 +588,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
+    # sub-step would triple the cost of a heavily loaded run)
+    if check and solved and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp):
+        return ERR_BUCKLING, nsub, passes
     state[X_TIME] += dt
     return OK, nsub, passes
 
@@ -414,7 +602,8 @@ def init_state(state, kp, ks, vforce):
 
     T = T_E, x_A = 0, x₊ = ½(1 + ε0/ε_T) (zero stress at the pre-strain), straight spine. The Newton
     sensitivity s = dΔθ/dM starts as a finite difference of two shape solves, then the mechanics
-    are solved for the given loads (gravity alone keeps a symmetric spine straight).
+    are solved for the given loads (gravity alone keeps a symmetric spine straight, but if it is
+    past buckling that is reported: ERR_BUCKLING).
 
     Returns:
         status of the mechanical solve.
@@ -438,11 +627,11 @@ def init_state(state, kp, ks, vforce):
     tol_th = ks[S_TOLTH]
     max_shape = int(ks[S_MAXSHAPE])
     st, it = solve_shape(probe, dm, zero, kp, tol_th, max_shape)
-    if st != OK:
-        return st
     for i in range(n):
-        s[i] = probe[i] / dm
+        # a tube that buckles under its own weight at a fixed moment has no such response: start
+        # from the weightless one, ls/(E I) (the secant refresh corrects it on the first steps)
+        s[i] = probe[i] / dm if st == OK else kp[K_LS] / kp[K_EI]
     work = np.empty(n)
     saved = np.empty(n)
-    st, p = composite(state, vforce, kp, ks, work, saved)
+    st, p = composite(state, vforce, kp, ks, work, saved, needs_stability_check(vforce, kp))
     return st

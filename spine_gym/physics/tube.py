@@ -15,6 +15,7 @@ import numpy as np
 
 from ._jit import jit
 from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
+from .stability import dunkerley_weight
 
 
 @jit
@@ -148,3 +149,83 @@ def tip_position(dth, kp):
         x += c * math.sin(phi)
         y += c * math.cos(phi)
     return x, y
+
+
+@jit
+def chord_slope(dth, ls):
+    """dc/dΔθ of the chord of §4.3 [m/rad] (series −ls(Δθ/12 − Δθ³/480) near 0, no cancellation)."""
+    if abs(dth) < 1e-2:
+        return -ls * dth * (1.0 / 12.0 - dth * dth / 480.0)
+    h = 0.5 * dth
+    return ls * (math.cos(h) / dth - 2.0 * math.sin(h) / (dth * dth))
+
+
+@jit
+def shape_jacobian(dth, vforce, kp, jac):
+    """Jacobian ∂out/∂Δθ of :func:`shape_pass` at a fixed wire moment, written into ``jac`` (N, N).
+
+    With h_i = r_y F_x − r_x (F_y − W/2) the moment increment of segment i (§4.6), φ_i = Σ_{k>i} Δθ_k
+    + ½Δθ_i and r = c (sin φ, cos φ):
+
+        ∂h_i/∂Δθ_j = δ_ij c'_i (cos φ_i F_x − sin φ_i G_i) − D_ij c_i (sin φ_i F_x + cos φ_i G_i),
+
+    G_i = F_y − W/2, D_ij = ∂φ_i/∂Δθ_j (1 for j > i, ½ for j = i, 0 below). The second factor is
+    c_i times the axial compression of the segment: the geometric stiffness of the loads. Then
+    M_i = M_w + Σ_{k<=i} h_k and out_i = ls/(2EI) (M_{i−1} + M_i) (§4.7). The wire moment M_w is
+    held fixed; its own dependence on the shape is added by the caller. Cost O(N²).
+    """
+    n = dth.shape[0]
+    ls = kp[K_LS]
+    w_seg = kp[K_MSEG] * kp[K_G]
+    k_ang = 0.5 * ls / kp[K_EI]
+    below = 0.0
+    for i in range(n):
+        below += dth[i]
+    for j in range(n):  # row −1 of ∂M/∂Δθ (M_w fixed) is zero; the row of ∂M_i lives in jac[i]
+        jac[0, j] = 0.0
+    fx = 0.0
+    fy = -kp[K_MTOP] * kp[K_G]
+    for i in range(n):
+        below -= dth[i]
+        phi = below + 0.5 * dth[i]
+        sp = math.sin(phi)
+        cp = math.cos(phi)
+        fx += vforce[i, 0]
+        fy += vforce[i, 1]
+        gi = fy - 0.5 * w_seg
+        a_i = chord_slope(dth[i], ls) * (cp * fx - sp * gi)
+        b_i = -chord(dth[i], ls) * (sp * fx + cp * gi)
+        # jac[i] still holds ∂M_{i−1}/∂Δθ (copied from the row above); turn it into ∂M_i
+        for j in range(n):
+            prev = jac[i, j]
+            d = b_i if j > i else (0.5 * b_i if j == i else 0.0)
+            if j == i:
+                d += a_i
+            cur = prev + d
+            if i + 1 < n:
+                jac[i + 1, j] = cur
+            jac[i, j] = k_ang * (prev + cur)
+        fy -= w_seg
+    return jac
+
+
+@jit
+def load_ratio(vforce, kp):
+    """Dunkerley screen of the loads on the tube without wires (see :func:`.stability.dunkerley_weight`).
+
+    Σ over the load points (tip with the top disk, every vertex force, every segment weight at its
+    centre) of |F| h² · 4/(π² E I), h the arc length from the clamp. Below 1 the tube cannot
+    buckle, whatever its shape (the wires only add stiffness). One division: it runs every step.
+    """
+    n = vforce.shape[0]
+    ls = kp[K_LS]
+    g = kp[K_G]
+    # segment weights at the centres, h = (j − ½) ls: Σ_{j=1..N} (j − ½)² = N (4N² − 1) / 12
+    s = kp[K_MSEG] * g * ls * ls * n * (4.0 * n * n - 1.0) / 12.0
+    for k in range(n):
+        fx = vforce[k, 0]
+        fy = vforce[k, 1] - (kp[K_MTOP] * g if k == 0 else 0.0)
+        if fx != 0.0 or fy != 0.0:
+            h = (n - k) * ls
+            s += math.sqrt(fx * fx + fy * fy) * h * h
+    return s * dunkerley_weight(kp[K_EI])

@@ -1,0 +1,123 @@
+"""Stability of a quasi-static equilibrium of a segmented line (MODEL.md §4.9), generic kernels.
+
+The shape of the spine is the fixed point Δθ = f(Δθ) of the shape map of §4.9 (with the wire
+moment following the shape through the constitutive law, §5). A fixed point can be an exact but
+*unstable* equilibrium: the straight spine under a downward tip force past buckling is one, and a
+solver started on it returns it unchanged because nothing breaks the symmetry. Convergence alone
+therefore says nothing about stability; these kernels decide it from the linearisation.
+
+With J = ∂f/∂Δθ at the equilibrium, the tangent matrix A = I − J is, for the segmented line,
+A = C·H with C = diag(ls/(E I)) > 0 (the flexibility that turns moments into angles, §4.7) and H
+the tangent stiffness (bending stiffness minus the geometric stiffness of the loads plus the wire
+stiffness). Because C is diagonal and positive, the leading principal minors of A and H have the
+same signs, so the number of negative pivots of an unpivoted LU factorisation of A is the number
+of negative eigenvalues of H (Sylvester's law of inertia): 0 means stable, >= 1 means the load is
+past buckling. The check needs only J, so any segmented model (planar or spatial, with any
+number of angles per segment) can use it.
+
+:func:`dunkerley_weight` feeds a cheap, conservative screen: Dunkerley's lower bound on the
+buckling load of a clamped column under point loads, used to skip the check where buckling is
+impossible.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import jit
+
+PIVOT_TOL = 1e-12  # |pivot| below this counts as singular (I − J has a unit diagonal scale)
+
+
+@jit
+def unstable_modes(jac, work):
+    """Number of unstable modes of the equilibrium whose fixed-point map has Jacobian ``jac``.
+
+    Args:
+        jac: (n, n) Jacobian ∂f/∂Δθ of the shape map at the equilibrium (any angle layout).
+        work: (n, n) scratch, overwritten with the LU factors of I − J.
+
+    Returns:
+        The count of pivots of I − J that are <= 0 (a singular pivot counts: the critical load
+        itself is not stable). 0 means the equilibrium is stable.
+    """
+    n = jac.shape[0]
+    for i in range(n):
+        for j in range(n):
+            work[i, j] = (1.0 if i == j else 0.0) - jac[i, j]
+    count = 0
+    for k in range(n):
+        p = work[k, k]
+        if p <= PIVOT_TOL:
+            count += 1
+            if abs(p) <= PIVOT_TOL:  # go on with a tiny pivot of the same sign (inertia count)
+                p = -PIVOT_TOL if p < 0.0 else PIVOT_TOL
+                work[k, k] = p
+        for i in range(k + 1, n):
+            f = work[i, k] / p
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    work[i, j] -= f * work[k, j]
+    return count
+
+
+@jit
+def dunkerley_weight(ei):
+    """4 / (π² E I) [1/(N m²)]: a point load F at arc length h above the clamp of a clamped-free
+    column of bending stiffness E I adds F h² · this to Dunkerley's sum (MODEL.md §4.9).
+
+    F h² · 4/(π² E I) = F / P_cr(h), with P_cr(h) = π² E I / (4 h²) the Euler load of the column
+    below the load (the part above carries no axial force). Over all loads of a column without
+    wires the sum is a lower bound on the combined critical load factor: the column cannot buckle
+    while it is below 1 (only the axial component of a force destabilises, and it is at most the
+    magnitude). Self-weight spread as point loads at the segment centres gives q L³/(E I) = 3π²/4
+    ≈ 7.40 against the exact 7.84 of §4.9.
+    """
+    return 4.0 / (math.pi * math.pi * ei)
+
+
+@jit
+def euler_critical_load(height, ei):
+    """Euler load π² E I / (4 h²) [N] of a clamped-free column of length ``height`` [m] (§4.9)."""
+    return 1.0 / (height * height * dunkerley_weight(ei))
+
+
+@jit
+def solve_in_place(a, b):
+    """Solve a x = b by Gaussian elimination with partial pivoting; ``a`` is destroyed, x → ``b``.
+
+    Small dense systems (one row per segment angle) inside jitted code, without LAPACK.
+
+    Returns:
+        False if ``a`` is singular to working precision (``b`` then undefined), else True.
+    """
+    n = a.shape[0]
+    for k in range(n):
+        piv = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                piv = i
+        if big == 0.0 or not math.isfinite(big):
+            return False
+        if piv != k:
+            for j in range(n):
+                t = a[k, j]
+                a[k, j] = a[piv, j]
+                a[piv, j] = t
+            t = b[k]
+            b[k] = b[piv]
+            b[piv] = t
+        for i in range(k + 1, n):
+            f = a[i, k] / a[k, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+                b[i] -= f * b[k]
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for j in range(k + 1, n):
+            acc -= a[k, j] * b[j]
+        b[k] = acc / a[k, k]
+    return True
