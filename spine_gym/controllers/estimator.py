@@ -41,7 +41,7 @@ from ..envs.core import (
     EnvConfig,
 )
 from ..physics import layout as L
-from ..physics.solver import advance, composite, init_state
+from ..physics.solver import advance, composite, init_state, needs_stability_check
 
 __all__ = ["PhaseEstimator", "austenite_from_resistance"]
 
@@ -131,6 +131,7 @@ class PhaseEstimator:
             share = s[ip] / mart if mart > 1e-12 else 1.0
             s[ip] = (1.0 - x_a) * share
             s[im] = (1.0 - x_a) * (1.0 - share)
-        st, _ = composite(s, self.loads, self.kp, self.ks, self._work, self._saved)
+        check = needs_stability_check(self.loads, self.kp)
+        st, _ = composite(s, self.loads, self.kp, self.ks, self._work, self._saved, check)
         if st != L.OK:
             s[:] = backup
