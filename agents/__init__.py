@@ -4,6 +4,7 @@
 * :mod:`agents.evaluate` — the fixed scenario suite for baselines and saved models
   (``python -m agents.evaluate``).
 * :mod:`agents.scenarios` — the named, seeded scenarios of that suite.
+* :mod:`agents.video` — MP4 videos of evaluation episodes (``python -m agents.evaluate --video``).
 * :mod:`agents.tune` — reproducible tuning of the PID and bang-bang baselines on training scenarios.
 * :mod:`agents.common` — loading saved policies, env construction and hyperparameter files.
 

@@ -14,7 +14,9 @@ and time over the temperature limit [s], and writes to ``--out``:
   (controller, group);
 * ``trajectories/<controller>/<scenario>.csv`` — the step-by-step record;
 * ``plots/<controller>_<group>.png`` — angle and target, voltages and temperatures vs time for
-  each scenario of the group.
+  each scenario of the group;
+* with ``--video``: ``videos/<controller>/<scenario>.mp4`` — the episode as the env renders it
+  (:mod:`agents.video`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY
 from .runtime import build_controller, env_temperature_limit, load_policy, make_env, run_episode
 from .scenarios import SUITES, Scenario, get_suite
+from .video import require_ffmpeg, write_videos
 
 MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
@@ -268,6 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME",
         help="also print RMSE/energy ratios and T>limit differences to this controller (e.g. mpc_estimated)",
     )
+    p.add_argument("--video", action="store_true", help="also write videos/<controller>/<scenario>.mp4")
+    p.add_argument("--video-speed", type=float, default=1.0, help="video playback speed (default: real time)")
     return p
 
 
@@ -285,6 +290,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     unknown = set(baselines) - set(REGISTRY)
     if unknown:
         raise SystemExit(f"unknown controller(s) {sorted(unknown)}; choose from {list(REGISTRY)}")
+    if args.video:
+        require_ffmpeg()  # before the evaluation, not after it
     if args.models is None:
         models = shipped_policies()
     else:
@@ -333,6 +340,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             for g in groups:
                 scs = [s for s in scenarios if s.group == g]
                 plot_controller(out / "plots" / f"{ctrl}_{g}.png", ctrl, g, scs, trajs, limit)
+    if args.video:
+        videos = write_videos(
+            controllers, scenarios, out / "videos", env_kwargs,
+            make_env=make_env, run_episode=run_episode, speed=args.video_speed,
+        )  # fmt: skip
+        print(f"wrote {len(videos)} videos to {out / 'videos'}")
     wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")
     print(f"wrote {wrote} to {out} in {time.perf_counter() - t_start:.1f} s total")
     return summary

@@ -9,14 +9,18 @@ mutation. The kernels take flat float64 arrays built by ``to_kernel()`` (layout 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+import yaml
 
 from .physics import layout as L
 
 K_BOLTZMANN = 1.380649e-23  # [J/K]
+PRESET_FORMAT = "spine_gym.ModelParams/1"  # tag of a preset file written by ModelParams.to_file
 
 _INF = math.inf
 
@@ -229,6 +233,84 @@ class ModelParams:
         if unknown:
             raise ValueError(f"unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}")
         return dataclasses.replace(self, **changes)
+
+    def to_file(self, path: str | Path, provenance: dict | None = None) -> Path:
+        """Write the parameters as a preset file, JSON or YAML by the suffix of ``path``.
+
+        The file holds ``format`` (:data:`PRESET_FORMAT`), ``params`` (every field, SI units) and
+        ``provenance`` (free-form, e.g. the fit that produced the values; numpy values become
+        plain numbers and lists). Read it back with :meth:`from_file` / :func:`load_preset`.
+        """
+        path = Path(path)
+        kind = _preset_kind(path)
+        doc = {
+            "format": PRESET_FORMAT,
+            "params": dataclasses.asdict(self),
+            "provenance": _plain(provenance or {}),
+        }
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if kind == "json":
+            path.write_text(json.dumps(doc, indent=2) + "\n")
+        else:
+            path.write_text(yaml.safe_dump(doc, sort_keys=False))
+        return path
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> ModelParams:
+        """Read a preset written by :meth:`to_file` (fields it omits keep their defaults)."""
+        return load_preset(path)[0]
+
+
+def _preset_kind(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        return "json"
+    if suffix in (".yaml", ".yml"):
+        return "yaml"
+    raise ValueError(f"preset file must end in .json, .yaml or .yml, got {str(path)!r}")
+
+
+def _plain(value):
+    """``value`` with numpy scalars/arrays and tuples turned into plain Python numbers and lists."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def load_preset(path: str | Path) -> tuple[ModelParams, dict]:
+    """(parameters, provenance) of a preset file; a malformed file raises ValueError naming it."""
+    path = Path(path)
+    kind = _preset_kind(path)
+    text = path.read_text()
+    try:
+        doc = json.loads(text) if kind == "json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as e:
+        raise ValueError(f"{path}: not a valid {kind.upper()} file: {e}") from None
+    is_preset = isinstance(doc, dict) and doc.get("format") == PRESET_FORMAT
+    if not is_preset or not isinstance(doc.get("params"), dict):
+        raise ValueError(
+            f"{path}: not a spine_gym preset (expected a mapping with format = {PRESET_FORMAT!r} and a "
+            "'params' mapping)"
+        )
+    unknown = set(doc["params"]) - set(field_names())
+    if unknown:
+        raise ValueError(
+            f"{path}: unknown ModelParams field(s) {sorted(unknown)}; valid fields: {field_names()}"
+        )
+    try:
+        params = ModelParams(**doc["params"])
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
+    provenance = doc.get("provenance") or {}
+    if not isinstance(provenance, dict):
+        raise ValueError(f"{path}: 'provenance' must be a mapping, got {type(provenance).__name__}")
+    return params, provenance
 
 
 def field_names() -> list[str]:

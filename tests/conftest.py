@@ -5,7 +5,7 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-try:  # torch is a dependency, but keep physics tests usable without it
+try:  # torch comes with the [rl] extra; the physics and env tests run without it
     import torch
 
     torch.set_num_threads(1)

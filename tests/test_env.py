@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import spine_gym
 from spine_gym import ModelParams, simulate
 from spine_gym.envs import OBS_NAMES, SmaSpineEnv, default_randomization
+from spine_gym.envs.render import SpineRenderer
 from spine_gym.envs.task import LoadSchedule, TargetProfile, TipForceEvent
 from spine_gym.physics import layout as L
 
@@ -383,6 +384,26 @@ def test_render_rgb_array():
     env.close()
     with pytest.warns(UserWarning, match="render_mode"):
         assert SmaSpineEnv().render() is None
+
+
+def test_render_frame_depends_only_on_the_state():
+    """The renderer draws the moving parts over a saved background: a frame after many others
+    equals a fresh renderer's frame of the same state, also after the ambient (the colour scale)
+    changes with a new randomised episode."""
+    env = SmaSpineEnv(render_mode="rgb_array", domain_randomization=True, tip_force_count=(2, 2))
+    env.reset(seed=3)
+    first = env.render()
+    for _ in range(60):
+        env.step(np.array([0.6, -1.0]))
+        env.render()
+    frame = env.render()
+    assert not np.array_equal(frame, first)
+    assert np.array_equal(frame, SpineRenderer(env.temperature_limit).draw(env._core.state_summary(0)))
+    ambient = env.model_params.T_E
+    env.reset(seed=4)
+    assert env.model_params.T_E != ambient  # another colour scale
+    assert np.array_equal(env.render(), SpineRenderer(env.temperature_limit).draw(env._core.state_summary(0)))
+    env.close()
 
 
 # ----------------------------------------------------------------------------- task objects

@@ -1,9 +1,11 @@
-"""Layering (STYLE.md): the physics kernels are numpy + numba only."""
+"""Layering (STYLE.md): the physics kernels are numpy + numba only; the envs need no RL stack."""
 
 import ast
 import pathlib
+import re
 import subprocess
 import sys
+import tomllib
 
 PHYSICS = pathlib.Path(__file__).resolve().parents[1] / "spine_gym" / "physics"
 ALLOWED = {"numpy", "numba", "math", "__future__", "functools"}
@@ -34,6 +36,9 @@ def test_simulate_pulls_in_no_torch_sb3_or_matplotlib():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard")
 
 
 AGENTS = pathlib.Path(__file__).resolve().parents[1] / "agents"
@@ -68,11 +73,35 @@ def test_agents_modules_import_each_other_only_at_module_level_and_runtime_impor
                 assert not mods & CLIS, f"{f.name} imports the CLI module(s) {mods & CLIS}"
 
 
-def test_controllers_and_mpc_pull_in_no_torch():
+def test_the_agents_registry_pulls_in_no_rl_stack():
     code = (
         "import sys, spine_gym.controllers, agents.registry;"
-        "bad = [m for m in ('torch', 'stable_baselines3', 'matplotlib') if m in sys.modules];"
+        f"bad = [m for m in {HEAVY!r} if m in sys.modules];"
         "print(bad); sys.exit(1 if bad else 0)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_the_envs_controllers_and_simulate_import_no_rl_or_design_stack():
+    """Issue 12: ``pip install spine_gym`` (no extras) is enough for the simulator and the envs."""
+    code = (
+        "import sys, numpy as np, gymnasium as gym, spine_gym, spine_gym.envs, spine_gym.controllers;"
+        "env = gym.make('SmaSpine-v0'); env.reset(seed=0); env.step(np.zeros(2));"
+        "venv = gym.make_vec('SmaSpine-v0', num_envs=2); venv.reset(seed=0); venv.step(np.zeros((2, 2)));"
+        "spine_gym.simulate(0.05, 1.0, 0.0);"
+        f"bad = [m for m in {HEAVY!r} + ('spine_gym.envs.sb3',) if m in sys.modules];"
+        "print(bad); sys.exit(1 if bad else 0)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_base_dependencies_leave_the_heavy_stack_to_extras():
+    meta = tomllib.loads((PHYSICS.parents[1] / "pyproject.toml").read_text())["project"]
+    names = {re.split(r"[<>=\[ ;]", d, maxsplit=1)[0].lower() for d in meta["dependencies"]}
+    assert names == {"numpy", "numba", "gymnasium", "matplotlib", "tqdm", "rich", "pyyaml"}
+    extras = meta["optional-dependencies"]
+    assert {"rl", "design", "calibrate", "video", "rllib", "test", "all"} <= set(extras)
+    assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
+    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,test]"]

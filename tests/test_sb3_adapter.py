@@ -118,3 +118,58 @@ def test_plain_make_vec_env_with_the_single_env():
     model.learn(32)
     assert model.num_timesteps >= 32
     assert isinstance(gym.make("SmaSpine-v0").unwrapped, SmaSpineEnv)
+
+
+def test_failed_step_status_text_in_infos_as_dummy_vec_env():
+    """Issue 12: the per-env info (= final info) of a failed step has ``status_text``, with the keys
+    DummyVecEnv gives."""
+    crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
+    kw = {"tip_force_range": None, "payload_range": None, "episode_duration": 3.0}
+    ours = SmaSpineSB3VecEnv(2, **kw)
+    ref = DummyVecEnv([lambda: SmaSpineEnv(**kw) for _ in range(2)])
+    for env in (ours, ref):
+        env.seed(0)
+        env.set_options([{"loads": crush}, {}])
+        env.reset()
+    for _ in range(30):
+        a = np.tile([1.0, -1.0], (2, 1)).astype(np.float32)
+        ours.step_async(a)
+        ref.step_async(a)
+        _, _, d1, i1 = ours.step_wait()
+        _, _, d2, i2 = ref.step_wait()
+        assert np.array_equal(d1, d2)
+        for a_info, b_info in zip(i1, i2, strict=True):
+            assert sorted(a_info) == sorted(b_info)
+            assert a_info.get("status_text") == b_info.get("status_text")
+        if d1[0]:
+            break
+    assert d1.tolist() == [True, False] and "buckling" in i1[0]["status_text"]
+    assert "terminal_observation" in i1[0]
+
+
+def test_get_attr_gives_per_env_values_as_dummy_vec_env():
+    """Issue 12: spaces of one env (not the batch), one generator per env, the env's own seed and
+    episode, and every single-env attribute (episode_duration)."""
+    ours = SmaSpineSB3VecEnv(2, **KW)
+    ref = DummyVecEnv([lambda: SmaSpineEnv(**KW) for _ in range(2)])
+    for env in (ours, ref):
+        env.seed(3)
+        env.reset()
+    for name in (
+        "observation_space",
+        "action_space",
+        "episode_duration",
+        "v_max",
+        "np_random_seed",
+        "target_profile",
+        "load_schedule",
+        "model_params",
+        "max_steps",
+    ):
+        assert ours.get_attr(name) == ref.get_attr(name), name
+    assert ours.get_attr("observation_space")[0].shape == (10,)
+    assert ours.get_attr("np_random_seed", indices=[1]) == [4]
+    g1, g2 = ours.get_attr("np_random"), ref.get_attr("np_random")
+    assert g1[0] is not g1[1]
+    assert [g.bit_generator.state for g in g1] == [g.bit_generator.state for g in g2]
+    assert np.array_equal(ours.get_attr("state")[1], ref.get_attr("state")[1])

@@ -29,6 +29,33 @@ def actions(n_steps, n_envs, seed=0):
     return np.random.default_rng(seed).uniform(-1.3, 1.3, size=(n_steps, n_envs, 2)).astype(np.float32)
 
 
+def assert_same_infos(ours: dict, ref: dict, where: str = "info") -> None:
+    """Same keys, masks and values as a SyncVectorEnv's info dict (recursing into final_info)."""
+    assert sorted(ours) == sorted(ref), f"{where}: keys differ: {sorted(set(ours) ^ set(ref))}"
+    for key, v in ref.items():
+        if isinstance(v, dict):
+            assert_same_infos(ours[key], v, f"{where}[{key!r}]")
+        elif v.dtype == object:  # final_obs, status_text: None where the mask is False
+            assert ours[key].dtype == object and len(ours[key]) == len(v), f"{where}[{key!r}]"
+            for a, b in zip(ours[key], v, strict=True):
+                assert (a is None) == (b is None) and (a is None or np.array_equal(a, b)), f"{where}[{key!r}]"
+        else:
+            assert ours[key].dtype == v.dtype and np.array_equal(ours[key], v), f"{where}[{key!r}]"
+
+
+class PinFirstLoads(gym.Wrapper):
+    """Pins the load schedule of an explicit reset ``options={"pin": True}`` (SyncVectorEnv hands
+    one options dict to every env); autoresets (no options) draw as usual."""
+
+    def __init__(self, env, loads):
+        super().__init__(env)
+        self.loads = loads
+
+    def reset(self, *, seed=None, options=None):
+        pinned = {"loads": self.loads} if options and self.loads is not None else None
+        return self.env.reset(seed=seed, options=pinned)
+
+
 def test_make_vec_returns_the_native_vector_env_without_warnings():
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
@@ -87,8 +114,7 @@ def test_autoreset_matches_sync_vector_env(mode):
         o2, r2, te2, tr2, i2 = sync.step(a)
         assert np.array_equal(o1, o2) and np.array_equal(r1, r2)
         assert np.array_equal(te1, te2) and np.array_equal(tr1, tr2)
-        for key in NUMERIC_INFO:
-            assert np.array_equal(i1[key], i2[key]) and np.array_equal(i1["_" + key], i2["_" + key]), key
+        assert_same_infos(i1, i2)
         if mode == AutoresetMode.SAME_STEP and (te1 | tr1).any():
             finals += 1
             assert np.array_equal(i1["_final_obs"], i2["_final_obs"])
@@ -98,8 +124,8 @@ def test_autoreset_matches_sync_vector_env(mode):
                 assert i1["final_info"]["_time"][i]
                 assert i1["time"][i] == 0.0  # the info of the new episode
         if mode == AutoresetMode.NEXT_STEP:  # rows reset in this step carry the reset info only
-            assert np.array_equal(i1.get("_reward_tracking", np.zeros(n, bool)), ~prev_done)
             assert np.all(i1["time"][prev_done] == 0.0) and np.all(r1[prev_done] == 0.0)
+            assert np.all(i1["reward_tracking"][prev_done] == 0.0)
         prev_done = te1 | tr1
     if mode == AutoresetMode.SAME_STEP:
         assert finals >= 2
@@ -228,3 +254,75 @@ def test_render_returns_one_frame_per_env():
     frames = venv.render()
     assert len(frames) == 2 and all(f.shape == (480, 480, 3) for f in frames)
     venv.close()
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_failed_step_carries_status_text_as_sync_vector_env(mode):
+    """Issue 12: a failed sub-env step has ``status_text`` (masked to that row), as SyncVectorEnv
+    over single envs gives it; in SAME_STEP mode inside ``final_info``."""
+    crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
+    kw = {"tip_force_range": None, "payload_range": None, "episode_duration": 3.0}
+    native = SmaSpineVectorEnv(3, autoreset_mode=mode, **kw)
+    sync = SyncVectorEnv(
+        [lambda loads=loads: PinFirstLoads(SmaSpineEnv(**kw), loads) for loads in (None, crush, None)],
+        autoreset_mode=mode,
+    )
+    _, i1 = native.reset(seed=0, options={"loads": [None, crush, None]})
+    _, i2 = sync.reset(seed=0, options={"pin": True})
+    assert_same_infos(i1, i2)
+    failed = 0
+    for _ in range(35):
+        a = np.tile([1.0, -1.0], (3, 1))
+        o1, r1, te1, tr1, i1 = native.step(a)
+        o2, r2, te2, tr2, i2 = sync.step(a)
+        assert np.array_equal(o1, o2) and np.array_equal(te1, te2) and np.array_equal(tr1, tr2)
+        assert_same_infos(i1, i2)
+        if te1.any():
+            failed += 1
+            info = i1["final_info"] if mode == AutoresetMode.SAME_STEP else i1
+            assert info["_status_text"].tolist() == [False, True, False]
+            assert info["status_text"][1] == L.STATUS_TEXT[L.ERR_BUCKLING]
+    assert failed == 1
+
+
+def test_same_step_with_all_envs_done_has_the_sync_vector_env_keys():
+    """Issue 12: equal episode lengths end every sub-env in one step; the info is then the reset
+    info (no all-False reward masks), and reset infos have every step key."""
+    kw = {"episode_duration": 0.5}
+    native = SmaSpineVectorEnv(2, autoreset_mode=AutoresetMode.SAME_STEP, **kw)
+    sync = SyncVectorEnv(
+        [lambda: SmaSpineEnv(**kw) for _ in range(2)], autoreset_mode=AutoresetMode.SAME_STEP
+    )
+    _, reset_info = native.reset(seed=1)
+    _, ref = sync.reset(seed=1)
+    assert_same_infos(reset_info, ref)
+    for k in range(5):
+        _, _, _, trunc, i1 = native.step(np.zeros((2, 2)))
+        _, _, _, _, i2 = sync.step(np.zeros((2, 2)))
+        assert_same_infos(i1, i2)
+        if k < 4:
+            step_keys = set(i1)
+    assert trunc.all() and i1["_reward_tracking"].all() and np.all(i1["reward_tracking"] == 0.0)
+    assert set(reset_info) == step_keys
+    single = SmaSpineEnv()
+    _, info = single.reset(seed=0)
+    assert set(info) == set(single.step(np.zeros(2))[4])
+
+
+def test_reset_seed_is_recorded_as_gymnasium_vector_envs_do():
+    """Issue 12: ``np_random_seed`` is the int seed of the reset (as CartPole's native vector env);
+    per sub-env seeds and generators via get_attr equal SyncVectorEnv's."""
+    native = gym.make_vec("SmaSpine-v0", num_envs=3)
+    cartpole = gym.make_vec("CartPole-v1", num_envs=3, vectorization_mode="vector_entry_point")
+    sync = SyncVectorEnv([lambda: SmaSpineEnv() for _ in range(3)])
+    native.reset(seed=42)
+    cartpole.reset(seed=42)
+    sync.reset(seed=42)
+    assert native.np_random_seed == cartpole.np_random_seed == 42
+    assert native.get_attr("np_random_seed") == sync.np_random_seed == (42, 43, 44)
+    for g1, g2 in zip(native.get_attr("np_random"), sync.np_random, strict=True):
+        assert g1.bit_generator.state == g2.bit_generator.state
+    native.reset()  # no seed: the generators run on, the seed stays
+    assert native.np_random_seed == 42
+    native.reset(seed=[5, 6, 7])
+    assert native.get_attr("np_random_seed") == (5, 6, 7)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +24,7 @@ from ..params import ModelParams, SolverOptions, field_names
 from ..physics import batch, env_kernels
 from ..physics import layout as L
 from ..physics.solver import init_state
+from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
@@ -35,6 +37,9 @@ __all__ = [
     "validate_actions",
     "RESET_OPTION_KEYS",
     "SpineSnapshot",
+    "EPISODE_ATTRS",
+    "status_text",
+    "status_texts",
 ]
 
 # observation layout (indices 0..3 are fixed by the env contract)
@@ -72,6 +77,8 @@ TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at f
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
 N_CHANNELS = bk.N_CHANNELS  # measured channels: angle, T_R, T_L, R_R, R_L
 RESET_OPTION_KEYS = ("target", "loads", "params")
+# the env attributes held in SpineBatch.episodes[i], in that order
+EPISODE_ATTRS = ("target_profile", "load_schedule", "model_params")
 
 # default domain randomisation: field -> ("scale" | "shift", low, high) about the nominal value
 _DEFAULT_DR = {
@@ -189,7 +196,18 @@ class EnvConfig:
 
     def __post_init__(self):
         s = object.__setattr__
-        params = self.params if self.params is not None else ModelParams()
+        dr = self.domain_randomization
+        if isinstance(dr, str | os.PathLike):  # a fitted preset: its uncertainty, and its values by default
+            try:
+                dr = ParameterUncertainty.from_file(dr)
+            except (ValueError, OSError) as e:
+                raise ValueError(
+                    f"domain_randomization must be False, True, a dict or the path of a fit preset "
+                    f"(.json/.yaml written by spine_gym.calibrate); {dr!r}: {e}"
+                ) from None
+            s(self, "domain_randomization", dr)
+        fitted = dr.params if isinstance(dr, ParameterUncertainty) else None
+        params = self.params if self.params is not None else (fitted or ModelParams())
         if not isinstance(params, ModelParams):
             raise ValueError(f"params must be a spine_gym.ModelParams, got {type(self.params).__name__}")
         solver = self.solver if self.solver is not None else SolverOptions()
@@ -242,12 +260,14 @@ class EnvConfig:
     def _check_dr(value, params: ModelParams) -> tuple[tuple[str, float, float], ...]:
         if value is False or value is None:
             return ()
+        if isinstance(value, ParameterUncertainty):
+            return value
         if value is True:
             value = default_randomization(params)
         if not isinstance(value, Mapping):
             raise ValueError(
-                "domain_randomization must be False, True (default ranges) or a dict "
-                f"{{ModelParams field: (low, high)}}, got {value!r}"
+                "domain_randomization must be False, True (default ranges), a dict "
+                f"{{ModelParams field: (low, high)}} or the path of a fit preset, got {value!r}"
             )
         allowed = [f for f in field_names() if f not in ("n_w", "n_seg")]
         out = []
@@ -307,8 +327,11 @@ class EnvConfig:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters (values above it are clipped)."""
         cands = [self.params]
-        for name, lo, hi in self.domain_randomization:
-            cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        if isinstance(self.domain_randomization, ParameterUncertainty):
+            cands += self.domain_randomization.extremes(self.params)
+        else:
+            for name, lo, hi in self.domain_randomization:
+                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
         r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.sensor_noise[2])
 
@@ -506,7 +529,10 @@ class SpineBatch:
             )
         params = opts.get("params")
         if params is None:
-            if cfg.domain_randomization:
+            if isinstance(cfg.domain_randomization, ParameterUncertainty):
+                params = cfg.domain_randomization.draw(rng, cfg.params)
+                kp = params.to_kernel()
+            elif cfg.domain_randomization:
                 draws = {name: float(rng.uniform(lo, hi)) for name, lo, hi in cfg.domain_randomization}
                 try:
                     params = cfg.params.replace(**draws)
@@ -560,7 +586,8 @@ class SpineBatch:
         return obs.astype(np.float32)
 
     def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        """Info arrays (keys as in :meth:`step`) of freshly reset environments ``rows``."""
+        """Info arrays (the keys of :meth:`step`) of freshly reset environments ``rows``; no step
+        was taken, so voltage, power, energy and both reward terms are 0."""
         n = rows.shape[0]
         m = self.meas[rows]
         angle = np.degrees(m[:, batch.OUT_ANGLE])
@@ -579,6 +606,8 @@ class SpineBatch:
             "time": np.zeros(n),
             "tip_force": self._weights(rows),
             "status": np.zeros(n, dtype=np.int64),
+            "reward_tracking": np.zeros(n),
+            "reward_energy": np.zeros(n),
         }
 
     def _weights(self, rows):
@@ -738,6 +767,18 @@ class SpineBatch:
             "time": k * self.cfg.control_period,
             "voltage": (self.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,
         }
+
+
+def status_text(code: int) -> str:
+    """``info["status_text"]`` of a step with status ``code`` (from ``layout.STATUS_TEXT``)."""
+    return L.STATUS_TEXT.get(int(code), str(int(code)))
+
+
+def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
+    :func:`status_text` as an object array)."""
+    failed = np.flatnonzero(status != L.OK)
+    return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
 
 
 def config_fields() -> list[str]:

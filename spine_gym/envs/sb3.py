@@ -20,9 +20,9 @@ physics of all environments stays one parallel numba call per step. It composes 
 ``stable_baselines3.common.env_util.make_vec_env("SmaSpine-v0", n_envs=8)`` (a ``DummyVecEnv`` of
 single envs; slower, same numbers).
 
-Per-env infos hold the single env's keys; for a finished episode they are the infos of its last
-step (plus ``terminal_observation``), and the reset info of the new episode is in
-``reset_infos[i]`` (SB3's convention).
+Per-env infos hold the single env's keys (``status_text`` too, on a failed step); for a finished
+episode they are the infos of its last step (plus ``terminal_observation``), and the reset info of
+the new episode is in ``reset_infos[i]`` (SB3's convention).
 """
 
 from __future__ import annotations
@@ -124,9 +124,11 @@ class SmaSpineSB3VecEnv(VecEnv):
         return list(self._get_indices(indices))
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        """An attribute of the environments (shared by all: they have one configuration)."""
-        value = getattr(self.venv, attr_name)
-        return [value for _ in self._indices(indices)]
+        """Each environment's value of an attribute, as ``DummyVecEnv`` asks each single env:
+        per-env spaces, generators, seeds, states and episodes, the shared configuration
+        otherwise (:meth:`SmaSpineVectorEnv.get_attr`)."""
+        values = self.venv.get_attr(attr_name)
+        return [values[i] for i in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """Set an attribute of the underlying vector env (shared by all environments)."""

@@ -8,6 +8,7 @@ vector env runs too) and returns observations, rewards and infos.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -16,7 +17,7 @@ from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
 from ..physics import layout as L
-from .core import OBS_NAMES, EnvConfig, SpineBatch, SpineSnapshot, validate_actions
+from .core import OBS_NAMES, EnvConfig, SpineBatch, SpineSnapshot, status_text, validate_actions
 from .task import TARGET_KINDS
 
 __all__ = ["SmaSpineEnv"]
@@ -141,8 +142,9 @@ class SmaSpineEnv(gym.Env):
     (= target − angle); ``energy_J`` electrical energy of the step (both sides); ``power_W`` (2,) mean
     electrical power per side; ``cost``; ``temperature`` (2,) [K]; ``resistance`` (2,) [Ohm];
     ``time`` [s]; ``tip_force`` (2,) [N] total force on the top disk over the step (events + payload
-    weight, global x/y); ``status`` (int, 0 = ok); ``reward_tracking``, ``reward_energy``. ``reset``
-    returns the same keys (zero voltage and energy).
+    weight, global x/y); ``status`` (int, 0 = ok); ``reward_tracking``, ``reward_energy``; on a
+    failed step (``status`` != 0) also ``status_text`` (str, what failed). ``reset`` returns the
+    same keys (zero voltage, energy and reward terms).
 
     ## Arguments
 
@@ -166,7 +168,11 @@ class SmaSpineEnv(gym.Env):
     * ``domain_randomization``: ``False`` (default), ``True`` (convection ×[0.75, 1.25], tube
       modulus ×[0.8, 1.2], ambient ±10 K, resistivities ×[0.95, 1.05]; see
       :func:`spine_gym.envs.default_randomization`) or a dict ``{ModelParams field: (low, high)}``
-      of absolute ranges; drawn uniformly per episode.
+      of absolute ranges; drawn uniformly per episode. Or the path of a preset written by a fit
+      (``spine_gym.calibrate``, e.g. ``"fit.json"``): each episode draws the fitted parameters
+      from the fit's uncertainty (multivariate normal within the fit bounds; parameters the data
+      could not identify uniformly within their bounds), and ``params`` defaults to the fitted
+      preset (:class:`spine_gym.uncertainty.ParameterUncertainty`).
     * ``sensor_noise``: ``None`` (default) or ``{"angle": deg, "temperature": K, "resistance": Ohm}``
       standard deviations. ``sensor_delay``: whole control periods (default 0).
     * ``temperature_limit`` [K]: threshold of ``info["cost"]``. Default 423 (150 °C).
@@ -208,7 +214,7 @@ class SmaSpineEnv(gym.Env):
         tip_force_count: tuple[int, int] = (0, 2),
         tip_force_duration: tuple[float, float] = (1.0, 10.0),
         payload_range: tuple[float, float] | None = (0.0, 0.05),
-        domain_randomization: bool | dict = False,
+        domain_randomization: bool | dict | str | os.PathLike = False,
         sensor_noise: dict | None = None,
         sensor_delay: int = 0,
         temperature_limit: float = 423.0,
@@ -344,7 +350,7 @@ class SmaSpineEnv(gym.Env):
             x = v[j]
             out[key] = x.copy() if isinstance(x, np.ndarray) else x.item()
         if out["status"] != L.OK:
-            out["status_text"] = L.STATUS_TEXT.get(out["status"], str(out["status"]))
+            out["status_text"] = status_text(out["status"])
         return out
 
     def snapshot(self) -> SpineSnapshot:

@@ -20,12 +20,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from .core import (
+    EPISODE_ATTRS,
     OBS_NAMES,
     RESET_OPTION_KEYS,
     EnvConfig,
     SpineBatch,
     SpineSnapshot,
     config_fields,
+    status_texts,
     validate_actions,
 )
 
@@ -48,12 +50,20 @@ class SmaSpineVectorEnv(VectorEnv):
     * **Truncation**: the env truncates on its own after ``episode_duration / control_period``
       steps, or after ``max_episode_steps`` if that is smaller (``gym.make_vec`` passes the
       registration's 600, matching what ``gym.make``'s TimeLimit does to the single env).
-    * **Seeding**: ``reset(seed=s)`` seeds sub-env i with ``s + i``; a list gives one seed per env;
-      ``None`` keeps each sub-env's generator running (fresh entropy on the first reset).
+    * **Seeding**: ``reset(seed=s)`` seeds sub-env i with ``s + i`` and records ``s`` as
+      ``np_random_seed`` (as Gymnasium's own vector envs do); a list gives one seed per env (and
+      leaves ``np_random_seed`` alone); ``None`` keeps each sub-env's generator running (fresh
+      entropy on the first reset). ``get_attr("np_random_seed")`` gives the sub-envs' seeds.
     * **Options**: ``reset(options={"target": ..., "loads": ..., "params": ...})``; each value is one
       object for all sub-envs or a list of ``num_envs`` (``None`` entries draw as usual);
       ``"reset_mask"`` (bool (num_envs,)) resets only those sub-envs.
-    * **Info**: a dict of arrays with one row per sub-env and the ``_key`` masks of Gymnasium.
+    * **Info**: a dict of arrays with one row per sub-env and the ``_key`` masks of Gymnasium, with
+      the keys and masks ``SyncVectorEnv`` gives over single envs (``status_text`` as an object
+      array, only on rows whose step failed).
+    * ``get_attr(name)``: one value per sub-env, as ``SyncVectorEnv.get_attr`` asks each single env:
+      the single spaces for ``observation_space``/``action_space``, each sub-env's generator, seed,
+      state and episode for ``np_random``, ``np_random_seed``, ``state``, ``target_profile``,
+      ``load_schedule``, ``model_params``; any other attribute is shared and repeated.
     * ``parallel``: run the loop over spines on all cores (default: when ``num_envs > 1``). numba
       runs it on GNU OpenMP here, whose idle workers spin for a while after each step; when other
       processes keep the cores busy that spinning competes with the Python work between steps
@@ -115,6 +125,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._core = SpineBatch(cfg, self.num_envs, parallel=self.parallel)
         self._core.max_steps = self.max_steps
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._sub_seeds: list[int | None] = [None] * self.num_envs
         self._obs = np.zeros((self.num_envs, len(OBS_NAMES)), dtype=np.float32)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
@@ -132,6 +143,11 @@ class SmaSpineVectorEnv(VectorEnv):
         return self.config.control_period
 
     @property
+    def episode_duration(self) -> float:
+        """Episode length [s] (the env truncates earlier if ``max_episode_steps`` is smaller)."""
+        return self.config.episode_duration
+
+    @property
     def temperature_limit(self) -> float:
         """Threshold of ``info["cost"]`` [K]."""
         return self.config.temperature_limit
@@ -145,6 +161,26 @@ class SmaSpineVectorEnv(VectorEnv):
     def np_randoms(self) -> list[np.random.Generator | None]:
         """The per-sub-env generators (sub-env i seeded ``seed + i``)."""
         return list(self._rngs)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """One value per sub-env, as ``SyncVectorEnv.get_attr`` (see the class docstring)."""
+        return tuple(self._sub_env_attr(name, i) for i in range(self.num_envs))
+
+    def _sub_env_attr(self, name: str, i: int) -> Any:
+        if name in ("observation_space", "action_space"):
+            return getattr(self, "single_" + name)
+        if name in ("np_random", "np_random_seed"):
+            if self._rngs[i] is None:  # drawn on first use, as gymnasium.Env.np_random
+                self._rngs[i], self._sub_seeds[i] = seeding.np_random()
+            return self._rngs[i] if name == "np_random" else self._sub_seeds[i]
+        if name == "state":
+            return self._core.states[i].copy()
+        if name in EPISODE_ATTRS:
+            episode = self._core.episodes[i]
+            if episode is None:
+                raise RuntimeError("call reset() first")
+            return episode[EPISODE_ATTRS.index(name)]
+        return getattr(self, name)
 
     # ------------------------------------------------------------------ reset
     def _seeds(self, seed) -> list[int | None]:
@@ -177,7 +213,7 @@ class SmaSpineVectorEnv(VectorEnv):
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: dict[str, Any]) -> None:
         for i in rows:
             if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i], _ = seeding.np_random(seeds[i])
+                self._rngs[i], self._sub_seeds[i] = seeding.np_random(seeds[i])
             self._obs[i] = self._core.reset_env(int(i), self._rngs[i], self._options_for(options, int(i)))
         self._autoreset[rows] = False
 
@@ -206,6 +242,8 @@ class SmaSpineVectorEnv(VectorEnv):
                 )
             rows = np.flatnonzero(mask)
         self._reset_rows(rows, seeds, options)
+        if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            super().reset(seed=int(seed))  # records np_random_seed
         self._ever_reset = True
         infos: dict[str, Any] = {}
         self._merge(infos, self._core.reset_info(rows), rows)
@@ -241,26 +279,35 @@ class SmaSpineVectorEnv(VectorEnv):
             if mode == AutoresetMode.SAME_STEP and done_rows.size:
                 final = {}
                 sel = np.isin(rows, done_rows)
-                self._merge(final, {k: v[sel] for k, v in info.items()}, done_rows)
+                self._merge_step(final, {k: v[sel] for k, v in info.items()}, done_rows)
                 final_obs = np.full(n, None, dtype=object)
                 for i in done_rows:
                     final_obs[i] = self._obs[i].copy()
                 self._reset_rows(done_rows, [None] * n, {})
                 keep = ~sel
-                self._merge(infos, {k: v[keep] for k, v in info.items()}, rows[keep])
+                self._merge_step(infos, {k: v[keep] for k, v in info.items()}, rows[keep])
                 self._merge(infos, self._core.reset_info(done_rows), done_rows)
                 infos["final_obs"] = final_obs
                 infos["_final_obs"] = np.isin(np.arange(n), done_rows)
                 infos["final_info"] = final
                 infos["_final_info"] = infos["_final_obs"].copy()
             else:
-                self._merge(infos, info, rows)
+                self._merge_step(infos, info, rows)
         self._autoreset = terminated | truncated
         return self._obs.copy(), reward, terminated, truncated, infos
 
+    def _merge_step(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:
+        """:meth:`_merge` of step infos plus ``status_text`` on the rows whose step failed."""
+        self._merge(infos, arrays, rows)
+        failed, texts = status_texts(arrays["status"])
+        self._merge(infos, {"status_text": texts}, rows[failed])
+
     def _merge(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:
-        """Write per-row arrays into full-size info arrays with Gymnasium's ``_key`` masks."""
+        """Write per-row arrays into full-size info arrays with Gymnasium's ``_key`` masks (as
+        ``VectorEnv._add_info``: no rows add no key; object arrays are filled with None)."""
         n = self.num_envs
+        if rows.shape[0] == 0:
+            return
         full = rows.shape[0] == n
         for key, v in arrays.items():
             if key not in infos:
@@ -268,7 +315,10 @@ class SmaSpineVectorEnv(VectorEnv):
                     infos[key] = v.copy()
                     infos["_" + key] = np.ones(n, dtype=np.bool_)
                     continue
-                infos[key] = np.zeros((n, *v.shape[1:]), dtype=v.dtype)
+                if v.dtype == object:
+                    infos[key] = np.full(n, None, dtype=object)
+                else:
+                    infos[key] = np.zeros((n, *v.shape[1:]), dtype=v.dtype)
                 infos["_" + key] = np.zeros(n, dtype=np.bool_)
             infos[key][rows] = v
             infos["_" + key][rows] = True

@@ -1,0 +1,143 @@
+"""Command line: fit ModelParams to measured CSV experiments and write preset, report and plots.
+
+Example::
+
+    python -m spine_gym.calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A \\
+        --start alternative --noise angle=0.5,temperature=1 --out results/calibration --seed 0
+
+writes ``fit.json`` (the preset, loadable with ``ModelParams.from_file`` and usable as
+``domain_randomization="fit.json"``), ``report.md``, ``report.json`` and PNG plots to ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..params import PRESETS, ModelParams
+from .data import Experiment
+from .fit import fit
+from .parameters import PARAMETER_SETS, FitParameter, resolve_parameters
+
+
+def _pairs(text: str, what: str) -> dict[str, str]:
+    out = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise ValueError(f"{what}: expected name=value, got {item!r}")
+        out[key.strip()] = val.strip()
+    return out
+
+
+def _noise(text: str | None) -> dict[str, float]:
+    if not text:
+        return {}
+    out = {}
+    for k, v in _pairs(text, "--noise").items():
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise ValueError(f"--noise: {k} must be a number, got {v!r}") from None
+    return out
+
+
+def _start(text: str) -> tuple[ModelParams, str]:
+    if text in PRESETS:
+        return PRESETS[text](), text
+    return ModelParams.from_file(text), text
+
+
+def _parameters(names: str, bounds: str | None, start: ModelParams) -> tuple[FitParameter, ...]:
+    """Names (or a set) with default bounds, overridden by ``--bounds name=lo:hi,...``."""
+    params = list(resolve_parameters(names, start))
+    for key, val in _pairs(bounds or "", "--bounds").items():
+        lo, sep, hi = val.partition(":")
+        idx = [p.name for p in params].index(key) if key in [p.name for p in params] else None
+        if idx is None or not sep:
+            raise ValueError(f"--bounds: expected name=lower:upper for a fitted parameter, got {key}={val}")
+        try:
+            params[idx] = FitParameter(key, float(lo), float(hi))
+        except ValueError as e:
+            raise ValueError(f"--bounds: {e}") from None
+    return resolve_parameters(params, start)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="python -m spine_gym.calibrate",
+        description="Fit spine_gym ModelParams to measured experiments (CSV: time, voltage_right, "
+        "voltage_left, angle [+ temperature_*, resistance_*, tip_force_x/y]).",
+    )
+    ap.add_argument("csv", nargs="+", help="measured experiments (CSV files)")
+    ap.add_argument(
+        "--params",
+        default="thermal",
+        help=f"parameters to fit: one of {sorted(PARAMETER_SETS)} or comma-separated names "
+        "(e.g. alpha,E_t,T_shift,lam_A); default thermal",
+    )
+    ap.add_argument("--bounds", default=None, help="override bounds: name=lower:upper,... (parameter units)")
+    ap.add_argument(
+        "--start",
+        default="baseline",
+        help=f"start preset: one of {sorted(PRESETS)} or a preset file (.json/.yaml)",
+    )
+    ap.add_argument(
+        "--noise",
+        default=None,
+        help="noise levels: channel-or-kind=std,... (angle deg, temperature K, resistance Ohm)",
+    )
+    ap.add_argument("--out", default="results/calibration", help="output folder")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--n-starts", type=int, default=2)
+    ap.add_argument("--cma-evals", type=int, default=None, help="CMA-ES budget in candidates")
+    ap.add_argument("--no-global", action="store_true", help="skip the CMA-ES global stage")
+    ap.add_argument("--max-nfev", type=int, default=30, help="evaluations per least-squares start")
+    ap.add_argument("--loss", default="linear", help="least_squares loss (linear, soft_l1, huber, ...)")
+    ap.add_argument(
+        "--workers", type=int, default=None, help="threads simulating candidates (default: all cores)"
+    )
+    ap.add_argument("--format", choices=("json", "yaml"), default="json", help="format of the preset file")
+    ap.add_argument("--no-progress", action="store_true")
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        start, start_name = _start(args.start)
+        noise = _noise(args.noise)
+        experiments = [Experiment.from_csv(p, noise=noise) for p in args.csv]
+        params = _parameters(args.params, args.bounds, start)
+        res = fit(
+            experiments,
+            params,
+            start,
+            seed=args.seed,
+            n_starts=args.n_starts,
+            global_stage=not args.no_global,
+            cma_evals=args.cma_evals,
+            max_nfev=args.max_nfev,
+            loss=args.loss,
+            n_workers=args.workers,
+            progress=not args.no_progress,
+            start_name=start_name,
+        )
+    except (ValueError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    preset = res.to_file(out / f"fit.{args.format}")
+    (out / "report.md").write_text(res.report())
+    res.to_json(out / "report.json")
+    plots = res.plot(out)
+    print(res.report())
+    print(
+        f"wrote {preset}, {out / 'report.md'}, {out / 'report.json'} and {len(plots)} PNG plot(s) to {out}/"
+    )
+    return 130 if res.interrupted else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
