@@ -16,6 +16,13 @@ For each: median/min/quartiles [s], ratio to the default, sub-steps and shape pa
 simulated second and per sub-step, and the maximum |Θ − Θ_reference| over the run. Also the whole
 50-s hysteresis run (default solver) against its own fine-step reference.
 
+Spatial core (SPATIAL.md), 20-s runs timed in the same round-robin, as ratios to the planar default:
+
+* ``spatial``  — :meth:`SpineLayout.seed` (one four-wire module), wire 0 at the §10.2 drive, the other
+  three unpowered: the planar run on the generic core (its |Θ − Θ_reference| is reported too);
+* ``chain``    — :meth:`SpineLayout.chain` (two four-wire modules, 8 wires), wire 0 of the lower and
+  wire 1 of the upper module at the drive scaled to their wire length (3.2 V × 0.5): a 3-D bend.
+
 Compile times: a subprocess with ``NUMBA_CACHE_DIR`` pointed at an empty temporary folder times
 ``import spine_gym`` and the first ``simulate()`` call (cold: numba compiles every kernel and
 writes the cache); a second subprocess with the same folder times the same (cached: numba loads
@@ -43,7 +50,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from spine_gym import SolverOptions, simulate
+from spine_gym import SolverOptions, SpineLayout, simulate
 from spine_gym.experiments import hysteresis_voltages
 from spine_gym.plotting import plot_timings
 
@@ -67,6 +74,25 @@ LABELS = {
     "reference": "fine-step reference (h = 0.1 ms)",
 }
 
+SPATIAL_LABELS = {
+    "spatial": "spatial core, one 4-wire module (wire 0 driven)",
+    "chain": "spatial core, 2-module chain (8 wires, 3-D bend)",
+}
+
+
+def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray]]:
+    """(layout, (n, W) voltages) of the spatial 20-s runs (see the module docstring)."""
+    seed = SpineLayout.seed()
+    v_seed = np.zeros((vr.shape[0], seed.n_wires))
+    v_seed[:, 0] = vr
+    chain = SpineLayout.chain(2)
+    v_chain = np.zeros((vr.shape[0], chain.n_wires))
+    scale = chain.voltage_scale
+    v_chain[:, 0] = vr * scale[0]
+    v_chain[:, 4 + 1] = vr * scale[5]
+    return {"spatial": (seed, v_seed), "chain": (chain, v_chain)}
+
+
 _COMPILE_SCRIPT = r"""
 import json, sys, time
 t0 = time.perf_counter()
@@ -87,12 +113,20 @@ def _inputs(duration: float) -> tuple[np.ndarray, np.ndarray]:
     return vr[:n].copy(), vl[:n].copy()
 
 
-def _time_interleaved(configs: dict, vr, vl, duration: float, repeats: int) -> dict[str, list[float]]:
-    times: dict[str, list[float]] = {k: [] for k in configs}
+def _time_interleaved(
+    configs: dict, vr, vl, duration: float, repeats: int, spatial: dict | None = None
+) -> dict[str, list[float]]:
+    """Round-robin timings of the planar ``configs`` (name → SolverOptions) and ``spatial`` runs."""
+    calls = {
+        name: (lambda s=solver: simulate(duration, vr, vl, solver=s)) for name, solver in configs.items()
+    }
+    for name, (layout, volts) in (spatial or {}).items():
+        calls[name] = lambda lay=layout, v=volts: simulate(duration, v, layout=lay)
+    times: dict[str, list[float]] = {k: [] for k in calls}
     for _ in range(repeats):
-        for name, solver in configs.items():
+        for name, call in calls.items():
             t0 = time.perf_counter()
-            simulate(duration, vr, vl, solver=solver)
+            call()
             times[name].append(time.perf_counter() - t0)
     return times
 
@@ -186,9 +220,11 @@ def main(argv=None) -> int:
     # warm-up: compile (or load from cache) every kernel and get reference trajectories
     runs = {name: simulate(DURATION, vr, vl, solver=s) for name, s in CONFIGS.items()}
     ref = runs["reference"]
+    spatial_runs = _spatial_runs(vr)
+    spatial_out = {name: simulate(DURATION, v, layout=lay) for name, (lay, v) in spatial_runs.items()}
 
     print(f"timing the {DURATION:g}-s hysteresis run, {args.repeats} interleaved repeats ...", flush=True)
-    times = _time_interleaved(CONFIGS, vr, vl, DURATION, args.repeats)
+    times = _time_interleaved(CONFIGS, vr, vl, DURATION, args.repeats, spatial_runs)
     base = statistics.median(times["newton"])
     results = {}
     for name, r in runs.items():
@@ -211,6 +247,25 @@ def main(argv=None) -> int:
             "time_of_max_diff_s": float(r.time[int(diff.argmax())]),
             "ratio_paper_60s_to_this": PAPER_SECONDS / st["median_s"],
         }
+
+    spatial = {}
+    for name, r in spatial_out.items():
+        st = _stats(times[name])
+        spatial[name] = {
+            "label": SPATIAL_LABELS[name],
+            "wires": r.layout.n_wires,
+            "modules": r.layout.n_modules,
+            "segments": r.layout.n_seg,
+            **st,
+            "ratio_to_planar_default": st["median_s"] / base,
+            "substeps": r.substeps,
+            "shape_passes": r.shape_passes,
+            "ms_per_simulated_s": st["median_s"] * 1e3 / DURATION,
+            "us_per_substep": st["median_s"] * 1e6 / r.substeps,
+            "tip_theta_at_20s_deg": float(r.tip_theta_deg[-1]),
+        }
+    seed_diff = np.abs(spatial_out["spatial"].tip_bending_deg[:, 0] - ref.angle_deg)
+    spatial["spatial"]["max_abs_angle_diff_to_planar_reference_deg"] = float(seed_diff.max())
 
     # the whole 50-s hysteresis run (heating + cooling) with the default solver
     vr50, vl50 = hysteresis_voltages()
@@ -240,6 +295,8 @@ def main(argv=None) -> int:
         "ratio_paper_60s_to_bisect": PAPER_SECONDS / results["bisect"]["median_s"],
         "ms_per_simulated_s": d["ms_per_simulated_s"],
         "substeps": d["substeps"],
+        "spatial_module_ratio_to_planar": spatial["spatial"]["ratio_to_planar_default"],
+        "chain_ratio_to_planar": spatial["chain"]["ratio_to_planar_default"],
     }
     if compile_info:
         summary["cold_compile_s"] = compile_info["cold"]["compile_or_load_s"]
@@ -252,6 +309,7 @@ def main(argv=None) -> int:
         ),
         "summary": summary,
         "configs": results,
+        "spatial": spatial,
         "hysteresis_50s_default": hyst50,
         "compile": compile_info,
         "machine": {
@@ -281,6 +339,10 @@ def main(argv=None) -> int:
     for n in names:
         r = results[n]
         ann.append(f"×{r['ratio_to_default']:.1f}, max|ΔΘ| {r['max_abs_angle_diff_to_reference_deg']:.3f}°")
+    for r in spatial.values():
+        labels.append(r["label"])
+        secs.append(r["median_s"])
+        ann.append(f"×{r['ratio_to_planar_default']:.2f} of planar")
     png = plot_timings(
         labels,
         secs,
@@ -301,6 +363,11 @@ def main(argv=None) -> int:
         print(
             f"{r['label']:<42} {r['median_s'] * 1e3:10.2f} {r['ratio_to_default']:7.2f} {r['substeps']:9d} "
             f"{r['max_abs_angle_diff_to_reference_deg']:12.4f}"
+        )
+    for r in spatial.values():
+        print(
+            f"{r['label']:<42} {r['median_s'] * 1e3:10.2f} {r['ratio_to_planar_default']:7.2f} "
+            f"{r['substeps']:9d} {r.get('max_abs_angle_diff_to_planar_reference_deg', float('nan')):12.4f}"
         )
     print(
         f"50-s hysteresis run (default): {hyst50['median_s'] * 1e3:.2f} ms, "

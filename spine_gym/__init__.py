@@ -4,12 +4,18 @@
 Gymnasium environment ``SmaSpine-v0``.
 """
 
+from .layout import Module, SpineLayout, WireGroup
 from .params import ModelParams, SolverOptions, alternative, baseline
 from .simulate import SimulationError, SimulationResult, simulate
+from .simulate_spatial import SpatialResult
 from . import envs  # registers SmaSpine-v0
 
 __all__ = [
     "ModelParams",
+    "Module",
+    "SpatialResult",
+    "SpineLayout",
+    "WireGroup",
     "SolverOptions",
     "SimulationError",
     "SimulationResult",

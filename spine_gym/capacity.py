@@ -9,6 +9,11 @@ The protocol (durations are MODEL.md's choice; the seed gives none):
 3. t_load_on … end: a vertical force (0, −F) on the top disk. Actuating ability =
    1 / |Θ(end) − Θ(t_load_on)| [1/deg].
 
+Spatial and chained layouts (:class:`SpineLayout`) run the same protocol in the plane of the
+0°/180° wires: "left" is every module's 180° wire, "right" every module's 0° wire, each at the
+protocol voltage times the layout's :attr:`~SpineLayout.voltage_scale` (the same Joule heating as the
+seed's wire), the load is the global (0, 0, −F) and Θ is the x component of the tip bending vector.
+
 Everything here is a library function; the experiment and design scripts only call it.
 """
 
@@ -19,8 +24,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .simulate import SimulationResult, simulate
+from .simulate_spatial import SpatialResult
 
 __all__ = ["CapacityProtocol", "CapacityMetrics", "capacity_metrics", "metrics_from_result", "run_protocol"]
 
@@ -86,10 +93,19 @@ def _first_crossing(t: np.ndarray, y: np.ndarray, level: float, t_from: float, t
     return float(t[k - 1] + (level - y[k - 1]) * (t[k] - t[k - 1]) / (y[k] - y[k - 1]))
 
 
-def metrics_from_result(result: SimulationResult, protocol: CapacityProtocol) -> CapacityMetrics:
+def _angle_and_peak(result: SimulationResult | SpatialResult) -> tuple[np.ndarray, float]:
+    """Θ(t) [deg] in the protocol's plane and the hottest wire temperature [K] of a trajectory."""
+    if isinstance(result, SpatialResult):
+        return result.tip_bending_deg[:, 0], float(result.temperature.max())
+    return result.angle_deg, float(max(result.temperature_right.max(), result.temperature_left.max()))
+
+
+def metrics_from_result(
+    result: SimulationResult | SpatialResult, protocol: CapacityProtocol
+) -> CapacityMetrics:
     """Capacity metrics of a trajectory produced by :func:`run_protocol`."""
     t = result.time
-    a = result.angle_deg
+    a, peak = _angle_and_peak(result)
     a_stable = float(a[result.at(protocol.t_stable)])
     a_load_on = float(a[result.at(protocol.t_load_on)])
     a_end = float(a[-1])
@@ -109,22 +125,46 @@ def metrics_from_result(result: SimulationResult, protocol: CapacityProtocol) ->
         responding_time_swing_s=t_swing,
         load_deflection_deg=defl,
         actuating_ability=1.0 / defl if defl > 0.0 else math.inf,
-        peak_temperature_K=float(max(result.temperature_right.max(), result.temperature_left.max())),
+        peak_temperature_K=peak,
     )
+
+
+def _layout_voltages(layout: SpineLayout, v_right: np.ndarray, v_left: np.ndarray) -> np.ndarray:
+    """(n, W) voltages: ``v_right`` on every module's 0° wire, ``v_left`` on its 180° wire, scaled."""
+    volts = np.zeros((v_right.shape[0], layout.n_wires))
+    j = 0
+    for k, m in enumerate(layout.modules):
+        psi = [w.psi_deg for w in m.wires]
+        if 0.0 not in psi or 180.0 not in psi:
+            raise ValueError(
+                f"layout.modules[{k}] needs wires at psi_deg 0 and 180 for the capacity protocol, got {psi}"
+            )
+        volts[:, j + psi.index(0.0)] = v_right
+        volts[:, j + psi.index(180.0)] = v_left
+        j += len(psi)
+    return volts * layout.voltage_scale
 
 
 def run_protocol(
     params: ModelParams | None = None,
     protocol: CapacityProtocol | None = None,
     solver: SolverOptions | None = None,
-) -> SimulationResult:
-    """Simulate the capacity protocol; returns the full trajectory."""
+    layout: SpineLayout | None = None,
+) -> SimulationResult | SpatialResult:
+    """Simulate the capacity protocol; returns the full trajectory (a SpatialResult for a layout)."""
     p = protocol or CapacityProtocol()
     n = int(round(p.duration / p.dt))
     t = np.arange(n) * p.dt
     eps = 1e-9
     v_left = np.where(t < p.t_stable - eps, p.voltage, 0.0)
     v_right = np.where(t >= p.t_stable - eps, p.voltage, 0.0)
+    if layout is not None:
+        if params is not None:
+            raise ValueError(f"pass params inside the layout, not beside it; got params={params!r}")
+        tip = np.zeros((n, 3))
+        tip[t >= p.t_load_on - eps, 2] = -p.tip_force
+        volts = _layout_voltages(layout, v_right, v_left)
+        return simulate(n * p.dt, volts, dt=p.dt, tip_force=tip, solver=solver, layout=layout)
     tip = np.zeros((n, 2))
     tip[t >= p.t_load_on - eps, 1] = -p.tip_force
     return simulate(n * p.dt, v_right, v_left, dt=p.dt, tip_force=tip, params=params, solver=solver)
@@ -134,7 +174,8 @@ def capacity_metrics(
     params: ModelParams | None = None,
     protocol: CapacityProtocol | None = None,
     solver: SolverOptions | None = None,
+    layout: SpineLayout | None = None,
 ) -> CapacityMetrics:
-    """Run the capacity protocol for one design and return its metrics."""
+    """Run the capacity protocol for one design (``params``, or a spatial/chained ``layout``)."""
     p = protocol or CapacityProtocol()
-    return metrics_from_result(run_protocol(params, p, solver), p)
+    return metrics_from_result(run_protocol(params, p, solver, layout), p)

@@ -13,23 +13,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._series import V_MAX_ALLOWED, SimulationError, as_series
+from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import batch
 from .physics import layout as L
 from .physics.solver import init_state
+from .simulate_spatial import SpatialResult, simulate_spatial
 
 __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
-
-V_MAX_ALLOWED = 100.0  # [V] sanity bound on a wire voltage
-
-
-class SimulationError(RuntimeError):
-    """The model could not advance (a solver did not converge, a non-finite value appeared…)."""
-
-    def __init__(self, status: int, time: float):
-        self.status = int(status)
-        self.time = float(time)
-        super().__init__(f"simulation failed at t = {time:.4f} s: {L.STATUS_TEXT.get(status, status)}")
 
 
 @dataclass
@@ -88,26 +80,6 @@ class SimulationResult:
         return self.time.shape[0]
 
 
-def _as_series(name: str, value, n: int, dt: float, shape: tuple[int, ...]) -> np.ndarray:
-    """Constant, array sampled at dt (n rows), or callable of t → array of shape (n, *shape)."""
-    if callable(value):
-        arr = np.array([np.asarray(value(k * dt), dtype=float) for k in range(n)], dtype=float)
-        if arr.shape != (n, *shape):
-            raise ValueError(f"{name}(t) must return shape {shape or 'scalar'}, got {arr.shape[1:]}")
-    else:
-        arr = np.asarray(value, dtype=float)
-        if arr.shape == shape:
-            arr = np.broadcast_to(arr, (n, *shape))
-        elif arr.shape != (n, *shape):
-            raise ValueError(
-                f"{name} must be a constant of shape {shape or '()'}, an array of shape {(n, *shape)} "
-                f"sampled at dt, or a callable of time; got shape {arr.shape}"
-            )
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got NaN or inf")
-    return np.ascontiguousarray(arr)
-
-
 def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=None) -> np.ndarray:
     """Vertex-force programme (n or 1, N, 2) [N] from a tip force and/or forces at every vertex.
 
@@ -121,9 +93,9 @@ def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=Non
     rows = 1 if constant else n
     loads = np.zeros((rows, n_seg, 2))
     if vertex_forces is not None:
-        loads += _as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 2))
+        loads += as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 2))
     if tip_force is not None:
-        loads[:, 0, :] += _as_series("tip_force", tip_force, rows, dt, (2,))
+        loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (2,))
     return loads
 
 
@@ -141,7 +113,7 @@ def initial_state(params: ModelParams, solver: SolverOptions | None = None, load
 def simulate(
     duration: float,
     voltage_right: float | np.ndarray | Callable[[float], float],
-    voltage_left: float | np.ndarray | Callable[[float], float],
+    voltage_left: float | np.ndarray | Callable[[float], float] | None = None,
     *,
     dt: float = 0.01,
     tip_force=None,
@@ -149,8 +121,15 @@ def simulate(
     params: ModelParams | None = None,
     solver: SolverOptions | None = None,
     state: np.ndarray | None = None,
-) -> SimulationResult:
+    layout: SpineLayout | None = None,
+) -> SimulationResult | SpatialResult:
     """Simulate the SMA spine for ``duration`` seconds.
+
+    Planar (MODEL.md) by default. With ``layout=`` (a :class:`SpineLayout`: spatial four-wire
+    module, chain of modules) it runs the spatial core instead (SPATIAL.md) and returns a
+    :class:`SpatialResult`: then the second argument holds the voltages of all W wire groups
+    ((W,), (n, W) or a callable t → (W,)), ``voltage_left`` and ``params`` must be omitted (the
+    layout carries its params) and forces are 3-vectors (see :func:`simulate_spatial`).
 
     Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
 
@@ -164,9 +143,10 @@ def simulate(
         params: model parameters (default: MODEL.md §7 baseline).
         solver: numerical options (default :class:`SolverOptions`).
         state: start from this state (e.g. ``previous.final_state``) instead of §3.10.
+        layout: run the spatial core on this layout (see above).
 
     Returns:
-        A :class:`SimulationResult`.
+        A :class:`SimulationResult` (planar) or a :class:`SpatialResult` (``layout`` given).
 
     Raises:
         ValueError: an input out of range (the message names it).
@@ -174,6 +154,27 @@ def simulate(
             past buckling (``ERR_BUCKLING``, see :func:`spine_gym.buckling.critical_load`); never
             returns NaN.
     """
+    if layout is not None:
+        if voltage_left is not None or params is not None:
+            raise ValueError(
+                "with layout=, pass the voltages of all wire groups as the second argument and no "
+                f"voltage_left or params (the layout carries its params); got voltage_left={voltage_left!r}, "
+                f"params={params!r}"
+            )
+        return simulate_spatial(
+            duration,
+            voltage_right,
+            layout=layout,
+            dt=dt,
+            tip_force=tip_force,
+            vertex_forces=vertex_forces,
+            solver=solver,
+            state=state,
+        )
+    if voltage_left is None:
+        raise ValueError(
+            "voltage_left is required for the planar model (or pass layout= for the spatial one)"
+        )
     params = params or ModelParams()
     solver = solver or SolverOptions()
     if not isinstance(params, ModelParams):
@@ -185,8 +186,8 @@ def simulate(
     if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
         raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
     n = max(1, int(round(duration / dt)))
-    v_r = _as_series("voltage_right", voltage_right, n, dt, ())
-    v_l = _as_series("voltage_left", voltage_left, n, dt, ())
+    v_r = as_series("voltage_right", voltage_right, n, dt, ())
+    v_l = as_series("voltage_left", voltage_left, n, dt, ())
     for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
         if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
             raise ValueError(

@@ -1,0 +1,810 @@
+"""Composite solve and time integration of the wire- and module-generic spine (SPATIAL.md §5, MODEL.md §6).
+
+The unknowns of the composite module are the K module wire moments M_w,k (2K scalars, material
+components). G(M) is the wire moment that the constitutive law (MODEL.md §3.6) gives at the strains
+of the shape that M produces (SPATIAL.md §3–§4); the solve finds M = G(M).
+
+* Coupled Newton (default, the generalisation of :func:`.solver.composite_newton`): one shape
+  pass per iteration; M updated by the Newton step ΔM = (I − J)⁻¹ (G − M) with the loop gain
+  J = ∂G/∂ω · S from the wires' tangent moduli and the shape sensitivity S = dω/dM, a secant
+  (Broyden) matrix carried in the state; the shape predicted by ω += S ΔM.
+* Safeguard, if Newton does not converge within the caps: from the untouched starting point,
+  S is refreshed by finite differences of full shape solves and a back-tracking Newton with a
+  full shape solve per evaluation drives max|G − M| below the tolerance (the step is halved
+  until the residual falls). Failure returns a status, never NaN.
+
+For the planar layouts (wires at 0° and 180°, optionally unpowered ones at 90°/270°) every d1
+quantity is exactly zero, the Newton step reduces to the planar scalar step and the secant update
+to the planar one, so the two cores agree to the solver tolerance (SPATIAL.md §7.1, tested).
+
+:func:`advance` mirrors :func:`.solver.advance` line by line over arrays of wires: the same
+sub-step rule, implicit phase and convection updates and energy bookkeeping (MODEL.md §6.1). The
+wire model is :mod:`.sma`'s, not a copy.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ._jit import jit, pjit
+from .layout import (
+    ERR_NONFINITE,
+    ERR_ROOT,
+    ERR_SUBSTEPS,
+    ERR_TEMPERATURE,
+    K_ASV,
+    K_AW,
+    K_EPS0,
+    K_EPST,
+    K_RHOC,
+    K_TE,
+    K_TMAX,
+    OK,
+    S_C,
+    S_HMAX,
+    S_HMIN,
+    S_MAXROOT,
+    S_MAXSHAPE,
+    S_MAXSUB,
+    S_TOLM,
+    S_TOLTH,
+)
+from .sma import compliance, latent_heats, phase_step, rates, resistivity, stress
+from .solver import SECANT_MIN_DM, _step_rate
+from .spatial_layout import (
+    F_EPS,
+    F_QC,
+    F_QJ,
+    F_QL,
+    F_SIG,
+    F_T,
+    F_XM,
+    F_XP,
+    M_LS,
+    M_NSEG,
+    M_SEG0,
+    S_TIME,
+    W_A,
+    W_EX,
+    W_EY,
+    W_L0,
+    W_LREF,
+    W_MOD,
+    W_NW,
+    moment_offset,
+    omega_offset,
+    sens_offset,
+    wire_offset,
+)
+from .spatial_tube import (
+    bending_vector,
+    half_sinc,
+    kinematics,
+    positions,
+    segment_length_gradient,
+    shape_pass,
+    solve_shape,
+    wire_length,
+)
+
+FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
+INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
+MAX_HALVINGS = 30  # back-tracking halvings of one safeguarded Newton step
+SAFE_TOL = 0.01  # shape tolerance of the safeguard relative to tol_theta
+
+
+# ---------------------------------------------------------------- state views and work arrays
+@jit
+def sizes(kw, km):
+    """(W, K, N): wire groups, modules, segments."""
+    n = 0
+    for k in range(km.shape[0]):
+        n += int(km[k, M_NSEG])
+    return kw.shape[0], km.shape[0], n
+
+
+@jit
+def views(state, nw, nm, ns):
+    """(M_w (K, 2), ω (N, 2), S (2N, 2K)) as views into the state."""
+    mo = moment_offset(nw)
+    oo = omega_offset(nw, nm)
+    so = sens_offset(nw, nm, ns)
+    return (
+        state[mo : mo + 2 * nm].reshape((nm, 2)),
+        state[oo : oo + 2 * ns].reshape((ns, 2)),
+        state[so : so + 4 * ns * nm].reshape((2 * ns, 2 * nm)),
+    )
+
+
+@jit
+def wire_block(state, field, nw):
+    """View of the per-wire block ``field`` (F_*) of the state."""
+    o = wire_offset(field, nw)
+    return state[o : o + nw]
+
+
+# indices of the work tuple of make_work
+(
+    WK_FRAMES,  # (N + 1, 3, 3) section frames
+    WK_CHORDS,  # (N, 3) chords
+    WK_NEW,  # (N, 2) new ω of a shape pass
+    WK_SAVED_W,  # (N, 2) saved ω
+    WK_FS,  # (N,) chord factors f
+    WK_EPS,  # (W,) strains
+    WK_SIG,  # (W,) stresses
+    WK_G,  # (K, 2) G(M)
+    WK_JAC,  # (2K, 2K) Jacobian, then the Newton matrix
+    WK_RHS,  # (2K,) right-hand side
+    WK_DM,  # (2K,) ΔM (also scratch of loop_gain)
+    WK_MTRIAL,  # (K, 2) trial M
+    WK_SAVED_M,  # (K, 2) saved M
+    WK_WTRIAL,  # (N, 2) trial ω
+    WK_RATES,  # (W, 4) rates
+    WK_XNEW,  # (W, 2) new fractions
+    WK_POS,  # (N + 1, 3) vertex positions
+) = range(17)
+
+
+@jit
+def make_work(nw, nm, ns):
+    """Preallocated work arrays of one spine (no allocation inside the sub-step loop), WK_* order."""
+    return (
+        np.empty((ns + 1, 3, 3)),
+        np.empty((ns, 3)),
+        np.empty((ns, 2)),
+        np.empty((ns, 2)),
+        np.empty(ns),
+        np.empty(nw),
+        np.empty(nw),
+        np.empty((nm, 2)),
+        np.empty((2 * nm, 2 * nm)),
+        np.empty(2 * nm),
+        np.empty(2 * nm),
+        np.empty((nm, 2)),
+        np.empty((nm, 2)),
+        np.empty((ns, 2)),
+        np.empty((nw, 4)),
+        np.empty((nw, 2)),
+        np.empty((ns + 1, 3)),
+    )
+
+
+# ---------------------------------------------------------------- mechanics
+@jit
+def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
+    """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
+
+    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
+    """
+    fs = wk[WK_FS]
+    eps = wk[WK_EPS]
+    sig = wk[WK_SIG]
+    gm = wk[WK_G]
+    half_sinc(omega, fs)
+    for k in range(gm.shape[0]):
+        gm[k, 0] = 0.0
+        gm[k, 1] = 0.0
+    aw = kp[K_AW]
+    for j in range(kw.shape[0]):
+        e = wire_length(j, omega, fs, kw, km) / kw[j, W_LREF] - 1.0
+        s = stress(e, xp[j], xm[j], kp)
+        eps[j] = e
+        sig[j] = s
+        k = int(kw[j, W_MOD])
+        t = kw[j, W_NW] * aw * s * kw[j, W_A]
+        gm[k, 0] += t * kw[j, W_EX]
+        gm[k, 1] += t * kw[j, W_EY]
+
+
+@jit
+def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
+    """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
+
+    ∂L/∂ω segment by segment (:func:`.spatial_tube.segment_length_gradient`), times S.
+    """
+    jac = wk[WK_JAC]
+    row = wk[WK_DM]
+    sig = wk[WK_SIG]
+    ncol = jac.shape[1]
+    for r in range(ncol):
+        for c in range(ncol):
+            jac[r, c] = 0.0
+    aw = kp[K_AW]
+    for j in range(kw.shape[0]):
+        if sig[j] <= 0.0:
+            continue
+        k = int(kw[j, W_MOD])
+        seg0 = int(km[k, M_SEG0])
+        ls = km[k, M_LS]
+        a = kw[j, W_A]
+        ex = kw[j, W_EX]
+        ey = kw[j, W_EY]
+        for c in range(ncol):
+            row[c] = 0.0
+        for i in range(seg0, seg0 + int(km[k, M_NSEG])):
+            g1, g2 = segment_length_gradient(omega[i, 0], omega[i, 1], ls, a, ex, ey)
+            for c in range(ncol):
+                row[c] += g1 * sens[2 * i, c] + g2 * sens[2 * i + 1, c]
+        cw = kw[j, W_NW] * aw * a / (compliance(xp[j], xm[j], kp) * kw[j, W_LREF])
+        for c in range(ncol):
+            jac[2 * k, c] += cw * ex * row[c]
+            jac[2 * k + 1, c] += cw * ey * row[c]
+
+
+@jit
+def solve_linear(a, b, x):
+    """Solve a x = b by Gaussian elimination with partial pivoting (a and b are overwritten)."""
+    n = b.shape[0]
+    if n == 2:  # one module: Cramer's rule
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        x[0] = (a[1, 1] * b[0] - a[0, 1] * b[1]) / det
+        x[1] = (a[0, 0] * b[1] - a[1, 0] * b[0]) / det
+        return
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(a[r, c]) > abs(a[p, c]):
+                p = r
+        if p != c:
+            for q in range(n):
+                a[c, q], a[p, q] = a[p, q], a[c, q]
+            b[c], b[p] = b[p], b[c]
+        piv = a[c, c]
+        for r in range(c + 1, n):
+            f = a[r, c] / piv
+            if f != 0.0:
+                for q in range(c, n):
+                    a[r, q] -= f * a[c, q]
+                b[r] -= f * b[c]
+    for r in range(n - 1, -1, -1):
+        s = b[r]
+        for q in range(r + 1, n):
+            s -= a[r, q] * x[q]
+        x[r] = s / a[r, r]
+
+
+@jit
+def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
+    """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega`` (mechanics recomputed).
+
+    Returns:
+        max |ΔM| [N m] (inf or NaN if the step is not finite).
+    """
+    wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)
+    a = wk[WK_JAC]
+    rhs = wk[WK_RHS]
+    dm = wk[WK_DM]
+    gm = wk[WK_G]
+    nm = mw.shape[0]
+    for k in range(nm):
+        rhs[2 * k] = gm[k, 0] - mw[k, 0]
+        rhs[2 * k + 1] = gm[k, 1] - mw[k, 1]
+    for r in range(2 * nm):
+        for c in range(2 * nm):
+            a[r, c] = -a[r, c]
+        a[r, r] += 1.0
+    solve_linear(a, rhs, dm)
+    big = 0.0
+    for r in range(2 * nm):
+        if not math.isfinite(dm[r]):
+            return np.inf
+        big = max(big, abs(dm[r]))
+    return big
+
+
+@jit
+def _predict(omega, sens, dm, scale, out):
+    """out = ω + scale · S ΔM (the shape predicted for the moment change)."""
+    for i in range(omega.shape[0]):
+        for b in range(2):
+            v = 0.0
+            for c in range(dm.shape[0]):
+                v += sens[2 * i + b, c] * dm[c]
+            out[i, b] = omega[i, b] + scale * v
+
+
+@jit
+def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
+    """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
+
+    Returns:
+        (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
+    """
+    tol_m = ks[S_TOLM]
+    tol_th = ks[S_TOLTH]
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    dm = wk[WK_DM]
+    nm = mw.shape[0]
+    ns = omega.shape[0]
+    e = np.inf
+    passes = 0
+    for _ in range(int(ks[S_MAXROOT])):
+        big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
+        if e < tol_th and big < tol_m:
+            return OK, passes
+        if not math.isfinite(big):
+            return ERR_NONFINITE, passes
+        for k in range(nm):
+            mw[k, 0] += dm[2 * k]
+            mw[k, 1] += dm[2 * k + 1]
+        _predict(omega, sens, dm, 1.0, omega)
+        e = shape_pass(omega, mw, vforce, kp, km, frames, chords, new)
+        passes += 1
+        for i in range(ns):
+            omega[i, 0] = new[i, 0]
+            omega[i, 1] = new[i, 1]
+    return ERR_ROOT, passes
+
+
+@jit
+def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
+    """S = dω/dM by forward differences of full shape solves (tolerance ``tol``) at the shape for ``mw``.
+
+    ``omega`` is first solved for ``mw``. Returns (status, shape passes).
+    """
+    max_shape = int(ks[S_MAXSHAPE])
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial = wk[WK_WTRIAL]
+    mt = wk[WK_MTRIAL]
+    nm = mw.shape[0]
+    st, passes = solve_shape(omega, mw, vforce, kp, km, tol, max_shape, frames, chords, new)
+    if st != OK:
+        return st, passes
+    for c in range(2 * nm):
+        copy_pairs(mt, mw)
+        mt[c // 2, c % 2] += FD_DM
+        copy_pairs(trial, omega)
+        st, it = solve_shape(trial, mt, vforce, kp, km, tol, max_shape, frames, chords, new)
+        passes += it
+        if st != OK:
+            return st, passes
+        for i in range(omega.shape[0]):
+            sens[2 * i, c] = (trial[i, 0] - omega[i, 0]) / FD_DM
+            sens[2 * i + 1, c] = (trial[i, 1] - omega[i, 1]) / FD_DM
+    return OK, passes
+
+
+@jit
+def _residual_norm(mw, wk):
+    """max |G(M) − M| after :func:`wire_mechanics`."""
+    gm = wk[WK_G]
+    r = 0.0
+    for k in range(mw.shape[0]):
+        r = max(r, abs(gm[k, 0] - mw[k, 0]), abs(gm[k, 1] - mw[k, 1]))
+    return r
+
+
+@jit
+def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol):
+    """Try M + λ ΔM (ΔM in wk[WK_DM]), λ = 1, ½, ¼ …, each with a full shape solve from the shape
+    predicted by S; accept the first that lowers max|G − M| (then written into mw, omega).
+
+    Returns:
+        (accepted, shape passes).
+    """
+    max_shape = int(ks[S_MAXSHAPE])
+    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
+    trial, mt, dm = wk[WK_WTRIAL], wk[WK_MTRIAL], wk[WK_DM]
+    passes = 0
+    lam = 1.0
+    for _ in range(MAX_HALVINGS):
+        for k in range(mw.shape[0]):
+            mt[k, 0] = mw[k, 0] + lam * dm[2 * k]
+            mt[k, 1] = mw[k, 1] + lam * dm[2 * k + 1]
+        _predict(omega, sens, dm, lam, trial)
+        st, it = solve_shape(trial, mt, vforce, kp, km, tol, max_shape, frames, chords, new)
+        passes += it
+        if st == OK:
+            wire_mechanics(trial, xp, xm, kp, kw, km, wk)
+            if _residual_norm(mt, wk) < (1.0 - 1e-4 * lam) * norm:
+                copy_pairs(mw, mt)
+                copy_pairs(omega, trial)
+                return True, passes
+        lam *= 0.5
+    return False, passes
+
+
+@jit
+def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
+    """The safeguard of §5: Newton with full shape solves, a finite-difference S refreshed at every
+    iterate, and back-tracking; if no Newton step lowers the residual, the fixed-point direction
+    ΔM = G(M) − M (a descent direction: −g' = I − J is positive definite as the wires stiffen the
+    structure) with back-tracking. The shape solves use SAFE_TOL × tol_theta, so that the residual
+    is resolved well below tol_moment.
+
+    Returns:
+        (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
+    """
+    tol_m = ks[S_TOLM]
+    tol = SAFE_TOL * ks[S_TOLTH]
+    dm, gm = wk[WK_DM], wk[WK_G]
+    passes = 0
+    for _ in range(int(ks[S_MAXROOT])):
+        st, p = refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol)
+        passes += p
+        if st != OK:
+            return st, passes
+        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+        norm = _residual_norm(mw, wk)
+        if norm <= tol_m:
+            return OK, passes
+        if not math.isfinite(newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)):
+            return ERR_NONFINITE, passes
+        ok, p = _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
+        passes += p
+        if not ok:
+            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+            for k in range(mw.shape[0]):
+                dm[2 * k] = gm[k, 0] - mw[k, 0]
+                dm[2 * k + 1] = gm[k, 1] - mw[k, 1]
+            ok, p = _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
+            passes += p
+            if not ok:
+                return ERR_ROOT, passes
+    return ERR_ROOT, passes
+
+
+@jit
+def copy_pairs(dst, src):
+    """dst[:, :] = src for (n, 2) arrays (an explicit loop: cheaper than a 2-D slice assignment)."""
+    for i in range(src.shape[0]):
+        dst[i, 0] = src[i, 0]
+        dst[i, 1] = src[i, 1]
+
+
+@jit
+def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
+    """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
+
+    Newton first, then the safeguard from the untouched starting point (cf. solver.composite).
+    Returns (status, shape passes used).
+    """
+    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
+    copy_pairs(saved_w, omega)
+    copy_pairs(saved_m, mw)
+    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    if st != OK:
+        copy_pairs(omega, saved_w)
+        copy_pairs(mw, saved_m)
+        st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+        passes += p2
+        if st != OK:
+            copy_pairs(omega, saved_w)
+            copy_pairs(mw, saved_m)
+            return st, passes
+    e_new = wk[WK_EPS]
+    s_new = wk[WK_SIG]
+    for j in range(eps.shape[0]):
+        eps[j] = e_new[j]
+        sig[j] = s_new[j]
+    return OK, passes
+
+
+@jit
+def composite(state, vforce, kp, ks, kw, km, wk):
+    """Solve the composite module for the state's fractions and the loads, in place (cf. solver.composite).
+
+    Updates M_w, ω, ε, σ in ``state``. Returns (status, shape passes used).
+    """
+    nw, nm, ns = sizes(kw, km)
+    mw, omega, sens = views(state, nw, nm, ns)
+    return solve_mechanics(
+        mw,
+        omega,
+        sens,
+        wire_block(state, F_XP, nw),
+        wire_block(state, F_XM, nw),
+        wire_block(state, F_EPS, nw),
+        wire_block(state, F_SIG, nw),
+        vforce,
+        kp,
+        ks,
+        kw,
+        km,
+        wk,
+    )
+
+
+@jit
+def _secant_update(sens, omega, saved_w, mw, saved_m):
+    """Broyden update S += (Δω − S ΔM) ΔMᵀ / |ΔM|² from two converged shapes (same loads).
+
+    With ΔM along one axis (the planar case) this is the planar secant s = Δθ/ΔM of that column.
+    """
+    nm = mw.shape[0]
+    big = 0.0
+    nrm = 0.0
+    for k in range(nm):
+        for b in range(2):
+            d = mw[k, b] - saved_m[k, b]
+            big = max(big, abs(d))
+            nrm += d * d
+    if big <= SECANT_MIN_DM:
+        return
+    for i in range(omega.shape[0]):
+        for b in range(2):
+            r = 2 * i + b
+            miss = omega[i, b] - saved_w[i, b]
+            for c in range(2 * nm):
+                miss -= sens[r, c] * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
+            f = miss / nrm
+            for c in range(2 * nm):
+                sens[r, c] += f * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
+
+
+# ---------------------------------------------------------------- time step (MODEL.md §6.1)
+@jit
+def _choose_h(rem, dt, r, ks):
+    """Sub-step size of MODEL.md §6.1 b, exactly as solver.advance."""
+    c_crit = ks[S_C]
+    h = rem
+    if r * h > c_crit:
+        h = min(max(c_crit / r, ks[S_HMIN]), rem)
+    if h > ks[S_HMAX]:
+        h = ks[S_HMAX]
+    if rem - h < 1e-9 * dt:  # do not leave a sliver
+        h = rem
+    return h
+
+
+@jit
+def _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk):
+    """Phases (implicit Euler), Joule and latent heat, implicit convection for every wire (§6.1 c–f).
+
+    Writes the new temperatures and energy accumulators (the state's per-wire blocks passed in)
+    and the new fractions into wk[WK_XNEW]. Returns (status, whether any fraction moved).
+    """
+    nw = kw.shape[0]
+    rt = wk[WK_RATES]
+    xnew = wk[WK_XNEW]
+    rhoc = kp[K_RHOC]
+    asv = kp[K_ASV]
+    t_e = kp[K_TE]
+    moved = False
+    ok = True
+    for j in range(nw):
+        l0sq = kw[j, W_L0] * kw[j, W_L0]
+        xp2, xm2 = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
+        jj = (volts[j] * volts[j] / l0sq) / resistivity(xp2, xm2, kp)
+        lp, lm = latent_heats(sig[j], kp)
+        q = lp * (xp2 - xp[j]) + lm * (xm2 - xm[j])
+        t2 = (temp[j] + (h * jj + h * asv * t_e + q) / rhoc) / (1.0 + h * asv / rhoc)
+        qj[j] += h * jj
+        qc[j] += h * asv * (t2 - t_e)
+        ql[j] += q
+        temp[j] = t2
+        xnew[j, 0] = xp2
+        xnew[j, 1] = xm2
+        if xp2 != xp[j] or xm2 != xm[j]:
+            moved = True
+        if not math.isfinite(t2):
+            return ERR_NONFINITE, moved
+        if t2 > kp[K_TMAX] or t2 <= 0.0:
+            ok = False
+    if not ok:
+        return ERR_TEMPERATURE, moved
+    return OK, moved
+
+
+@jit
+def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
+    """Advance one spatial spine by one output step ``dt`` (MODEL.md §6.1; cf. solver.advance).
+
+    Args:
+        state: spatial state (see :mod:`.spatial_layout`), updated in place.
+        kp, ks: material constants and solver options.
+        kw, km: wire-group and module tables.
+        volts: (W,) voltage on each wire of every group [V].
+        vforce: (N, 3) external forces at the vertices P_0 … P_{N−1} [N], global x/y/z.
+        dt: output step [s].
+        resolve: solve the mechanics first (the loads changed since the last call).
+
+    Returns:
+        (status, sub-steps, shape passes).
+    """
+    nw, nm, ns = sizes(kw, km)
+    wk = make_work(nw, nm, ns)
+    mw, omega, sens = views(state, nw, nm, ns)
+    xp = wire_block(state, F_XP, nw)
+    xm = wire_block(state, F_XM, nw)
+    temp = wire_block(state, F_T, nw)
+    sig = wire_block(state, F_SIG, nw)
+    eps = wire_block(state, F_EPS, nw)
+    qj = wire_block(state, F_QJ, nw)
+    qc = wire_block(state, F_QC, nw)
+    ql = wire_block(state, F_QL, nw)
+    rt = wk[WK_RATES]
+    xnew = wk[WK_XNEW]
+    saved_w = np.empty((ns, 2))
+    saved_m = np.empty((nm, 2))
+    passes = 0
+    if resolve:
+        st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+        if st != OK:
+            return st, 0, passes
+    max_sub = int(ks[S_MAXSUB])
+    rem = dt
+    nsub = 0
+    while rem > 0.0:
+        # a. rates once per sub-step, b. step size from the fastest active transition
+        r = 0.0
+        for j in range(nw):
+            ppA, pAp, pmA, pAm = rates(sig[j], temp[j], kp)
+            rt[j, 0] = ppA
+            rt[j, 1] = pAp
+            rt[j, 2] = pmA
+            rt[j, 3] = pAm
+            r = max(r, _step_rate(xp[j], xm[j], ppA, pAp, pmA, pAm))
+        h = _choose_h(rem, dt, r, ks)
+        # c.–f. phases, heat balance, energy bookkeeping
+        st, moved = _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk)
+        if st != OK:
+            return st, nsub, passes
+        # g. composite solve only when a fraction moved
+        if moved:
+            for j in range(nw):
+                xp[j] = xnew[j, 0]
+                xm[j] = xnew[j, 1]
+            copy_pairs(saved_w, omega)
+            copy_pairs(saved_m, mw)
+            st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+            passes += p
+            if st != OK:
+                return st, nsub, passes
+            _secant_update(sens, omega, saved_w, mw, saved_m)
+        rem -= h
+        nsub += 1
+        if nsub > max_sub:
+            return ERR_SUBSTEPS, nsub, passes
+    state[S_TIME] += dt
+    return OK, nsub, passes
+
+
+@jit
+def init_state(state, kp, ks, kw, km, vforce):
+    """Initial state (MODEL.md §3.10) of every wire, straight spine, solved under ``vforce``.
+
+    The sensitivity S starts, column by column, as the response of a full shape solve from the
+    straight spine to a probe moment INIT_DM on that unknown (cf. solver.init_state).
+
+    Returns:
+        status of the mechanical solve.
+    """
+    nw, nm, ns = sizes(kw, km)
+    state[:] = 0.0
+    xp0 = 0.5 * (1.0 + kp[K_EPS0] / kp[K_EPST])
+    wire_block(state, F_XP, nw)[:] = xp0
+    wire_block(state, F_XM, nw)[:] = 1.0 - xp0
+    wire_block(state, F_T, nw)[:] = kp[K_TE]
+    wire_block(state, F_EPS, nw)[:] = kp[K_EPS0]
+    mw, omega, sens = views(state, nw, nm, ns)
+    wk = make_work(nw, nm, ns)
+    zero = np.zeros((ns, 3))
+    probe = np.empty((ns, 2))
+    mp = np.empty((nm, 2))
+    for c in range(2 * nm):
+        probe[:, :] = 0.0
+        mp[:, :] = 0.0
+        mp[c // 2, c % 2] = INIT_DM
+        st, _ = solve_shape(
+            probe,
+            mp,
+            zero,
+            kp,
+            km,
+            ks[S_TOLTH],
+            int(ks[S_MAXSHAPE]),
+            wk[WK_FRAMES],
+            wk[WK_CHORDS],
+            wk[WK_NEW],
+        )
+        if st != OK:
+            return st
+        for i in range(ns):
+            sens[2 * i, c] = probe[i, 0] / INIT_DM
+            sens[2 * i + 1, c] = probe[i, 1] / INIT_DM
+    st, _ = composite(state, vforce, kp, ks, kw, km, wk)
+    return st
+
+
+# ---------------------------------------------------------------- recording and the time loop
+@jit
+def record_size(nw, nm, ns):
+    """Columns of one record row: the state without S, then the derived outputs of :func:`record`."""
+    return sens_offset(nw, nm, ns) + 2 * nm + 2 + 3 + 9 + nw
+
+
+@jit
+def record(state, kp, kw, km, wk, row):
+    """Write state (without S) | module bending vectors (K, 2) [rad] | tip bending vector (2) [rad]
+    | tip position (3) [m] | tip frame (rows d1, d2, t) (9) | resistivity per wire (W) [Ω m]."""
+    nw, nm, ns = sizes(kw, km)
+    head = sens_offset(nw, nm, ns)
+    row[:head] = state[:head]
+    mw, omega, sens = views(state, nw, nm, ns)
+    frames, chords, pos = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS]
+    kinematics(omega, km, frames, chords)
+    positions(chords, pos)
+    o = head
+    for k in range(nm):
+        seg0 = int(km[k, M_SEG0])
+        b1, b2 = bending_vector(frames[seg0 + int(km[k, M_NSEG])], frames[seg0])
+        row[o + 2 * k] = b1
+        row[o + 2 * k + 1] = b2
+    o += 2 * nm
+    b1, b2 = bending_vector(frames[ns], frames[0])
+    row[o] = b1
+    row[o + 1] = b2
+    o += 2
+    for c in range(3):
+        row[o + c] = pos[0, c]
+    o += 3
+    for r in range(3):
+        for c in range(3):
+            row[o + 3 * r + c] = frames[0, r, c]
+    o += 9
+    xp = wire_block(state, F_XP, nw)
+    xm = wire_block(state, F_XM, nw)
+    for j in range(nw):
+        row[o + j] = resistivity(xp[j], xm[j], kp)
+
+
+@jit
+def run(state, kp, ks, kw, km, volts, loads, dt, out):
+    """Integrate one spatial spine over ``volts.shape[0]`` output steps, recording every step.
+
+    Args:
+        state: initial state, advanced in place.
+        volts: (n, W) voltages held over [t_k, t_k + dt) [V].
+        loads: (n, N, 3) vertex forces over each step, or (1, N, 3) for constant loads [N].
+        dt: output step [s].
+        out: (n + 1, record_size) record; row 0 is the initial state.
+
+    Returns:
+        (status, index of the failing step or n, total sub-steps, total shape passes).
+    """
+    nw, nm, ns = sizes(kw, km)
+    wk = make_work(nw, nm, ns)
+    n = volts.shape[0]
+    record(state, kp, kw, km, wk, out[0])
+    nsub = 0
+    npass = 0
+    varying = loads.shape[0] > 1
+    for k in range(n):
+        vf = loads[k] if varying else loads[0]
+        resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
+        st, a, b = advance(state, kp, ks, kw, km, volts[k], vf, dt, resolve)
+        nsub += a
+        npass += b
+        if st != OK:
+            return st, k, nsub, npass
+        record(state, kp, kw, km, wk, out[k + 1])
+    return OK, n, nsub, npass
+
+
+def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
+    """Advance each spatial spine i by ``n_steps`` output steps of ``dt`` (cf. batch.advance_many).
+
+    Args:
+        states: (B, state size) spatial states, advanced in place.
+        kps: (B, KP_SIZE) material constants per spine (e.g. randomised).
+        kw, km: the layout tables, shared by the batch.
+        volts: (B, W) voltages [V]; loads: (B, N, 3) vertex forces [N].
+        status: (B,) output, the first failure of each spine (a failed spine stops there).
+    """
+    b = states.shape[0]
+    for i in numba.prange(b):
+        status[i] = OK
+        for _ in range(n_steps):
+            st, _a, _c = advance(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt)
+            if st != OK:
+                status[i] = st
+                break
+
+
+advance_many = pjit(_advance_many)
+advance_many_serial = jit(_advance_many)

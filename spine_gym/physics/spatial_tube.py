@@ -1,0 +1,280 @@
+"""3-D segmented-line bending of a chain of modules (SPATIAL.md §1–§4), numpy + numba only.
+
+Frames: the section frame (d1, d2, t) of vertex j is stored as ``frames[j]`` (rows: d1, d2, t in
+global coordinates; global z up, x toward wire 0, y toward wire 1). The base frame ``frames[N]``
+is the identity. Segment i rotates the whole frame about the axis k = (ω1 d1 + ω2 d2)/Δθ by
+Δθ = |ω_i| (Rodrigues; parallel transport, no twist — the tube is taken as torsionally rigid,
+SPATIAL.md §1). In the lower section's material axes the rotation is
+
+    d1' = (1 − b ω2²) d1 + b ω1 ω2 d2 − a ω2 t
+    d2' = b ω1 ω2 d1 + (1 − b ω1²) d2 + a ω1 t
+    t'  = a ω2 d1 − a ω1 d2 + (1 − b Δθ²) t,        a = sin Δθ/Δθ, b = (1 − cos Δθ)/Δθ²,
+
+and the chord is r = ls (a t + b (ω2 d1 − ω1 d2)): length (2 ls/Δθ) sin(Δθ/2) along
+R(k, Δθ/2) t as §2 states (the integral of the arc's tangent). b is computed as
+½ (sin(Δθ/2)/(Δθ/2))², free of cancellation; both use their series below 1e-8 rad.
+
+Indexing as the planar core (:mod:`.tube`): segment 0 is the top one, vertex 0 the tip, and the
+loads ``vforce[j]`` (global x, y, z) [N] act at vertex j. Module tables: :mod:`.spatial_layout`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._jit import jit
+from .layout import ERR_SHAPE, K_EI, K_G, OK
+from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_L0, W_MOD
+
+SMALL = 1e-8  # [rad] below this the rotation coefficients use their series (MODEL.md §4.3)
+
+
+@jit
+def rot_coeffs(th):
+    """(a, b, f) = (sin Δθ/Δθ, (1 − cos Δθ)/Δθ², 2 sin(Δθ/2)/Δθ) with small-angle series.
+
+    From one sine and cosine of Δθ/2: f = sin(Δθ/2)/(Δθ/2), a = f cos(Δθ/2), b = f²/2.
+    """
+    if th < SMALL:
+        t2 = th * th
+        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 - t2 / 24.0
+    half = 0.5 * th
+    f = math.sin(half) / half
+    return f * math.cos(half), 0.5 * f * f, f
+
+
+@jit
+def kinematics(omega, km, frames, chords):
+    """Bottom-up frames and chord vectors of every segment (SPATIAL.md §2).
+
+    Args:
+        omega: (N, 2) segment rotation vectors in the lower section's material axes [rad].
+        km: module table.
+        frames: (N + 1, 3, 3) output, section frames at the vertices (rows d1, d2, t).
+        chords: (N, 3) output, r_i = P_i − P_{i+1} [m].
+    """
+    n = omega.shape[0]
+    for r in range(3):
+        for c in range(3):
+            frames[n, r, c] = 1.0 if r == c else 0.0
+    for k in range(km.shape[0]):
+        seg0 = int(km[k, M_SEG0])
+        ls = km[k, M_LS]
+        for i in range(seg0 + int(km[k, M_NSEG]) - 1, seg0 - 1, -1):
+            w1 = omega[i, 0]
+            w2 = omega[i, 1]
+            th2 = w1 * w1 + w2 * w2
+            a, b, _ = rot_coeffs(math.sqrt(th2))
+            c11 = 1.0 - b * w2 * w2
+            c12 = b * w1 * w2
+            c22 = 1.0 - b * w1 * w1
+            c33 = 1.0 - b * th2
+            aw1 = a * w1
+            aw2 = a * w2
+            for c in range(3):
+                d1 = frames[i + 1, 0, c]
+                d2 = frames[i + 1, 1, c]
+                t = frames[i + 1, 2, c]
+                frames[i, 0, c] = c11 * d1 + c12 * d2 - aw2 * t
+                frames[i, 1, c] = c12 * d1 + c22 * d2 + aw1 * t
+                frames[i, 2, c] = aw2 * d1 - aw1 * d2 + c33 * t
+                chords[i, c] = ls * (a * t + b * (w2 * d1 - w1 * d2))
+
+
+@jit
+def _project(frame, mx, my, mz):
+    """Material components (d1·M, d2·M) of a global moment M."""
+    return (
+        frame[0, 0] * mx + frame[0, 1] * my + frame[0, 2] * mz,
+        frame[1, 0] * mx + frame[1, 1] * my + frame[1, 2] * mz,
+    )
+
+
+@jit
+def loads_pass(omega, mw, vforce, kp, km, frames, chords, out):
+    """Top-down forces and moments, new segment rotations (SPATIAL.md §3), given the kinematics.
+
+    The load moment about the lower vertex of segment i accumulates r_i × F + ½ r_i × W_i (3-D
+    MODEL.md §4.6); each end's section moment is module k's wire moment plus the load moment's
+    components on that section's own (d1, d2); ω_i = ls ½ (m_up + m_low)/(E_t I) (§4.7).
+
+    Returns:
+        max over segments and components of |out − omega| [rad].
+    """
+    g = kp[K_G]
+    k_ang_ei = 0.5 / kp[K_EI]
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    mx = 0.0
+    my = 0.0
+    mz = 0.0
+    err = 0.0
+    for k in range(km.shape[0] - 1, -1, -1):
+        seg0 = int(km[k, M_SEG0])
+        ls = km[k, M_LS]
+        w_seg = km[k, M_MSEG] * g
+        k_ang = ls * k_ang_ei
+        mw1 = mw[k, 0]
+        mw2 = mw[k, 1]
+        fz -= km[k, M_MDISK] * g  # the disk at the module's top vertex
+        for i in range(seg0, seg0 + int(km[k, M_NSEG])):
+            fx += vforce[i, 0]
+            fy += vforce[i, 1]
+            fz += vforce[i, 2]
+            u1, u2 = _project(frames[i], mx, my, mz)
+            rx = chords[i, 0]
+            ry = chords[i, 1]
+            rz = chords[i, 2]
+            # r × F about the lower vertex, plus ½ r × W with W = (0, 0, −w_seg)
+            mx += ry * fz - rz * fy - 0.5 * ry * w_seg
+            my += rz * fx - rx * fz + 0.5 * rx * w_seg
+            mz += rx * fy - ry * fx
+            l1, l2 = _project(frames[i + 1], mx, my, mz)
+            n1 = k_ang * (2.0 * mw1 + u1 + l1)
+            n2 = k_ang * (2.0 * mw2 + u2 + l2)
+            d = max(abs(n1 - omega[i, 0]), abs(n2 - omega[i, 1]))
+            if d > err:
+                err = d
+            out[i, 0] = n1
+            out[i, 1] = n2
+            fz -= w_seg
+    return err
+
+
+@jit
+def shape_pass(omega, mw, vforce, kp, km, frames, chords, out):
+    """One pass of the shape algorithm (MODEL.md §4.9 in 3-D): kinematics, then loads."""
+    kinematics(omega, km, frames, chords)
+    return loads_pass(omega, mw, vforce, kp, km, frames, chords, out)
+
+
+@jit
+def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
+    """Fixed-point shape iteration for given wire moments, in place on ``omega`` (cf. tube.solve_shape).
+
+    Warm-started from the incoming ``omega``; under-relaxes (ω halved) when the update grows.
+
+    Returns:
+        (status, iterations): OK or ERR_SHAPE.
+    """
+    n = omega.shape[0]
+    relax = 1.0
+    err_prev = np.inf
+    for it in range(1, max_iter + 1):
+        err = shape_pass(omega, mw, vforce, kp, km, frames, chords, new)
+        if not math.isfinite(err):
+            return ERR_SHAPE, it
+        if err > err_prev and it > 2 and relax > 0.05:
+            relax *= 0.5
+        for i in range(n):
+            omega[i, 0] += relax * (new[i, 0] - omega[i, 0])
+            omega[i, 1] += relax * (new[i, 1] - omega[i, 1])
+        if err < tol:
+            return OK, it
+        err_prev = err
+    return ERR_SHAPE, max_iter
+
+
+@jit
+def half_sinc(omega, fs):
+    """fs[i] = 2 sin(Δθ_i/2)/Δθ_i, the chord factor of every segment (one sine each)."""
+    for i in range(omega.shape[0]):
+        fs[i] = rot_coeffs(math.sqrt(omega[i, 0] ** 2 + omega[i, 1] ** 2))[2]
+
+
+@jit
+def wire_length(j, omega, fs, kw, km):
+    """Exact pore-to-pore length [m] of wire group j (SPATIAL.md §4), given ``fs`` = half_sinc.
+
+    L_j = (L0 − N_k ls) + Σ_{n in module k} f_n (ls − a_j e_j·ω_n), e_j = (−sin ψ_j, cos ψ_j).
+    """
+    k = int(kw[j, W_MOD])
+    seg0 = int(km[k, M_SEG0])
+    nk = int(km[k, M_NSEG])
+    ls = km[k, M_LS]
+    a = kw[j, W_A]
+    ex = kw[j, W_EX]
+    ey = kw[j, W_EY]
+    length = kw[j, W_L0] - nk * ls
+    for i in range(seg0, seg0 + nk):
+        length += fs[i] * (ls - a * (ex * omega[i, 0] + ey * omega[i, 1]))
+    return length
+
+
+@jit
+def segment_length_gradient(w1, w2, ls, a, ex, ey):
+    """∂ℓ/∂ω of one segment's share ℓ = f (ls − a e·ω) of a wire length (SPATIAL.md §4).
+
+    Small-angle forms f ≈ 1 − Δθ²/24, f'/Δθ ≈ −1/12, as the planar Newton uses (a Newton step
+    only needs the slope to ~1 %): ∂ℓ/∂ω = −(ls − a e·ω) ω/12 − a (1 − Δθ²/24) e.
+    """
+    lever = (ls - a * (ex * w1 + ey * w2)) / 12.0
+    fa = a * (1.0 - (w1 * w1 + w2 * w2) / 24.0)
+    return -lever * w1 - fa * ex, -lever * w2 - fa * ey
+
+
+@jit
+def positions(chords, out):
+    """Vertex positions P_0 … P_N (rows, global x, y, z in m) from the chords; P_N = 0."""
+    n = chords.shape[0]
+    for c in range(3):
+        out[n, c] = 0.0
+    for i in range(n - 1, -1, -1):
+        for c in range(3):
+            out[i, c] = out[i + 1, c] + chords[i, c]
+
+
+@jit
+def bending_vector(base, top):
+    """Bending vector (Θ cos β, Θ sin β) [rad] of frame ``top`` relative to frame ``base`` (§2).
+
+    Θ is the polar angle of the top tangent from the base tangent, β its azimuth in (d1, d2).
+    """
+    t = top[2]
+    v1 = t[0] * base[0, 0] + t[1] * base[0, 1] + t[2] * base[0, 2]
+    v2 = t[0] * base[1, 0] + t[1] * base[1, 1] + t[2] * base[1, 2]
+    c = t[0] * base[2, 0] + t[1] * base[2, 1] + t[2] * base[2, 2]
+    s = math.sqrt(v1 * v1 + v2 * v2)
+    if s == 0.0:
+        return 0.0, 0.0
+    theta = math.atan2(s, c)
+    return theta * v1 / s, theta * v2 / s
+
+
+def straight_load_factor(km: np.ndarray, ei: float, g: float) -> float:
+    """Axial load / buckling load of the straight upright column under its own weight (SPATIAL.md §6).
+
+    The spectral radius of the shape map (MODEL.md §4.9) linearised about the straight column:
+    segment angles δ tilt the chords (φ_i = Σ_{j>i} δ_j + ½ δ_i, small angles), the weights of the
+    disks (at the modules' top vertices) and of the segments (at their chord midpoints) then give
+    the moments M_v = Σ_{loads above v} w (x_load − x_v), and δ_new = ls ½ (M_i + M_{i+1})/(E_t I).
+    The loads scale linearly, so the column buckles when this factor reaches 1; it is also the
+    contraction ratio of the plain shape iteration. Plain numpy (called once per layout).
+
+    Args:
+        km: module table (:mod:`.spatial_layout`).
+        ei: tube bending stiffness E_t I [N m^2].
+        g: gravity [m/s^2].
+    """
+    n = int(km[:, M_NSEG].sum())
+    ls = np.empty(n)
+    w_seg = np.empty(n)
+    w_vert = np.zeros(n + 1)  # disk weights at the vertices
+    for k in range(km.shape[0]):
+        s0, nk = int(km[k, M_SEG0]), int(km[k, M_NSEG])
+        ls[s0 : s0 + nk] = km[k, M_LS]
+        w_seg[s0 : s0 + nk] = km[k, M_MSEG] * g
+        w_vert[s0] += km[k, M_MDISK] * g
+    tilt = np.triu(np.ones((n, n)), 1) + 0.5 * np.eye(n)  # φ = tilt @ δ
+    x = np.zeros((n + 1, n))  # vertex abscissae x_v = Σ_{i >= v} ls_i φ_i
+    for v in range(n - 1, -1, -1):
+        x[v] = x[v + 1] + ls[v] * tilt[v]
+    xc = x[1:] + 0.5 * ls[:, None] * tilt  # segment centres of mass
+    mom = np.zeros((n + 1, n))
+    for v in range(1, n + 1):
+        mom[v] = (w_vert[:v, None] * (x[:v] - x[v])).sum(0) + (w_seg[:v, None] * (xc[:v] - x[v])).sum(0)
+    a = (0.5 * ls / ei)[:, None] * (mom[:-1] + mom[1:])
+    return float(np.max(np.abs(np.linalg.eigvals(a))))

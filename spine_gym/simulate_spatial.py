@@ -1,0 +1,237 @@
+"""``simulate`` of a spatial or chained spine (SPATIAL.md): a :class:`SpineLayout`, one voltage per wire.
+
+The time loop runs inside numba (:func:`spine_gym.physics.spatial_solver.run`); this module turns
+user inputs into arrays, validates them and wraps the record in a :class:`SpatialResult`.
+:func:`spine_gym.simulate` dispatches here when it is given ``layout=``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._series import V_MAX_ALLOWED, SimulationError, as_series
+from .layout import SpineLayout
+from .params import SolverOptions
+from .physics import layout as L
+from .physics import spatial_layout as SL
+from .physics.spatial_solver import init_state, record_size, run
+
+__all__ = ["SpatialResult", "simulate_spatial", "initial_state_spatial", "build_loads_3d"]
+
+
+@dataclass
+class SpatialResult:
+    """Trajectory of one spatial simulation, sampled every ``dt`` (row 0 is t = 0).
+
+    Per wire group (arrays (n + 1, W), columns in the layout's wire order, see
+    :attr:`SpineLayout.wire_labels`): temperature [K], stress [Pa], strain [-], phase fractions
+    x+, x-, x_A [-], resistance of one wire [Ω], applied voltage [V], electrical power of the
+    group [W], cumulative Joule energy, convective loss and latent heat of the group [J].
+
+    Per module (arrays (n + 1, K, 2)): the wire moment M_w [N m] and the bending vector
+    (Θ cos β, Θ sin β) [deg] of the module's top tangent in its base frame (SPATIAL.md §2).
+    Spine: the tip bending vector [deg] (tip tangent in the global base frame), the tip position
+    [m] (global x, y, z), the tip frame (rows d1, d2, t in global coordinates) and the segment
+    rotation vectors ω (n + 1, N, 2) [rad] (segment 0 at the top).
+    """
+
+    time: np.ndarray
+    tip_bending_deg: np.ndarray
+    tip_position: np.ndarray
+    tip_frame: np.ndarray
+    module_bending_deg: np.ndarray
+    moment: np.ndarray
+    omega: np.ndarray
+    temperature: np.ndarray
+    stress: np.ndarray
+    strain: np.ndarray
+    x_plus: np.ndarray
+    x_minus: np.ndarray
+    x_austenite: np.ndarray
+    resistance: np.ndarray
+    voltage: np.ndarray
+    power: np.ndarray
+    joule_energy: np.ndarray
+    convective_loss: np.ndarray
+    latent_heat: np.ndarray
+    layout: SpineLayout = field(repr=False)
+    substeps: int = 0
+    shape_passes: int = 0
+    final_state: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def tip_theta_deg(self) -> np.ndarray:
+        """Polar angle Θ of the tip tangent from the vertical [deg] (>= 0)."""
+        return np.hypot(self.tip_bending_deg[:, 0], self.tip_bending_deg[:, 1])
+
+    @property
+    def tip_azimuth_deg(self) -> np.ndarray:
+        """Azimuth β of the tip bend in the base frame [deg], in (−180, 180] (0 where Θ = 0)."""
+        return np.degrees(np.arctan2(self.tip_bending_deg[:, 1], self.tip_bending_deg[:, 0]))
+
+    def to_dict(self) -> dict[str, np.ndarray]:
+        """The trajectories as a dict of numpy arrays."""
+        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray) and k != "final_state"}
+
+    def at(self, t: float) -> int:
+        """Row index of the sample nearest to time ``t`` [s]."""
+        return int(np.argmin(np.abs(self.time - t)))
+
+    def __len__(self) -> int:
+        return self.time.shape[0]
+
+
+def build_loads_3d(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=None) -> np.ndarray:
+    """Vertex-force programme (n or 1, N, 3) [N] from a tip force and/or forces at every vertex.
+
+    ``tip_force``: None, (3,), (n, 3) or callable t → (3,) — global (x, y, z) force on the top disk.
+    ``vertex_forces``: None, (N, 3), (n, N, 3) or callable t → (N, 3) — force at vertex P_j,
+    j = 0 (the tip) … N−1 (the base P_N is clamped), as the planar :func:`build_loads`.
+    """
+    constant = (tip_force is None or np.shape(tip_force) == (3,)) and (
+        vertex_forces is None or np.shape(vertex_forces) == (n_seg, 3)
+    )
+    rows = 1 if constant else n
+    loads = np.zeros((rows, n_seg, 3))
+    if vertex_forces is not None:
+        loads += as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 3))
+    if tip_force is not None:
+        loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (3,))
+    return loads
+
+
+def initial_state_spatial(layout: SpineLayout, solver: SolverOptions | None = None, loads=None) -> np.ndarray:
+    """The MODEL.md §3.10 initial state of every wire, solved under ``loads`` ((N, 3); default none)."""
+    solver = solver or SolverOptions()
+    kp, kw, km = layout.to_kernel()
+    state = np.zeros(layout.state_size())
+    vf = np.zeros((layout.n_seg, 3)) if loads is None else np.asarray(loads, dtype=float)
+    st = init_state(state, kp, solver.to_kernel(), kw, km, vf)
+    if st != L.OK:
+        raise SimulationError(st, 0.0)
+    return state
+
+
+def simulate_spatial(
+    duration: float,
+    voltages: np.ndarray | Callable[[float], np.ndarray],
+    *,
+    layout: SpineLayout,
+    dt: float = 0.01,
+    tip_force=None,
+    vertex_forces=None,
+    solver: SolverOptions | None = None,
+    state: np.ndarray | None = None,
+) -> SpatialResult:
+    """Simulate a spatial or chained spine for ``duration`` seconds (SPATIAL.md §1–§5, MODEL.md §6).
+
+    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
+
+    Args:
+        duration: simulated time [s], > 0; rounded to a whole number of steps.
+        voltages: voltage on each wire of every wire group [V], in [0, 100]: a (W,) constant,
+            an array (round(duration/dt), W) sampled at dt, or a callable t → (W,).
+        layout: the :class:`SpineLayout` (modules, wires, material and tube parameters).
+        dt: output step [s], in (0, 1].
+        tip_force: global (x, y, z) force on the top disk [N] (see :func:`build_loads_3d`).
+        vertex_forces: forces at the vertices (see :func:`build_loads_3d`).
+        solver: numerical options; only ``method="newton"`` exists for the spatial core (its
+            safeguard replaces the planar bracket).
+        state: start from this state (e.g. ``previous.final_state``) instead of §3.10.
+
+    Raises:
+        ValueError: an input out of range (the message names it).
+        SimulationError: the model could not advance; never returns NaN.
+    """
+    solver = solver or SolverOptions()
+    if not isinstance(layout, SpineLayout):
+        raise ValueError(f"layout must be a SpineLayout, got {type(layout).__name__}")
+    if not isinstance(solver, SolverOptions):
+        raise ValueError(f"solver must be a SolverOptions, got {type(solver).__name__}")
+    if solver.method != "newton":
+        raise ValueError(f"solver.method must be 'newton' for a spatial layout, got {solver.method!r}")
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
+        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
+    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
+        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
+    n = max(1, int(round(duration / dt)))
+    nw = layout.n_wires
+    volts = as_series("voltages", voltages, n, dt, (nw,))
+    if volts.min(initial=0.0) < 0.0 or volts.max(initial=0.0) > V_MAX_ALLOWED:
+        raise ValueError(
+            f"voltages must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{volts.min():g}, {volts.max():g}]"
+        )
+    loads = build_loads_3d(layout.n_seg, n, dt, tip_force, vertex_forces)
+    kp, kw, km = layout.to_kernel()
+    ks = solver.to_kernel()
+    if state is None:
+        state = initial_state_spatial(layout, solver, loads[0])
+    else:
+        state = np.array(state, dtype=float)
+        if state.shape != (layout.state_size(),):
+            raise ValueError(f"state must have shape ({layout.state_size()},), got {state.shape}")
+    t0 = state[SL.S_TIME]
+    out = np.empty((n + 1, record_size(nw, layout.n_modules, layout.n_seg)))
+    st, k, nsub, npass = run(state, kp, ks, kw, km, volts, loads, dt, out)
+    if st != L.OK:
+        raise SimulationError(st, t0 + k * dt)
+    return _result(out, volts, dt, t0, layout, nsub, npass, state)
+
+
+def _result(out, volts, dt, t0, layout: SpineLayout, nsub, npass, state) -> SpatialResult:
+    p = layout.params
+    nw, nm, ns = layout.n_wires, layout.n_modules, layout.n_seg
+    rows = out.shape[0]
+
+    def wires(f):
+        o = SL.S_HEAD + f * nw
+        return out[:, o : o + nw].copy()
+
+    o = SL.S_HEAD + SL.N_WIRE_FIELDS * nw
+    moment = out[:, o : o + 2 * nm].reshape(rows, nm, 2).copy()
+    o += 2 * nm
+    omega = out[:, o : o + 2 * ns].reshape(rows, ns, 2).copy()
+    o += 2 * ns
+    module_bending = np.degrees(out[:, o : o + 2 * nm].reshape(rows, nm, 2))
+    o += 2 * nm
+    tip_bending = np.degrees(out[:, o : o + 2])
+    o += 2
+    tip_position = out[:, o : o + 3].copy()
+    o += 3
+    tip_frame = out[:, o : o + 9].reshape(rows, 3, 3).copy()
+    o += 9
+    l0 = np.array([m.L0 for m in layout.modules for _ in m.wires])
+    n_w = np.array([w.n_w for m in layout.modules for w in m.wires], dtype=float)
+    resistance = out[:, o : o + nw] * l0 / p.wire_area
+    v = np.concatenate([volts[:1], volts])  # the voltage applied over the step that ends at a sample
+    vol = p.wire_area * l0 * n_w  # [m^3] of each group
+    xp, xm = wires(SL.F_XP), wires(SL.F_XM)
+    return SpatialResult(
+        time=t0 + dt * np.arange(rows),
+        tip_bending_deg=tip_bending,
+        tip_position=tip_position,
+        tip_frame=tip_frame,
+        module_bending_deg=module_bending,
+        moment=moment,
+        omega=omega,
+        temperature=wires(SL.F_T),
+        stress=wires(SL.F_SIG),
+        strain=wires(SL.F_EPS),
+        x_plus=xp,
+        x_minus=xm,
+        x_austenite=1.0 - xp - xm,
+        resistance=resistance,
+        voltage=v,
+        power=n_w * v**2 / resistance,
+        joule_energy=wires(SL.F_QJ) * vol,
+        convective_loss=wires(SL.F_QC) * vol,
+        latent_heat=wires(SL.F_QL) * vol,
+        layout=layout,
+        substeps=int(nsub),
+        shape_passes=int(npass),
+        final_state=state,
+    )
