@@ -163,7 +163,7 @@ def vecnormalize_candidates(model_path: Path) -> list[Path]:
 
     A checkpoint ``rl_model_<n>_steps.zip`` has ``rl_model_vecnormalize_<n>_steps.pkl``,
     ``best_model.zip`` has ``best_vecnormalize.pkl``; every model falls back to the run's final
-    ``vecnormalize.pkl`` beside it.
+    ``vecnormalize.pkl`` beside it, then to RL Zoo's ``<env id>/vecnormalize.pkl`` in its folder.
     """
     model_path = Path(model_path)
     out = []
@@ -173,6 +173,7 @@ def vecnormalize_candidates(model_path: Path) -> list[Path]:
     if model_path.name == "best_model.zip":
         out.append(model_path.with_name("best_vecnormalize.pkl"))
     out.append(model_path.with_name("vecnormalize.pkl"))
+    out.append(model_path.parent / ENV_ID / "vecnormalize.pkl")  # an RL Zoo run folder
     return out
 
 

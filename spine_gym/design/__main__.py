@@ -195,7 +195,7 @@ def _cmd_sweep(args, parser) -> int:
 
 
 def _cmd_optimize(args, parser) -> int:
-    from .optimizer import DesignProblem, optimize
+    from .optimizer import DesignProblem, display_storage, optimize
     from .plots import plot_history
 
     if (args.maximize is None) == (args.minimize is None):
@@ -234,15 +234,15 @@ def _cmd_optimize(args, parser) -> int:
     trials_csv = res.write_trials_csv(out / "trials.csv")
     plot_history(res.trials, problem.metric, problem.maximize, out / "history.png")
     (out / "command.txt").write_text(
-        shlex.join([sys.executable, "-m", "spine_gym.design", *sys.argv[1:]]) + "\n"
+        shlex.join([sys.executable, "-m", "spine_gym.design", *map(display_storage, sys.argv[1:])]) + "\n"
     )
     print(
         f"{len(res.trials)} trials in the study; this run took {res.elapsed_s:.1f} s "
         f"with {args.n_workers} worker(s)"
     )
     print(
-        f"study saved in {storage} (name {args.study_name!r}); wrote {best_json}, {trials_csv}, "
-        f"{out / 'history.png'}"
+        f"study saved in {display_storage(storage)} (name {args.study_name!r}); "
+        f"wrote {best_json}, {trials_csv}, {out / 'history.png'}"
     )
     return 0
 

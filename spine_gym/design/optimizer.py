@@ -58,6 +58,7 @@ __all__ = [
     "SAMPLERS",
     "load_result",
     "make_sampler",
+    "display_storage",
     "make_storage",
     "optimize",
 ]
@@ -221,9 +222,17 @@ def make_storage(url: str | None):
         try:
             return optuna.storages.RDBStorage(url, engine_kwargs=kw)
         except Exception as e:  # bad URL, missing DB driver, server unreachable, ...
-            raise ValueError(f"cannot open storage {_hide_password(url)}: {type(e).__name__}: {e}") from e
+            reason = " ".join(str(getattr(e, "orig", None) or e).split())  # the driver's words, one line
+            raise ValueError(
+                f"cannot open storage {_hide_password(url)}: {type(e).__name__}: {reason}"
+            ) from e
     Path(url).parent.mkdir(parents=True, exist_ok=True)
     return JournalStorage(JournalFileBackend(str(url)))
+
+
+def display_storage(url: str | None) -> str | None:
+    """``url`` as it may be printed or written to a file: an RDB URL with its password as ``***``."""
+    return _hide_password(url) if url is not None and "://" in url else url
 
 
 def _hide_password(url: str) -> str:
@@ -328,7 +337,7 @@ class OptimizationResult:
     def to_dict(self) -> dict[str, Any]:
         return {
             "study_name": self.study_name,
-            "storage": self.storage,
+            "storage": display_storage(self.storage),
             "problem": self.problem.to_config(),
             "best": self.best,
             "least_violating": self.least_violating,
@@ -568,7 +577,7 @@ def load_result(storage: str, study_name: str = "spine-design") -> OptimizationR
     try:
         study = optuna.load_study(study_name=study_name, storage=make_storage(storage))
     except KeyError:
-        raise ValueError(f"no study named {study_name!r} in {storage}") from None
+        raise ValueError(f"no study named {study_name!r} in {display_storage(storage)}") from None
     cfg = study.user_attrs.get(CONFIG_KEY)
     if cfg is None:
         raise ValueError(f"study {study_name!r} was not created by spine_gym.design")

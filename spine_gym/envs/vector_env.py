@@ -85,6 +85,7 @@ class SmaSpineVectorEnv(VectorEnv):
         parallel: bool | None = None,
         **env_kwargs,
     ):
+        self._renderer = None  # first: gymnasium < 1.3 closes an env whose __init__ raised
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         unknown = set(env_kwargs) - set(config_fields())
@@ -129,7 +130,6 @@ class SmaSpineVectorEnv(VectorEnv):
         self._obs = np.zeros((self.num_envs, len(OBS_NAMES)), dtype=np.float32)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
-        self._renderer = None
 
     # ------------------------------------------------------------------ facts (as the single env)
     @property

@@ -18,5 +18,17 @@ def jit(func):
 
 
 def pjit(func):
-    """Parallel kernel (``prange`` loops run across cores): ``@njit(cache=True, parallel=True)``."""
-    return numba.njit(cache=True, nogil=True, parallel=True)(func)
+    """Parallel kernel (``prange`` loops run across cores): ``@njit(cache=True, parallel=True)``.
+
+    Compiled from a twin of ``func`` named ``<name>__parallel``: numba's on-disk cache is keyed by
+    the function's name and signature, not by its flags, so ``jit(f)`` and ``pjit(f)`` of one ``f``
+    would share one cache entry and the serial kernel would load the parallel machine code (and
+    start OpenMP threads) or the other way round.
+    """
+    twin = type(func)(  # types.FunctionType: the same code under another name
+        func.__code__, func.__globals__, f"{func.__name__}__parallel", func.__defaults__, func.__closure__
+    )
+    twin.__qualname__ = f"{func.__qualname__}__parallel"
+    twin.__module__ = func.__module__
+    twin.__doc__ = func.__doc__
+    return numba.njit(cache=True, nogil=True, parallel=True)(twin)

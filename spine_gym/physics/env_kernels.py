@@ -9,8 +9,9 @@ with a status, never with NaN), and a ``resolve`` flag per spine (solve the mech
 when the loads changed since the last solve, as ``batch.run`` does).
 
 Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines in parallel with
-``prange``; ``step_many_serial`` is the serial twin used by the single env. Both give bit-identical
-rows (tested).
+``prange``; ``step_many_serial`` is the serial twin used by the single env and by the vector env with
+``parallel=False``. Both give bit-identical rows (tested), and each has its own on-disk cache entry
+(``_jit.pjit``), so the serial twin never runs the parallel machine code (tested).
 """
 
 from __future__ import annotations
