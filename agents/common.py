@@ -4,19 +4,17 @@
   :func:`load_hyperparams` (with ``lin_<x>`` schedules, ``normalize`` as bool or dict string and
   ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them).
 * ``--env-kwargs``/``--hyperparams`` ``key:value`` parsing (:class:`StoreDict`).
-* :class:`SavedPolicy` — a trained model plus its ``VecNormalize`` statistics behind SB3's
-  ``predict`` interface, so the evaluation treats it like any baseline controller.
+
+Loading saved policies, building controllers and running episodes live in :mod:`agents.runtime`.
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
-import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
@@ -112,125 +110,3 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     if special["residual"] in (None, "none", "None", False):
         special["residual"] = None
     return hp, special
-
-
-# --------------------------------------------------------------------------- saved policies
-class SavedPolicy:
-    """A trained SB3 model and its observation normalisation, as a ``predict``-able controller.
-
-    Args:
-        model: the loaded SB3 algorithm (``PPO``/``SAC``).
-        obs_rms: ``VecNormalize`` running mean/var of the observations (``None``: raw obs).
-        clip_obs, epsilon: ``VecNormalize`` settings used in training.
-        meta: the run's metadata (algo, env kwargs, command…).
-        name: display name.
-    """
-
-    def __init__(
-        self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8, meta=None, name="policy"
-    ):
-        self.model = model
-        self.obs_rms = obs_rms
-        self.clip_obs = float(clip_obs)
-        self.epsilon = float(epsilon)
-        self.meta = dict(meta or {})
-        self.name = name
-        self.env_kwargs = dict(self.meta.get("env_kwargs", {}))
-
-    def normalize(self, obs: np.ndarray) -> np.ndarray:
-        """Apply the training-time observation normalisation (as ``VecNormalize.normalize_obs``)."""
-        if self.obs_rms is None:
-            return np.asarray(obs, dtype=np.float32)
-        o = (np.asarray(obs, dtype=np.float64) - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
-        return np.clip(o, -self.clip_obs, self.clip_obs).astype(np.float32)
-
-    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
-        """SB3 ``predict`` on the normalised observation (see ``BaseAlgorithm.predict``)."""
-        obs = np.asarray(observation)
-        if obs.ndim not in (1, 2) or not np.issubdtype(obs.dtype, np.number):
-            raise ValueError(
-                f"observation must be a numeric array (d,) or (n_envs, d), got shape {obs.shape}"
-            )
-        if not np.all(np.isfinite(obs)):
-            raise ValueError("observation must be finite, got NaN or inf")
-        return self.model.predict(self.normalize(obs), state, episode_start, deterministic)
-
-    def reset(self) -> None:
-        """Stateless (feed-forward policies); present for the controller interface."""
-
-    def __repr__(self) -> str:
-        return f"SavedPolicy({self.name}, algo={self.meta.get('algo')})"
-
-
-def vecnormalize_candidates(model_path: Path) -> list[Path]:
-    """Where :mod:`agents.train` puts the ``VecNormalize`` statistics of ``model_path``, best first.
-
-    A checkpoint ``rl_model_<n>_steps.zip`` has ``rl_model_vecnormalize_<n>_steps.pkl``,
-    ``best_model.zip`` has ``best_vecnormalize.pkl``; every model falls back to the run's final
-    ``vecnormalize.pkl`` beside it, then to RL Zoo's ``<env id>/vecnormalize.pkl`` in its folder.
-    """
-    model_path = Path(model_path)
-    out = []
-    if model_path.stem.startswith("rl_model_"):
-        steps = model_path.stem.split("_")[-2]
-        out.append(model_path.with_name(f"rl_model_vecnormalize_{steps}_steps.pkl"))
-    if model_path.name == "best_model.zip":
-        out.append(model_path.with_name("best_vecnormalize.pkl"))
-    out.append(model_path.with_name("vecnormalize.pkl"))
-    out.append(model_path.parent / ENV_ID / "vecnormalize.pkl")  # an RL Zoo run folder
-    return out
-
-
-def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") -> SavedPolicy:
-    """Load a model saved by :mod:`agents.train` (a run folder, a shipped folder or a ``.zip``).
-
-    A folder must hold ``model.zip`` (or ``best_model.zip``/``<env id>.zip``), optionally
-    ``vecnormalize.pkl`` and ``meta.json``. For a ``.zip`` file the ``VecNormalize`` statistics
-    are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``).
-    """
-    import pickle
-
-    from stable_baselines3 import PPO, SAC
-
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"policy path {path} does not exist")
-    if path.is_dir():
-        folder = path
-        zips = [folder / n for n in ("model.zip", "best_model.zip", f"{ENV_ID}.zip")]
-        zips = [z for z in zips if z.exists()]
-        if not zips:
-            raise ValueError(f"no model.zip / best_model.zip / {ENV_ID}.zip in {folder}")
-        model_path = zips[0]
-    else:
-        folder = path.parent
-        model_path = path
-    meta = {}
-    if (folder / "meta.json").exists():
-        meta = json.loads((folder / "meta.json").read_text())
-    elif (folder / "args.yml").exists():
-        meta = yaml.safe_load((folder / "args.yml").read_text()) or {}
-    algo = str(meta.get("algo", "")).lower()
-    classes = {"ppo": PPO, "sac": SAC}
-    if algo not in classes:
-        # guess from the file (SAC has critic weights)
-        import zipfile
-
-        with zipfile.ZipFile(model_path) as zf:
-            data = zf.read("data").decode()
-        algo = "sac" if "ent_coef" in data and "target_entropy" in data else "ppo"
-    model = classes[algo].load(model_path, device=device)
-    obs_rms, clip_obs, eps = None, 10.0, 1e-8
-    for c in vecnormalize_candidates(model_path):
-        if c.exists():
-            with open(c, "rb") as f:
-                vn = pickle.load(f)
-            obs_rms, clip_obs, eps = vn.obs_rms, vn.clip_obs, vn.epsilon
-            break
-    meta.setdefault("algo", algo)
-    policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
-    if meta.get("residual"):
-        from .residual import ResidualPolicy
-
-        return ResidualPolicy(policy, meta["residual"], name=policy.name)
-    return policy

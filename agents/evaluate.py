@@ -30,84 +30,16 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from .common import ENV_ID, POLICIES_DIR
+from .common import POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
+from .registry import BASELINES, REGISTRY
+from .runtime import build_controller, env_temperature_limit, load_policy, make_env, run_episode
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
 
-BASELINES = ("step", "bang_bang", "pid")
-
-
-# --------------------------------------------------------------------------- running
-def make_env(env_kwargs: dict | None = None):
-    """A plain ``SmaSpine-v0`` env (no time-limit surprises: the episode length is the env's)."""
-    import gymnasium as gym
-
-    import spine_gym  # noqa: F401 - registers the env
-
-    return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
-
-
-def run_episode(
-    env, policy, scenario: Scenario | None = None, deterministic: bool = True, *, seed: int | None = None
-) -> Trajectory:
-    """Roll ``policy`` through one scenario and return its :class:`Trajectory`.
-
-    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``, or, without a
-    scenario, with ``seed`` alone (an episode drawn by the env's own samplers); the policy's
-    memory is restarted through ``episode_start`` (and ``reset()`` if it has one).
-    """
-    if (scenario is None) == (seed is None):
-        raise ValueError("give either a scenario or a seed")
-    if hasattr(policy, "reset"):
-        policy.reset()
-    if scenario is not None:
-        obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
-    else:
-        obs, _ = env.reset(seed=seed)
-    state = None
-    start = np.ones((1,), dtype=bool)
-    infos, actions, rewards = [], [], []
-    while True:
-        action, state = policy.predict(
-            obs[None, :], state=state, episode_start=start, deterministic=deterministic
-        )
-        action = np.asarray(action, dtype=np.float32).reshape(2)
-        start = np.zeros((1,), dtype=bool)
-        obs, reward, terminated, truncated, info = env.step(action)
-        infos.append(info)
-        actions.append(action)
-        rewards.append(reward)
-        if terminated or truncated:
-            break
-    return Trajectory.from_infos(infos, actions, rewards)
-
-
-def env_temperature_limit(env) -> float:
-    """The env's wire-temperature limit [K] (the threshold of ``info['cost']``)."""
-    for attr in ("temperature_limit", "T_limit", "temp_limit"):
-        if hasattr(env, attr):
-            return float(getattr(env, attr))
-    raise AttributeError("the env exposes no temperature_limit attribute")
-
-
-def build_baseline(name: str, env, tuned: dict | None = None):
-    """Baseline controller ``name`` configured for ``env`` (its v_max, control period, limit)."""
-    from spine_gym.controllers import BangBangController, PIDController, StepVoltageController
-
-    from .tune import GUARD_MARGIN_K, load_tuned
-
-    common = {"v_max": float(env.v_max), "dt": float(env.control_period)}
-    tuned = load_tuned() if tuned is None else tuned
-    if name == "step":
-        return StepVoltageController(**common)
-    guard = {"temperature_limit": env_temperature_limit(env) - GUARD_MARGIN_K}  # as in agents.tune
-    if name == "bang_bang":
-        return BangBangController(**tuned["bang_bang"], **common, **guard)
-    if name == "pid":
-        return PIDController(**tuned["pid"], **common, **guard)
-    raise ValueError(f"unknown baseline {name!r}; choose from {BASELINES}")
+MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
 
 def evaluate(
@@ -124,7 +56,7 @@ def evaluate(
         scenarios: the suite.
         env_kwargs: per-controller env kwargs (e.g. a policy's training env kwargs); the
             scenario's ``episode_duration`` always wins.
-        progress: print one line per controller.
+        progress: a progress bar over the scenarios and one line per controller.
 
     Returns:
         ``(rows, trajectories)``: one metrics dict per (controller, scenario) and the
@@ -136,7 +68,8 @@ def evaluate(
         t0 = time.perf_counter()
         kw = dict((env_kwargs or {}).get(name, {}))
         envs: dict[float, object] = {}
-        for sc in scenarios:
+        bar = tqdm(scenarios, desc=f"  {name}", unit="scenario", leave=False, disable=not progress)
+        for sc in bar:
             if sc.duration not in envs:
                 envs[sc.duration] = make_env({**kw, "episode_duration": sc.duration})
             env = envs[sc.duration]
@@ -171,6 +104,42 @@ def summarize(rows: list[dict]) -> list[dict]:
             s[col] = float(np.nanmean(vals)) if np.any(np.isfinite(vals)) else float("nan")
         out.append(s)
     return out
+
+
+def relative_rows(summary: list[dict], reference: str) -> list[dict]:
+    """Per (controller, group): RMSE and energy as ratios to ``reference``'s in the same group, and
+    the time over the temperature limit minus the reference's [s] (a ratio of zeros is undefined)."""
+    ref = {s["group"]: s for s in summary if s["controller"] == reference}
+    if not ref:
+        raise ValueError(f"reference controller {reference!r} is not in the summary")
+    out = []
+    for s in summary:
+        r = ref.get(s["group"])
+        if r is None:
+            continue
+        out.append(
+            {
+                "controller": s["controller"],
+                "group": s["group"],
+                "rmse_ratio": s["rmse_deg"] / r["rmse_deg"],
+                "energy_ratio": s["energy_J"] / r["energy_J"],
+                "over_limit_diff_s": s["time_over_limit_s"] - r["time_over_limit_s"],
+            }
+        )
+    return out
+
+
+def format_relative(rel: list[dict], reference: str) -> str:
+    """Plain-text table of :func:`relative_rows`, one block per group."""
+    lines = []
+    for g in dict.fromkeys(r["group"] for r in rel):
+        lines.append(f"relative to {reference}, group {g}: RMSE ratio, energy ratio, T>limit difference [s]")
+        for r in (r for r in rel if r["group"] == g):
+            lines.append(
+                f"  {r['controller']:<14s} {r['rmse_ratio']:6.2f}  {r['energy_ratio']:6.2f}  "
+                f"{r['over_limit_diff_s']:+6.1f}"
+            )
+    return "\n".join(lines) + "\n"
 
 
 def format_tables(summary: list[dict], use_rich: bool = True) -> str:
@@ -273,7 +242,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--baselines",
         nargs="*",
         default=list(BASELINES),
-        help=f"baselines to run (default: all of {BASELINES})",
+        help=f"registered controllers to run (default: {' '.join(BASELINES)}; all: {' '.join(REGISTRY)})",
+    )
+    p.add_argument(
+        "--mpc",
+        action="store_true",
+        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI: ~0.1 s per step, ~15 min per mode on the full suite)",
     )
     p.add_argument(
         "--models",
@@ -291,6 +265,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
     p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
+    p.add_argument(
+        "--relative-to",
+        default=None,
+        metavar="NAME",
+        help="also print RMSE/energy ratios and T>limit differences to this controller (e.g. mpc_estimated)",
+    )
     p.add_argument("--video", action="store_true", help="also write videos/<controller>/<scenario>.mp4")
     p.add_argument("--video-speed", type=float, default=1.0, help="video playback speed (default: real time)")
     return p
@@ -306,9 +286,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = build_parser().parse_args(argv)
     t_start = time.perf_counter()
     scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios)
-    unknown = set(args.baselines) - set(BASELINES)
+    baselines = list(dict.fromkeys(args.baselines + (list(MPC_CONTROLLERS) if args.mpc else [])))
+    unknown = set(baselines) - set(REGISTRY)
     if unknown:
-        raise SystemExit(f"unknown baseline(s) {sorted(unknown)}; choose from {BASELINES}")
+        raise SystemExit(f"unknown controller(s) {sorted(unknown)}; choose from {list(REGISTRY)}")
     if args.video:
         require_ffmpeg()  # before the evaluation, not after it
     if args.models is None:
@@ -324,14 +305,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
     env_kwargs: dict[str, dict] = {}
     probe = make_env()
     limit = env_temperature_limit(probe)
-    for b in args.baselines:
-        controllers[b] = build_baseline(b, probe)
+    for b in baselines:
+        controllers[b] = build_controller(b, probe)
     if models:
         import torch
 
         torch.set_num_threads(1)
-        from .common import load_policy
-
         for name, path in models.items():
             pol = load_policy(path, name=name)
             controllers[name] = pol
@@ -339,12 +318,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
     probe.close()
     if not controllers:
         raise SystemExit("nothing to evaluate: no baselines and no models")
+    if args.relative_to and args.relative_to not in controllers:
+        raise SystemExit(f"--relative-to {args.relative_to!r} is not one of {list(controllers)}")
     print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
     summary = summarize(rows)
     print()
     print(format_tables(summary, use_rich=not args.plain))
     out = Path(args.out)
+    if args.relative_to:
+        rel = relative_rows(summary, args.relative_to)
+        print(format_relative(rel, args.relative_to))
+        write_csv(out / "relative.csv", rel)
     write_csv(out / "metrics.csv", rows)
     write_csv(out / "summary.csv", summary)
     if not args.no_trajectories:

@@ -28,15 +28,15 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .registry import GUARD_MARGIN_K, get_spec, load_tuned
+
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]
 
-BASES = ("pid",)
+BASES = ("pid",)  # registry entries a residual may sit on (tuned, plain v_max/dt constructors)
 
 
 def base_spec(kind: str, *, v_max: float, dt: float, temperature_limit: float, scale: float) -> dict:
     """JSON-able description of the baseline (tuned settings included) and the residual scale."""
-    from .tune import GUARD_MARGIN_K, load_tuned
-
     if kind not in BASES:
         raise ValueError(f"residual base must be one of {BASES}, got {kind!r}")
     scale = float(scale)
@@ -53,12 +53,10 @@ def base_spec(kind: str, *, v_max: float, dt: float, temperature_limit: float, s
 
 
 def build_base(spec: dict):
-    """The baseline controller of ``spec`` (see :func:`base_spec`)."""
-    from spine_gym.controllers import PIDController
-
-    if spec.get("kind") != "pid":
+    """The baseline controller of ``spec`` (see :func:`base_spec`), built from the registry."""
+    if spec.get("kind") not in BASES:
         raise ValueError(f"residual base must be one of {BASES}, got {spec.get('kind')!r}")
-    return PIDController(
+    return get_spec(spec["kind"]).cls(
         **spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"]
     )
 

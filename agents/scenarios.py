@@ -7,7 +7,12 @@ target profiles:
 
 * ``nominal`` — no external load;
 * ``disturbed`` — a payload on the top disk (gravity load) and horizontal tip-force pulses that
-  push the spine off its target.
+  push the spine off its target;
+* ``hard`` — what ``disturbed`` only hints at: a payload of 50-90 g, three tip pushes of
+  0.3-1 N that alternate sides and tilt up to ±20° from the horizontal, and a parameter-randomised
+  plant (convection, tube modulus, ambient
+  temperature and resistivities drawn from the env's ``default_randomization`` ranges), which the
+  controllers do not know.
 
 Target profiles (all within ±40°, inside the ±45° the env samples for training and well inside
 the ±63° the wires can reach) start at 0° like the spine: a hold then a step, a step sequence
@@ -16,7 +21,8 @@ numbers drawn once from ``numpy.random.default_rng(EVAL_SEED_BASE + k)`` here, s
 not move when the env's samplers change. Reset seeds are ``EVAL_SEED_BASE + k`` — disjoint from
 the training and tuning seeds (< ``EVAL_SEED_BASE``).
 
-``full`` is the suite of the README (60-s episodes); ``quick`` is a 3-scenario, 20-s cut for
+``full`` is the suite of the README (60-s episodes, all three groups); ``quick`` is a 3-profile,
+20-s cut of the nominal and disturbed groups for
 tests and the notebook.
 """
 
@@ -25,6 +31,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from spine_gym import ModelParams
+from spine_gym.envs import default_randomization
+from spine_gym.envs.task import LoadSchedule, TargetProfile
 
 EVAL_SEED_BASE = 900_000  # evaluation reset seeds: EVAL_SEED_BASE + k; training/tuning seeds stay below
 G = 9.81  # [m/s^2]
@@ -41,6 +51,7 @@ class Scenario:
         target: ``(constructor, kwargs)`` of :class:`spine_gym.envs.task.TargetProfile`.
         payload_kg: mass hung on the top disk [kg] (a constant (0, −m g) tip force).
         tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y).
+        params: ``(ModelParams field, value)`` pairs of a randomised plant (empty: nominal).
         duration: episode duration [s].
         seed: env reset seed.
     """
@@ -51,20 +62,23 @@ class Scenario:
     target: tuple[str, dict]
     payload_kg: float = 0.0
     tip_pulses: tuple[tuple[float, float, float, float], ...] = field(default_factory=tuple)
+    params: tuple[tuple[str, float], ...] = field(default_factory=tuple)
     duration: float = 60.0
     seed: int = EVAL_SEED_BASE
 
     def reset_options(self) -> dict:
-        """The env's ``reset`` options: ``{"target": TargetProfile, "loads": LoadSchedule}``."""
-        from spine_gym.envs.task import LoadSchedule, TargetProfile
-
+        """The env's ``reset`` options: ``{"target": TargetProfile, "loads": LoadSchedule}`` and, for
+        a randomised plant, ``"params"``: the baseline ModelParams with :attr:`params` replaced."""
         ctor, kwargs = self.target
         target = getattr(TargetProfile, ctor)(**kwargs)
         loads = LoadSchedule(
             tip_force_events=tuple((t0, t1, (fx, fy)) for t0, t1, fx, fy in self.tip_pulses),
             payload=self.payload_kg,
         )
-        return {"target": target, "loads": loads}
+        out = {"target": target, "loads": loads}
+        if self.params:
+            out["params"] = ModelParams().replace(**dict(self.params))
+        return out
 
 
 # target profiles shared by both groups: name -> (kind, constructor, kwargs); times in s, angles in deg
@@ -101,24 +115,67 @@ def _disturbance(k: int, duration: float) -> tuple[float, tuple[tuple[float, flo
     return payload, tuple(pulses)
 
 
-def build_suite(duration: float = 60.0, profiles: list[str] | None = None) -> list[Scenario]:
-    """The nominal and disturbed scenarios for ``duration``-second episodes."""
+HARD_PAYLOAD_KG = (0.05, 0.09)  # [kg]; the issue asked for up to 0.15 kg, which buckles the tube (see below)
+HARD_PUSH_N = (0.3, 1.0)  # [N] magnitude of each tip push
+HARD_TILT_DEG = 20.0  # [deg] largest tilt of a push from the horizontal (up or down)
+HARD_PUSHES = 3
+
+
+def _hard(k: int, duration: float):
+    """Payload, three pushes in changing directions and a randomised plant for hard scenario k.
+
+    The pushes alternate between the two sides (the first side drawn), each tilted up to
+    ``HARD_TILT_DEG`` from the horizontal. Payload and tilt are capped by the tube's buckling
+    load: with payloads of 123-139 g and the softest randomised modulus (0.8 E_t) the model ended
+    the episodes within 6-15 s (buckling); 90 g plus the steepest downward push stays below it.
+    """
+    rng = np.random.default_rng(EVAL_SEED_BASE + k)
+    payload = float(np.round(rng.uniform(*HARD_PAYLOAD_KG), 3))
+    pulses = []
+    side = rng.choice([-1.0, 1.0])
+    for j in range(HARD_PUSHES):
+        t0 = float(np.round(rng.uniform(0.1 + 0.3 * j, 0.3 + 0.3 * j) * duration, 1))
+        t1 = float(np.round(t0 + rng.uniform(3.0, 8.0), 1))
+        tilt = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
+        mag = rng.uniform(*HARD_PUSH_N)
+        fx, fy = (float(np.round(f, 3)) for f in (side * mag * np.cos(tilt), mag * np.sin(tilt)))
+        pulses.append((t0, min(t1, duration), fx, fy))
+        side = -side
+    params = tuple(
+        (name, float(rng.uniform(lo, hi))) for name, (lo, hi) in sorted(default_randomization().items())
+    )
+    return payload, tuple(pulses), params
+
+
+GROUP_OFFSET = {"nominal": 0, "disturbed": 100, "hard": 200}  # scenario k of a group: seed base + offset + k
+SUFFIX = {"nominal": "", "disturbed": "_dist", "hard": "_hard"}
+
+
+def build_suite(
+    duration: float = 60.0, profiles: list[str] | None = None, groups: tuple[str, ...] = tuple(GROUP_OFFSET)
+) -> list[Scenario]:
+    """The scenarios of ``groups`` (default: nominal, disturbed, hard) for ``duration``-s episodes."""
     table = _profiles(duration)
     names = profiles or list(table)
     out = []
-    for group in ("nominal", "disturbed"):
+    for group in groups:
         for i, name in enumerate(names):
             kind, ctor, kwargs = table[name]
-            k = i + (100 if group == "disturbed" else 0)
-            payload, pulses = _disturbance(k, duration) if group == "disturbed" else (0.0, ())
+            k = i + GROUP_OFFSET[group]
+            payload, pulses, params = 0.0, (), ()
+            if group == "disturbed":
+                payload, pulses = _disturbance(k, duration)
+            elif group == "hard":
+                payload, pulses, params = _hard(k, duration)
             out.append(
                 Scenario(
-                    name=name if group == "nominal" else f"{name}_dist",
+                    name=name + SUFFIX[group],
                     group=group,
                     kind=kind,
                     target=(ctor, kwargs),
                     payload_kg=payload,
                     tip_pulses=pulses,
+                    params=params,
                     duration=duration,
                     seed=EVAL_SEED_BASE + k,
                 )
@@ -128,7 +185,7 @@ def build_suite(duration: float = 60.0, profiles: list[str] | None = None) -> li
 
 SUITES = {
     "full": lambda: build_suite(60.0),
-    "quick": lambda: build_suite(20.0, ["step_cross", "ramp_swing", "sine_fast"]),
+    "quick": lambda: build_suite(20.0, ["step_cross", "ramp_swing", "sine_fast"], groups=("nominal", "disturbed")),
 }
 
 

@@ -23,13 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .evaluate import write_csv
+from .runtime import build_controller, load_policy, make_env, run_episode
+
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
 
 
 def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
     """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
-    from .evaluate import make_env, run_episode
-
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
     env = make_env(env_kwargs or {})
@@ -52,11 +53,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     import torch
 
     torch.set_num_threads(1)
-    from .common import load_policy
-    from .evaluate import build_baseline, make_env, write_csv
-
     probe = make_env()
-    ref_rmse, ref_energy = validation_scores(build_baseline("pid", probe), args.episodes)
+    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes)
     probe.close()
     rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):

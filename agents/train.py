@@ -14,7 +14,7 @@ flags override them (``-params key:value``). The training env is the package's n
 
 Each run gets a folder ``<log folder>/<algo>/<env id>_<k>/`` holding ``command.txt`` (the exact
 command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparameters used),
-``meta.json`` (what :func:`agents.common.load_policy` needs), ``checkpoints/`` (model +
+``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model +
 ``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
 ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
 logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
@@ -37,14 +37,10 @@ from pathlib import Path
 
 import yaml
 
-from .common import (
-    ALGOS,
-    ENV_ID,
-    StoreDict,
-    load_hyperparams,
-    preprocess_hyperparams,
-    vecnormalize_candidates,
-)
+from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
+from .envs import make_vec_env
+from .residual import ResidualVecEnv, base_spec
+from .runtime import env_temperature_limit, make_env, vecnormalize_candidates
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -127,7 +123,6 @@ def train(argv: list[str] | None = None) -> Path:
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from .envs import make_vec_env
 
     for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
         if v == 0 or v < -1:
@@ -173,9 +168,6 @@ def train(argv: list[str] | None = None) -> Path:
         eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
     if special["residual"]:
         # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
-        from .evaluate import env_temperature_limit, make_env
-        from .residual import ResidualVecEnv, base_spec
-
         probe = make_env(env_kwargs)
         spec = base_spec(
             special["residual"],

@@ -13,8 +13,9 @@ import pytest
 import yaml
 
 from agents import evaluate as ev
-from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, load_policy, preprocess_hyperparams
+from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
 from agents.metrics import Trajectory, episode_metrics, settling_times
+from agents.runtime import load_policy
 from agents.scenarios import EVAL_SEED_BASE, get_suite
 from agents.tune import TRAIN_SEED_BASE, load_tuned, tune
 
@@ -116,8 +117,8 @@ def test_hyperparameter_errors_and_store_dict():
 def test_suite_is_fixed_named_and_disjoint_from_training_seeds():
     full = get_suite("full")
     names = [s.name for s in full]
-    assert len(names) == len(set(names)) == 14
-    assert {s.group for s in full} == {"nominal", "disturbed"}
+    assert len(names) == len(set(names)) == 21
+    assert {s.group for s in full} == {"nominal", "disturbed", "hard"}
     assert {s.kind for s in full} == {"step", "ramp", "sine"}
     assert all(s.seed >= EVAL_SEED_BASE for s in full)
     assert TRAIN_SEED_BASE + 10_000 <= EVAL_SEED_BASE  # tuning seeds stay below the evaluation ones
@@ -160,7 +161,7 @@ def test_settling_time_and_metrics_on_a_synthetic_trajectory():
 def test_evaluation_is_deterministic():
     suite = get_suite("quick", groups=["disturbed"])
     env = ev.make_env()
-    ctrls = lambda: {b: ev.build_baseline(b, env) for b in ev.BASELINES}  # noqa: E731
+    ctrls = lambda: {b: ev.build_controller(b, env) for b in ev.BASELINES}  # noqa: E731
     rows1, trajs1 = ev.evaluate(ctrls(), suite)
     rows2, trajs2 = ev.evaluate(ctrls(), suite)
     assert len(rows1) == len(rows2)
@@ -263,7 +264,7 @@ def test_residual_env_with_zero_correction_is_the_tuned_pid():
     venv = ResidualVecEnv(make_vec_env(n_envs=2, seed=5, env_kwargs=kw), spec)
     assert venv.observation_space.shape == (12,)
     obs = venv.reset()
-    pid = ev.build_baseline("pid", env)
+    pid = ev.build_controller("pid", env)
     ref_obs = np.stack([ev.make_env(kw).reset(seed=5 + i)[0] for i in range(2)])
     np.testing.assert_array_equal(obs[:, :10], ref_obs)
     for k in range(25):  # past the 20-step episode end: autoreset restarts the PID memory
@@ -291,9 +292,70 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
         def predict(self, obs, state=None, episode_start=None, deterministic=True):
             return -np.ones((np.atleast_2d(obs).shape[0], 2), dtype=np.float32), None
 
-    r_pid, e_pid = validation_scores(ev.build_baseline("pid", env), 2, kw)
+    r_pid, e_pid = validation_scores(ev.build_controller("pid", env), 2, kw)
     r_off, e_off = validation_scores(Off(), 2, kw)
     assert e_off == 0.0 and e_pid > 0.0
     assert np.isfinite(r_pid) and r_pid < r_off
     with pytest.raises(ValueError, match="n_episodes"):
         validation_scores(Off(), 0, kw)
+
+
+def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
+    from agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
+    from spine_gym.envs import default_randomization
+
+    hard = get_suite("full", groups=["hard"])
+    assert len(hard) == 7 and all(s.name.endswith("_hard") for s in hard)
+    ranges = default_randomization()
+    for sc in hard:
+        assert HARD_PAYLOAD_KG[0] <= sc.payload_kg <= HARD_PAYLOAD_KG[1]
+        assert len(sc.tip_pulses) == 3
+        fx = [p[2] for p in sc.tip_pulses]
+        assert all(a * b < 0 for a, b in zip(fx, fx[1:], strict=False))  # directions change from push to push
+        for _, _, px, py in sc.tip_pulses:
+            assert HARD_PUSH_N[0] - 1e-3 <= np.hypot(px, py) <= HARD_PUSH_N[1] + 1e-3
+            assert abs(np.degrees(np.arctan2(py, abs(px)))) <= HARD_TILT_DEG + 0.1
+        params = sc.reset_options()["params"]
+        assert set(dict(sc.params)) == set(ranges)
+        for name, (lo, hi) in ranges.items():
+            assert lo <= getattr(params, name) <= hi
+    # the plants differ between scenarios and from the nominal one
+    assert len({s.params for s in hard}) == 7
+
+
+def test_registry_is_the_one_place_controllers_are_chosen():
+    from agents import registry
+    from agents.runtime import build_controller
+    from spine_gym.controllers import MPPIController
+
+    env = ev.make_env()
+    assert set(registry.BASELINES) == {"step", "bang_bang", "pid"}
+    assert set(registry.TUNABLE) == {"bang_bang", "pid"}
+    for name in registry.REGISTRY:
+        ctrl = build_controller(name, env)
+        assert isinstance(ctrl, registry.REGISTRY[name].cls)
+        guard = env.temperature_limit - registry.GUARD_MARGIN_K
+        assert ctrl.temperature_limit == (guard if registry.REGISTRY[name].guard else None)
+    assert build_controller("mpc_oracle", env).mode == "oracle"
+    assert isinstance(build_controller("mpc_estimated", env), MPPIController)
+    with pytest.raises(ValueError, match="unknown controller 'lqr'"):
+        build_controller("lqr", env)
+
+
+def test_relative_rows_are_ratios_to_the_reference_in_the_same_group():
+    summary = [
+        {"controller": c, "group": g, "rmse_deg": r, "energy_J": e, "time_over_limit_s": t}
+        for c, g, r, e, t in [
+            ("mpc_estimated", "nominal", 2.0, 100.0, 0.0),
+            ("pid", "nominal", 3.0, 150.0, 1.5),
+            ("mpc_estimated", "hard", 4.0, 200.0, 0.5),
+            ("pid", "hard", 2.0, 100.0, 0.0),
+        ]
+    ]
+    rel = {(r["controller"], r["group"]): r for r in ev.relative_rows(summary, "mpc_estimated")}
+    assert rel[("pid", "nominal")]["rmse_ratio"] == pytest.approx(1.5)
+    assert rel[("pid", "hard")]["energy_ratio"] == pytest.approx(0.5)
+    assert rel[("pid", "hard")]["over_limit_diff_s"] == pytest.approx(-0.5)
+    assert rel[("mpc_estimated", "hard")]["rmse_ratio"] == 1.0
+    with pytest.raises(ValueError, match="reference"):
+        ev.relative_rows(summary, "ppo")

@@ -23,7 +23,7 @@ import yaml
 pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (it comes with the rl extra)")
 pytest.importorskip("requests", reason="requests is not installed (rl_zoo3.enjoy needs it; rl extra)")
 
-from agents.common import load_policy  # noqa: E402
+from agents.runtime import load_policy  # noqa: E402
 from spine_gym.envs import ENV_ID  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -36,6 +36,7 @@ __all__ = [
     "default_randomization",
     "validate_actions",
     "RESET_OPTION_KEYS",
+    "SpineSnapshot",
     "EPISODE_ATTRS",
     "status_text",
     "status_texts",
@@ -377,6 +378,71 @@ def parse_reset_options(options) -> dict[str, Any]:
     return out
 
 
+# ---------------------------------------------------------------- snapshots
+# per-environment rows of SpineBatch that make up one environment's full state (one place)
+SNAPSHOT_ARRAYS = (
+    "states",  # model state vector (physics.layout)
+    "kps",  # the episode's (possibly randomised) constants
+    "loads",  # vertex forces of the last step
+    "meas",  # batch.record row of the last step
+    "status",
+    "targets",
+    "forces",
+    "resolve_plan",
+    "k",
+    "prev_action",
+    "hist",
+    "prev_measured_angle",
+    "joule",
+    "side_volume",
+    "ohm_per_resistivity",
+    "volts",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class SpineSnapshot:
+    """The full state of one environment: model state, episode data, bookkeeping and RNG.
+
+    Made by ``snapshot()`` of :class:`SpineBatch`, :class:`~spine_gym.envs.SmaSpineEnv` or
+    :class:`~spine_gym.envs.SmaSpineVectorEnv`; ``restore(snapshot)`` puts it back, after which the
+    env continues bit for bit as it would have from the moment of the snapshot (tested). The arrays
+    are private copies (read-only); a snapshot can be restored any number of times and into any
+    env of the same configuration.
+
+    Attributes:
+        arrays: name -> copy of the environment's row of each :data:`SNAPSHOT_ARRAYS` entry.
+        episode: the episode's (TargetProfile, LoadSchedule, ModelParams).
+        rng_state: ``bit_generator.state`` of the env's generator (sensor noise and later resets),
+            or None if the batch alone was snapshotted.
+        extra: env-level flags (e.g. whether the episode has ended).
+    """
+
+    arrays: Mapping[str, np.ndarray]
+    episode: tuple[TargetProfile, LoadSchedule, ModelParams]
+    rng_state: dict | None = None
+    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The model state vector (``spine_gym.physics.layout``)."""
+        return self.arrays["states"]
+
+    @property
+    def kp(self) -> np.ndarray:
+        """The episode's kernel constants (``ModelParams.to_kernel``)."""
+        return self.arrays["kps"]
+
+    @property
+    def step_index(self) -> int:
+        """Control steps taken in the episode."""
+        return int(self.arrays["k"])
+
+    def with_rng(self, rng_state: dict | None, **extra) -> SpineSnapshot:
+        """A copy carrying the env's generator state and flags."""
+        return dataclasses.replace(self, rng_state=rng_state, extra={**self.extra, **extra})
+
+
 # ---------------------------------------------------------------- the batch of spines
 class SpineBatch:
     """B spines with their episode data; the one implementation behind both environments.
@@ -647,6 +713,37 @@ class SpineBatch:
             "reward_energy": info[:, bk.I_R_ENERGY],
         }
         return obs, info[:, bk.I_REWARD], terminated, truncated, out
+
+    # ------------------------------------------------------------------ snapshot / restore
+    def snapshot(self, i: int) -> SpineSnapshot:
+        """Copy of environment ``i``'s full state (without its generator; the envs add that)."""
+        if self.episodes[i] is None:
+            raise RuntimeError("call reset() before snapshot()")
+        arrays = {}
+        for name in SNAPSHOT_ARRAYS:
+            row = np.array(getattr(self, name)[i], copy=True)
+            row.setflags(write=False)
+            arrays[name] = row
+        return SpineSnapshot(arrays=arrays, episode=self.episodes[i])
+
+    def restore(self, i: int, snap: SpineSnapshot) -> None:
+        """Put a :meth:`snapshot` back into environment ``i``; ValueError if it does not fit."""
+        if not isinstance(snap, SpineSnapshot):
+            raise ValueError(f"snapshot must be a SpineSnapshot, got {type(snap).__name__}")
+        missing = set(SNAPSHOT_ARRAYS) - set(snap.arrays)
+        if missing:
+            raise ValueError(f"snapshot lacks {sorted(missing)}")
+        for name in SNAPSHOT_ARRAYS:
+            dest = getattr(self, name)
+            src = np.asarray(snap.arrays[name])
+            if src.shape != dest.shape[1:]:
+                raise ValueError(
+                    f"snapshot does not fit this env: {name} has shape {src.shape}, the env's "
+                    f"{dest.shape[1:]} (different n_seg, episode length, preview or sensor delay)"
+                )
+        for name in SNAPSHOT_ARRAYS:
+            getattr(self, name)[i] = snap.arrays[name]
+        self.episodes[i] = snap.episode
 
     # ------------------------------------------------------------------ helpers
     def _cost(self, temps: np.ndarray) -> np.ndarray:

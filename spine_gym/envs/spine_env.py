@@ -17,7 +17,7 @@ from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
 from ..physics import layout as L
-from .core import OBS_NAMES, EnvConfig, SpineBatch, status_text, validate_actions
+from .core import OBS_NAMES, EnvConfig, SpineBatch, SpineSnapshot, status_text, validate_actions
 from .task import TARGET_KINDS
 
 __all__ = ["SmaSpineEnv"]
@@ -352,6 +352,25 @@ class SmaSpineEnv(gym.Env):
         if out["status"] != L.OK:
             out["status_text"] = status_text(out["status"])
         return out
+
+    def snapshot(self) -> SpineSnapshot:
+        """The env's full state (model state, episode, bookkeeping, generator) as a copy.
+
+        ``restore(snap)`` later (on this env or another one made with the same arguments) makes
+        the env continue exactly as it would have from here: same observations, rewards and infos
+        for the same actions, bit for bit. Used by model-predictive control to plan from the true
+        state (``spine_gym.controllers.MPPIController``, oracle mode).
+        """
+        snap = self._core.snapshot(0)
+        return snap.with_rng(self.np_random.bit_generator.state, done=self._done)
+
+    def restore(self, snap: SpineSnapshot) -> None:
+        """Return to a :meth:`snapshot`; ValueError if it comes from an env of another configuration."""
+        self._core.restore(0, snap)
+        if snap.rng_state is not None:
+            self.np_random.bit_generator.state = snap.rng_state
+        self._done = bool(snap.extra.get("done", False))
+        self._needs_reset = False
 
     def render(self):
         """An (480, 480, 3) uint8 frame if ``render_mode == "rgb_array"``, else None."""

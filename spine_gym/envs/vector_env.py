@@ -25,6 +25,7 @@ from .core import (
     RESET_OPTION_KEYS,
     EnvConfig,
     SpineBatch,
+    SpineSnapshot,
     config_fields,
     status_texts,
     validate_actions,
@@ -321,6 +322,33 @@ class SmaSpineVectorEnv(VectorEnv):
                 infos["_" + key] = np.zeros(n, dtype=np.bool_)
             infos[key][rows] = v
             infos["_" + key][rows] = True
+
+    # ------------------------------------------------------------------ snapshot / restore
+    def snapshot(self, i: int) -> SpineSnapshot:
+        """Full state of sub-env ``i`` (as :meth:`SmaSpineEnv.snapshot`, plus its autoreset flag)."""
+        if not self._ever_reset:
+            raise RuntimeError("call reset() before snapshot()")
+        i = self._check_index(i)
+        snap = self._core.snapshot(i)
+        state = self._rngs[i].bit_generator.state
+        return snap.with_rng(state, autoreset=bool(self._autoreset[i]), obs=self._obs[i].copy())
+
+    def restore(self, i: int, snap: SpineSnapshot) -> None:
+        """Put a snapshot (of any sub-env or single env of the same configuration) into sub-env ``i``."""
+        if not self._ever_reset:
+            raise RuntimeError("call reset() before restore()")
+        i = self._check_index(i)
+        self._core.restore(i, snap)
+        if snap.rng_state is not None:
+            self._rngs[i].bit_generator.state = snap.rng_state
+        self._autoreset[i] = bool(snap.extra.get("autoreset", snap.extra.get("done", False)))
+        if "obs" in snap.extra:
+            self._obs[i] = snap.extra["obs"]
+
+    def _check_index(self, i) -> int:
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < self.num_envs:
+            raise ValueError(f"sub-env index must be an integer in [0, {self.num_envs - 1}], got {i!r}")
+        return int(i)
 
     # ------------------------------------------------------------------ misc
     def render(self):

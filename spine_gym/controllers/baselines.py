@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .params import ModelParams
-from .simulate import simulate
+from ..params import ModelParams
+from ..simulate import simulate
 
 __all__ = [
     "SteadyStateMap",

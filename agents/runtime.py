@@ -1,0 +1,226 @@
+"""The shared runtime of the agents CLIs (no CLI here): envs, controllers, policies, episodes.
+
+* :func:`make_env` — a plain ``SmaSpine-v0`` env; :func:`env_temperature_limit`.
+* :func:`build_controller` — any :data:`agents.registry.REGISTRY` entry configured for an env
+  (its v_max, control period, temperature guard, tuned settings from :func:`load_tuned`).
+* :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
+  statistics behind SB3's ``predict`` interface (a residual model comes back as
+  :class:`agents.residual.ResidualPolicy`), so the evaluation treats it like any controller.
+* :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`.
+
+:mod:`agents.evaluate`, :mod:`agents.tune`, :mod:`agents.train` and :mod:`agents.select` import
+from here; this module imports no CLI.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import zipfile
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import yaml
+
+import spine_gym  # noqa: F401 - registers the env
+
+from .common import ENV_ID
+from .metrics import Trajectory
+from .registry import GUARD_MARGIN_K, get_spec, load_tuned
+from .residual import ResidualPolicy
+from .scenarios import Scenario
+
+__all__ = [
+    "make_env",
+    "env_temperature_limit",
+    "build_controller",
+    "run_episode",
+    "SavedPolicy",
+    "load_policy",
+    "vecnormalize_candidates",
+    "load_tuned",
+    "GUARD_MARGIN_K",
+]
+
+
+def make_env(env_kwargs: dict | None = None):
+    """A plain ``SmaSpine-v0`` env (no time-limit surprises: the episode length is the env's)."""
+    return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
+
+
+def run_episode(
+    env, policy, scenario: Scenario | None = None, deterministic: bool = True, *, seed: int | None = None
+) -> Trajectory:
+    """Roll ``policy`` through one scenario and return its :class:`Trajectory`.
+
+    The env is reset with ``scenario.seed`` and ``scenario.reset_options()``, or, without a
+    scenario, with ``seed`` alone (an episode drawn by the env's own samplers); the policy's
+    memory is restarted through ``episode_start`` (and ``reset()`` if it has one).
+    """
+    if (scenario is None) == (seed is None):
+        raise ValueError("give either a scenario or a seed")
+    if hasattr(policy, "bind"):  # controllers that plan on the env (MPC) follow it
+        policy.bind(env)
+    if hasattr(policy, "reset"):
+        policy.reset()
+    if scenario is not None:
+        obs, _ = env.reset(seed=scenario.seed, options=scenario.reset_options())
+    else:
+        obs, _ = env.reset(seed=seed)
+    state = None
+    start = np.ones((1,), dtype=bool)
+    infos, actions, rewards = [], [], []
+    while True:
+        action, state = policy.predict(
+            obs[None, :], state=state, episode_start=start, deterministic=deterministic
+        )
+        action = np.asarray(action, dtype=np.float32).reshape(2)
+        start = np.zeros((1,), dtype=bool)
+        obs, reward, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        actions.append(action)
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    return Trajectory.from_infos(infos, actions, rewards)
+
+
+def env_temperature_limit(env) -> float:
+    """The env's wire-temperature limit [K] (the threshold of ``info['cost']``)."""
+    for attr in ("temperature_limit", "T_limit", "temp_limit"):
+        if hasattr(env, attr):
+            return float(getattr(env, attr))
+    raise AttributeError("the env exposes no temperature_limit attribute")
+
+
+def build_controller(name: str, env, tuned: dict | None = None):
+    """Registered controller ``name`` (:data:`agents.registry.REGISTRY`) configured for ``env``.
+
+    ``tuned`` overrides the tuned settings of :func:`load_tuned` (``{name: {...}}``).
+    """
+    spec = get_spec(name)
+    kwargs = dict(spec.kwargs)
+    if spec.tuned:
+        kwargs.update((load_tuned() if tuned is None else tuned)[name])
+    if spec.guard:
+        kwargs["temperature_limit"] = env_temperature_limit(env) - GUARD_MARGIN_K
+    if spec.plans_on_env:
+        return spec.cls(env.unwrapped.config, env=env, **kwargs)
+    return spec.cls(v_max=float(env.v_max), dt=float(env.control_period), **kwargs)
+
+
+# --------------------------------------------------------------------------- saved policies
+class SavedPolicy:
+    """A trained SB3 model and its observation normalisation, as a ``predict``-able controller.
+
+    Args:
+        model: the loaded SB3 algorithm (``PPO``/``SAC``).
+        obs_rms: ``VecNormalize`` running mean/var of the observations (``None``: raw obs).
+        clip_obs, epsilon: ``VecNormalize`` settings used in training.
+        meta: the run's metadata (algo, env kwargs, command…).
+        name: display name.
+    """
+
+    def __init__(
+        self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8, meta=None, name="policy"
+    ):
+        self.model = model
+        self.obs_rms = obs_rms
+        self.clip_obs = float(clip_obs)
+        self.epsilon = float(epsilon)
+        self.meta = dict(meta or {})
+        self.name = name
+        self.env_kwargs = dict(self.meta.get("env_kwargs", {}))
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        """Apply the training-time observation normalisation (as ``VecNormalize.normalize_obs``)."""
+        if self.obs_rms is None:
+            return np.asarray(obs, dtype=np.float32)
+        o = (np.asarray(obs, dtype=np.float64) - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
+        return np.clip(o, -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
+        """SB3 ``predict`` on the normalised observation (see ``BaseAlgorithm.predict``)."""
+        obs = np.asarray(observation)
+        if obs.ndim not in (1, 2) or not np.issubdtype(obs.dtype, np.number):
+            raise ValueError(
+                f"observation must be a numeric array (d,) or (n_envs, d), got shape {obs.shape}"
+            )
+        if not np.all(np.isfinite(obs)):
+            raise ValueError("observation must be finite, got NaN or inf")
+        return self.model.predict(self.normalize(obs), state, episode_start, deterministic)
+
+    def reset(self) -> None:
+        """Stateless (feed-forward policies); present for the controller interface."""
+
+    def __repr__(self) -> str:
+        return f"SavedPolicy({self.name}, algo={self.meta.get('algo')})"
+
+
+def vecnormalize_candidates(model_path: Path) -> list[Path]:
+    """Where :mod:`agents.train` puts the ``VecNormalize`` statistics of ``model_path``, best first.
+
+    A checkpoint ``rl_model_<n>_steps.zip`` has ``rl_model_vecnormalize_<n>_steps.pkl``,
+    ``best_model.zip`` has ``best_vecnormalize.pkl``; every model falls back to the run's final
+    ``vecnormalize.pkl`` beside it, then to RL Zoo's ``<env id>/vecnormalize.pkl`` in its folder.
+    """
+    model_path = Path(model_path)
+    out = []
+    if model_path.stem.startswith("rl_model_"):
+        steps = model_path.stem.split("_")[-2]
+        out.append(model_path.with_name(f"rl_model_vecnormalize_{steps}_steps.pkl"))
+    if model_path.name == "best_model.zip":
+        out.append(model_path.with_name("best_vecnormalize.pkl"))
+    out.append(model_path.with_name("vecnormalize.pkl"))
+    out.append(model_path.parent / ENV_ID / "vecnormalize.pkl")  # an RL Zoo run folder
+    return out
+
+
+def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") -> SavedPolicy:
+    """Load a model saved by :mod:`agents.train` (a run folder, a shipped folder or a ``.zip``).
+
+    A folder must hold ``model.zip`` (or ``best_model.zip``/``<env id>.zip``), optionally
+    ``vecnormalize.pkl`` and ``meta.json``. For a ``.zip`` file the ``VecNormalize`` statistics
+    are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``).
+    """
+    from stable_baselines3 import PPO, SAC
+
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"policy path {path} does not exist")
+    if path.is_dir():
+        folder = path
+        zips = [folder / n for n in ("model.zip", "best_model.zip", f"{ENV_ID}.zip")]
+        zips = [z for z in zips if z.exists()]
+        if not zips:
+            raise ValueError(f"no model.zip / best_model.zip / {ENV_ID}.zip in {folder}")
+        model_path = zips[0]
+    else:
+        folder = path.parent
+        model_path = path
+    meta = {}
+    if (folder / "meta.json").exists():
+        meta = json.loads((folder / "meta.json").read_text())
+    elif (folder / "args.yml").exists():
+        meta = yaml.safe_load((folder / "args.yml").read_text()) or {}
+    algo = str(meta.get("algo", "")).lower()
+    classes = {"ppo": PPO, "sac": SAC}
+    if algo not in classes:
+        # guess from the file (SAC has critic weights)
+        with zipfile.ZipFile(model_path) as zf:
+            data = zf.read("data").decode()
+        algo = "sac" if "ent_coef" in data and "target_entropy" in data else "ppo"
+    model = classes[algo].load(model_path, device=device)
+    obs_rms, clip_obs, eps = None, 10.0, 1e-8
+    for c in vecnormalize_candidates(model_path):
+        if c.exists():
+            with open(c, "rb") as f:
+                vn = pickle.load(f)
+            obs_rms, clip_obs, eps = vn.obs_rms, vn.clip_obs, vn.epsilon
+            break
+    meta.setdefault("algo", algo)
+    policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
+    if meta.get("residual"):
+        return ResidualPolicy(policy, meta["residual"], name=policy.name)
+    return policy

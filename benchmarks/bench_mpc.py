@@ -1,0 +1,233 @@
+"""Benchmark: MPPI plan time per control step, its real-time factor, and RMSE against N and horizon.
+
+For each configuration the MPC (``spine_gym.controllers.MPPIController``) drives whole episodes of
+``SmaSpine-v0`` (suite scenarios of ``agents.scenarios`` cut to ``--duration`` seconds); every
+``predict`` call (the whole plan: estimator update, N rollouts, weighting) and every ``env.step``
+is timed with ``time.perf_counter``. Reported per configuration:
+
+* plan time per control step: median, 95th percentile and max [ms];
+* **real-time factor** = control period (0.1 s) / plan time (median and p95): >= 1 means the
+  plan is ready before the next control step;
+* the peer measured in the same loop: plan time / ``env.step`` time (how many env steps one plan
+  costs — a ratio that survives a busier machine better than the absolute times);
+* RMSE [deg] and energy [J] over the episodes, and the same for the tuned PID as a reference.
+
+Configurations: the defaults (``MPPIConfig()``) in both modes, the default with the parallel
+``prange`` kernel instead of the serial one (numba threads on a shared machine), then the
+estimated mode with N in ``--samples`` at the default horizon and with the horizon in
+``--horizons`` at the default N.
+Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
+
+    .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
+        [--samples 16 32 64] [--horizons 2 3 5]
+
+The machine is shared: the load average at start and end is recorded, and the absolute times are
+upper bounds of what a quiet machine gives.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import platform
+import subprocess
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from tqdm import tqdm
+
+import spine_gym
+from agents.runtime import build_controller, make_env
+from agents.scenarios import build_suite
+from spine_gym.controllers import MPPIConfig, MPPIController
+
+OUT = Path(__file__).resolve().parent / "results"
+
+
+def machine() -> dict:
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+        ).stdout.strip()
+    except OSError:
+        commit = "unknown"
+    return {
+        "cpu_count": os.cpu_count(),
+        "numba_threads": numba.config.NUMBA_NUM_THREADS,
+        "load_average_start": os.getloadavg(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "numba": numba.__version__,
+        "spine_gym": spine_gym.__version__,
+        "git_commit": commit,
+    }
+
+
+def run(ctrl, env, scenarios, bar) -> dict:
+    """Episodes of ``ctrl``; per-step plan and env-step times, RMSE and energy."""
+    plan_t, step_t, rmse, energy = [], [], [], []
+    for sc in scenarios:
+        if hasattr(ctrl, "bind"):
+            ctrl.bind(env)
+        ctrl.reset()
+        obs, _ = env.reset(seed=sc.seed, options=sc.reset_options())
+        err, e = [], 0.0
+        while True:
+            t0 = time.perf_counter()
+            a, _ = ctrl.predict(obs)
+            t1 = time.perf_counter()
+            obs, _, te, tr, info = env.step(a)
+            t2 = time.perf_counter()
+            plan_t.append(t1 - t0)
+            step_t.append(t2 - t1)
+            err.append(info["tracking_error_deg"])
+            e += info["energy_J"]
+            bar.update(1)
+            if te or tr:
+                break
+        rmse.append(float(np.sqrt(np.mean(np.square(err)))))
+        energy.append(e)
+    plan = np.array(plan_t)
+    step = np.array(step_t)
+    period = float(env.control_period)
+    return {
+        "plan_ms_median": 1e3 * float(np.median(plan)),
+        "plan_ms_p95": 1e3 * float(np.percentile(plan, 95)),
+        "plan_ms_max": 1e3 * float(plan.max()),
+        "env_step_ms_median": 1e3 * float(np.median(step)),
+        "plan_over_env_step": float(np.median(plan) / np.median(step)),
+        "realtime_factor_median": period / float(np.median(plan)),
+        "realtime_factor_p95": period / float(np.percentile(plan, 95)),
+        "rmse_deg": float(np.mean(rmse)),
+        "energy_J": float(np.mean(energy)),
+        "rmse_per_scenario": rmse,
+    }
+
+
+def configurations(samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
+    d = MPPIConfig()
+    out = [
+        ("default oracle", "oracle", d),
+        ("default estimated", "estimated", d),
+        ("default estimated, parallel kernel", "estimated", dataclasses.replace(d, parallel=not d.parallel)),
+    ]
+    out += [
+        (f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n))
+        for n in samples
+        if n != d.n_samples
+    ]
+    out += [
+        (f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h))
+        for h in horizons
+        if h != d.horizon
+    ]
+    return out
+
+
+def plot(res: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = MPPIConfig()
+    rows = res["configs"]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    for key, label, ax_i in (("n_samples", "rollouts N", 0), ("horizon", "horizon [s]", 1)):
+        sel = [
+            r
+            for r in rows
+            if r["mode"] == "estimated"
+            and r["parallel"] == d.parallel
+            and all(r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon") if k != key)
+        ]
+        sel.sort(key=lambda r: r["settings"][key])
+        x = [r["settings"][key] for r in sel]
+        ax = axes[ax_i]
+        ax.plot(x, [r["rmse_deg"] for r in sel], "o-", label="MPC estimated")
+        ax.axhline(res["pid"]["rmse_deg"], color="k", ls="--", lw=1, label="PID")
+        ax.set_xlabel(label)
+        ax.set_ylabel("RMSE [deg]")
+        ax2 = ax.twinx()
+        ax2.plot(x, [r["plan_ms_median"] for r in sel], "s:", color="C3")
+        ax2.set_ylabel("median plan time [ms]", color="C3")
+        ax.legend(fontsize=8)
+    ax = axes[2]
+    names = [r["name"] for r in rows]
+    ax.barh(names, [r["realtime_factor_median"] for r in rows], color="C0", label="median")
+    ax.barh(names, [r["realtime_factor_p95"] for r in rows], color="C1", alpha=0.7, label="p95")
+    ax.axvline(1.0, color="k", lw=1)
+    ax.set_xlabel("real-time factor (0.1 s / plan time)")
+    ax.tick_params(axis="y", labelsize=7)
+    ax.legend(fontsize=8)
+    la = res["machine"]["load_average_start"][0]
+    fig.suptitle(f"MPPI on SmaSpine-v0 ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--duration", type=float, default=15.0, help="episode length [s] (default: %(default)s)")
+    p.add_argument("--scenarios", nargs="+", default=["step_cross", "sine_fast_dist"])
+    p.add_argument("--samples", nargs="+", type=int, default=[16, 32, 64])
+    p.add_argument("--horizons", nargs="+", type=float, default=[2.0, 3.0, 5.0])
+    p.add_argument("--out", default=str(OUT))
+    args = p.parse_args(argv)
+    names = sorted({n.removesuffix("_dist") for n in args.scenarios})
+    suite = [
+        s
+        for s in build_suite(args.duration, names, groups=("nominal", "disturbed"))
+        if s.name in args.scenarios
+    ]
+    env = make_env({"episode_duration": args.duration})
+    info = machine()
+    warm = MPPIController(env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2))
+    env.reset(seed=0)
+    warm.predict(env.reset(seed=0)[0])  # compile / load the kernels outside the timing
+    warm = MPPIController(
+        env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2, parallel=False)
+    )
+    warm.predict(env.reset(seed=0)[0])
+    cfgs = configurations(args.samples, args.horizons)
+    steps = len(suite) * env.unwrapped.config.n_steps
+    res = {"machine": info, "duration_s": args.duration, "scenarios": [s.name for s in suite], "configs": []}
+    with tqdm(total=steps * (len(cfgs) + 1), desc="bench_mpc", unit="step") as bar:
+        res["pid"] = run(build_controller("pid", env), env, suite, bar)
+        for name, mode, settings in cfgs:
+            ctrl = MPPIController(
+                env.config, mode, env=env, settings=settings, temperature_limit=env.temperature_limit - 5.0
+            )
+            r = run(ctrl, env, suite, bar)
+            res["configs"].append(
+                {
+                    "name": name,
+                    "mode": mode,
+                    "parallel": settings.parallel,
+                    "settings": dataclasses.asdict(settings),
+                    **r,
+                }
+            )
+            bar.write(
+                f"{name:<36s} plan {r['plan_ms_median']:6.1f} ms (p95 {r['plan_ms_p95']:6.1f}), RTF "
+                f"{r['realtime_factor_median']:5.2f} (p95 {r['realtime_factor_p95']:5.2f}), plan/env-step "
+                f"{r['plan_over_env_step']:6.0f}, RMSE {r['rmse_deg']:5.2f} deg, {r['energy_J']:5.0f} J"
+            )
+    info["load_average_end"] = os.getloadavg()
+    pid = res["pid"]
+    print(f"PID reference: RMSE {pid['rmse_deg']:.2f} deg, {pid['energy_J']:.0f} J")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "mpc_speed.json").write_text(json.dumps(res, indent=2))
+    plot(res, out / "mpc_speed.png")
+    print(f"wrote {out / 'mpc_speed.json'} and {out / 'mpc_speed.png'}")
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,38 @@
+"""Controllers for ``SmaSpine-v0`` (no torch needed), all behind SB3's ``predict``.
+
+* :mod:`.baselines` — the paper's step voltage, a bang-bang relay and a PID (the classical baselines).
+* :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
+  true state (``oracle``, privileged) or an estimated one (``estimated``).
+* :mod:`.estimator` — the phase-fraction estimator behind the ``estimated`` mode.
+"""
+
+from .baselines import (
+    BangBangController,
+    BaseController,
+    PIDController,
+    PIDGains,
+    SteadyStateMap,
+    StepVoltageController,
+    action_to_volts,
+    steady_state_map,
+    volts_to_action,
+)
+from .estimator import PhaseEstimator, austenite_from_resistance
+from .mpc import MODES, MPPIConfig, MPPIController
+
+__all__ = [
+    "SteadyStateMap",
+    "steady_state_map",
+    "BaseController",
+    "StepVoltageController",
+    "BangBangController",
+    "PIDController",
+    "PIDGains",
+    "volts_to_action",
+    "action_to_volts",
+    "MPPIConfig",
+    "MPPIController",
+    "MODES",
+    "PhaseEstimator",
+    "austenite_from_resistance",
+]

@@ -1,0 +1,137 @@
+"""State estimator for ``SmaSpine-v0``: the hidden phase fractions from what the env observes.
+
+The env observes the bending angle, both wire temperatures and both wire resistances (and the
+action it applied). The model state behind them (``spine_gym.physics.layout``) also holds, per
+wire, the martensite fractions x₊ (tension variant) and x₋ (compression variant) and the shape of
+the tube. :class:`PhaseEstimator` keeps a full model state and, each control period, does
+
+1. **predict** — advance its state by one control period with the voltages the env applied (the
+   observation's previous action), nominal parameters and no external load (the loads are not
+   observed), on the env's physics (:func:`spine_gym.physics.solver.advance`, same sub-steps);
+2. **correct** — replace what is measured:
+
+   * the temperatures by the measured ones;
+   * the austenite fraction of each wire from its resistance. The resistivity mixes as
+     ρ_e = λ_A x_A + λ_M (x₊ + x₋) (MODEL.md §3.7, one λ_M for both martensite variants), and the
+     env reports R = ρ_e L0 / A_w, so x_A = (R A_w / L0 − λ_M) / (λ_A − λ_M), clipped to [0, 1].
+     The resistance does not tell x₊ from x₋; the martensite 1 − x_A is split in the predicted
+     ratio x₊ : x₋ (all x₊ if the prediction holds no martensite, as a wire that re-transforms
+     under its tensile stress does, MODEL.md §3.3);
+   * then the tube shape is solved again for the corrected fractions (the composite solve).
+
+The angle is not forced onto the state (the fractions are already pinned by the resistance); the
+difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used by MPC as
+an output disturbance (it carries the unobserved payload and tip forces). How well it recovers the
+fractions on seeded episodes is tested in ``tests/test_mpc.py`` and quoted in ``docs/agents.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..envs.core import (
+    OBS_ANGLE,
+    OBS_DIM,
+    OBS_PREV_L,
+    OBS_PREV_R,
+    OBS_RES_L,
+    OBS_RES_R,
+    OBS_TEMP_L,
+    OBS_TEMP_R,
+    EnvConfig,
+)
+from ..physics import layout as L
+from ..physics.solver import advance, composite, init_state, needs_stability_check
+
+__all__ = ["PhaseEstimator", "austenite_from_resistance"]
+
+
+def austenite_from_resistance(resistance: np.ndarray, params) -> np.ndarray:
+    """x_A of a wire from its measured resistance [Ohm] (MODEL.md §3.7 inverted), clipped to [0, 1]."""
+    lam = np.asarray(resistance, dtype=np.float64) * params.wire_area / params.L0
+    return np.clip((lam - params.lam_M) / (params.lam_A - params.lam_M), 0.0, 1.0)
+
+
+class PhaseEstimator:
+    """Model state of one spine inferred from the observations (see the module docstring).
+
+    Args:
+        config: the env's :class:`~spine_gym.envs.EnvConfig` (nominal parameters, solver, periods,
+            ``v_max``). Randomised parameters, loads and sensor noise of an episode are not known.
+    """
+
+    def __init__(self, config: EnvConfig):
+        if not isinstance(config, EnvConfig):
+            raise ValueError(f"config must be an EnvConfig, got {type(config).__name__}")
+        self.config = config
+        self.params = config.params
+        self.kp = self.params.to_kernel()
+        self.ks = config.solver.to_kernel()
+        n = self.params.n_seg
+        self.loads = np.zeros((n, 2))  # assumed loads: none (payload and tip forces are not observed)
+        self.state = np.zeros(L.state_size(n))
+        self._work = np.empty(n)
+        self._saved = np.empty(n)
+        self.angle_offset = 0.0  # [deg] measured − estimated angle after the last update
+        self._started = False
+
+    def reset(self) -> None:
+        """The env's starting state (MODEL.md §3.10, straight at ambient) under the assumed loads."""
+        st = init_state(self.state, self.kp, self.ks, self.loads)
+        if st != L.OK:  # pragma: no cover - the nominal unloaded start always solves
+            raise RuntimeError(L.STATUS_TEXT.get(st, str(st)))
+        self.angle_offset = 0.0
+        self._started = False
+
+    @property
+    def angle_deg(self) -> float:
+        """Bending angle of the estimated state [deg]."""
+        n = self.params.n_seg
+        return float(np.degrees(self.state[L.X_HEAD : L.X_HEAD + n].sum()))
+
+    @property
+    def fractions(self) -> np.ndarray:
+        """Estimated (x₊ right, x₋ right, x₊ left, x₋ left)."""
+        return self.state[[L.X_PR, L.X_MR, L.X_PL, L.X_ML]].copy()
+
+    def update(self, obs: np.ndarray) -> np.ndarray:
+        """Predict over the control period just taken (unless this is the first observation of the
+        episode), correct with ``obs`` and return the estimated state (a view, do not modify)."""
+        obs = np.asarray(obs, dtype=np.float64)
+        if obs.shape != (OBS_DIM,):
+            raise ValueError(f"obs must be one SmaSpine-v0 observation of shape (10,), got {obs.shape}")
+        if self._started:
+            self._predict(obs)
+        self._started = True
+        self._correct(obs)
+        self.angle_offset = float(obs[OBS_ANGLE]) - self.angle_deg
+        return self.state
+
+    def _predict(self, obs: np.ndarray) -> None:
+        v_max = self.config.v_max
+        v_r = (np.clip(obs[OBS_PREV_R], -1.0, 1.0) + 1.0) * 0.5 * v_max
+        v_l = (np.clip(obs[OBS_PREV_L], -1.0, 1.0) + 1.0) * 0.5 * v_max
+        backup = self.state.copy()
+        for _ in range(self.config.n_sub):
+            st, _, _ = advance(
+                self.state, self.kp, self.ks, v_r, v_l, self.loads, self.config.physics_dt, False
+            )
+            if st != L.OK:  # keep the last valid estimate; the correction re-anchors it
+                self.state[:] = backup
+                return
+
+    def _correct(self, obs: np.ndarray) -> None:
+        s = self.state
+        backup = s.copy()
+        s[L.X_TR] = obs[OBS_TEMP_R]
+        s[L.X_TL] = obs[OBS_TEMP_L]
+        xa = austenite_from_resistance(obs[[OBS_RES_R, OBS_RES_L]], self.params)
+        for (ip, im), x_a in zip(((L.X_PR, L.X_MR), (L.X_PL, L.X_ML)), xa, strict=True):
+            mart = s[ip] + s[im]
+            share = s[ip] / mart if mart > 1e-12 else 1.0
+            s[ip] = (1.0 - x_a) * share
+            s[im] = (1.0 - x_a) * (1.0 - share)
+        check = needs_stability_check(self.loads, self.kp)
+        st, _ = composite(s, self.loads, self.kp, self.ks, self._work, self._saved, check)
+        if st != L.OK:
+            s[:] = backup

@@ -1,0 +1,339 @@
+"""Sampling model-predictive control (MPPI) of ``SmaSpine-v0`` on the env's own physics.
+
+Every control period :class:`MPPIController` plans the next ``horizon`` seconds of both wire
+voltages by model-predictive path integral control (Williams et al., "Information theoretic MPC",
+2017): ``n_samples`` voltage sequences are drawn around the current plan, rolled out from the
+current state in one parallel numba call (:func:`spine_gym.physics.rollout.rollout_many`, the
+env's step loop), scored, and the plan becomes their average weighted by ``exp(−cost / λ)``. The
+first voltages are applied; the plan shifted by one period warm-starts the next step.
+
+* **Smooth sequences**: the perturbations are Gaussian at knots every ``knot_period`` seconds,
+  linearly interpolated in between, so the sampled voltages are smooth over a few seconds (the
+  wires' thermal time constant is ~17 s; white noise per 0.1-s step would average away).
+* **Cost** of a rollout, summed over the horizon h = 1 … H with the target θ*_h:
+  ``w_track Σ (θ_h − θ*_h)² [deg²] + w_energy E [J] + w_temp Σ Σ_wires max(0, T − T_lim)² [K²]``
+  with E the electrical energy of the rollout (the env's Joule accounting) and T_lim the env's
+  temperature limit minus ``temp_margin``; a failed rollout costs :data:`FAILED_COST`.
+  λ = ``temperature`` × (mean − min of the costs), so the weighting is scale-free.
+* **State modes**:
+
+  - ``"oracle"`` — **privileged**: the controller reads the env's true full state through
+    ``env.snapshot()`` (phase fractions, the episode's randomised parameters) and plans with the
+    episode's future targets and loads (tip-force pulses, payload). No real controller has this;
+    it is the upper bound of what the plant allows with this planner.
+  - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
+    infers the state (phase fractions from the resistances), the parameters are nominal, the loads
+    are unknown (none assumed) and the targets over the horizon come from the observed target and
+    its 1-s preview (linear in between, then continued at the preview's rate of change). The
+    observed angle minus the estimated one is an output disturbance held over the horizon
+    (offset-free MPC).
+
+:class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
+SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
+(observation batches of one row).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..envs.core import OBS_PREVIEW, OBS_TARGET, EnvConfig
+from ..envs.task import ANGLE_LIMIT
+from ..physics import layout as L
+from ..physics.rollout import rollout_many, rollout_many_serial
+from .baselines import BaseController, _check_range
+from .estimator import PhaseEstimator
+
+__all__ = ["MPPIConfig", "MPPIController", "MODES", "FAILED_COST"]
+
+MODES = ("oracle", "estimated")
+FAILED_COST = 1e12  # cost of a rollout whose model step failed
+# EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
+MAX_EXTRAPOLATED_RATE = 10.0  # [deg/s] faster preview changes are taken as steps (not extrapolated)
+PLAN_FIELDS = (
+    "v_max",
+    "control_period",
+    "physics_dt",
+    "target_preview",
+    "temperature_limit",
+    "params",
+    "solver",
+)
+
+
+@dataclass(frozen=True)
+class MPPIConfig:
+    """Settings of :class:`MPPIController` (defaults: real time on 2 cores, see benchmarks/bench_mpc.py).
+
+    Attributes:
+        n_samples: rollouts per control step, in [4, 100000] (the current plan, all off and full
+            heating of either side are always among them).
+        horizon: planning horizon [s], a multiple of the control period, in (0, 60].
+        knot_period: spacing of the perturbation knots [s], in (0, 60].
+        noise_std: standard deviation of the voltage perturbation [V], in (0, 100].
+        temperature: λ relative to (mean − min) of the costs, in (0, 100].
+        w_track: weight of the squared tracking error [1/deg²], >= 0.
+        w_energy: weight of the electrical energy [1/J], >= 0.
+        w_temp: weight of the squared over-temperature [1/K²], >= 0.
+        temp_margin: T_lim = env temperature limit − margin [K], in [0, 100].
+        plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
+            rollouts then reproduce the env exactly); a whole fraction of the control period.
+        iterations: MPPI updates per control step, in [1, 100].
+        parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
+            shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
+            a plan took up to 10x longer, see benchmarks/bench_mpc.py).
+        seed: seed of the perturbation generator.
+    """
+
+    n_samples: int = 32
+    horizon: float = 3.0
+    knot_period: float = 1.0
+    noise_std: float = 1.0
+    temperature: float = 0.02
+    w_track: float = 1.0
+    w_energy: float = 0.05
+    w_temp: float = 10.0
+    temp_margin: float = 5.0
+    plan_physics_dt: float | None = 0.1
+    iterations: int = 1
+    parallel: bool = False
+    seed: int = 0
+
+    def __post_init__(self):
+        if (
+            isinstance(self.n_samples, bool)
+            or not isinstance(self.n_samples, int)
+            or not 4 <= self.n_samples <= 100_000
+        ):
+            raise ValueError(f"n_samples must be an integer in [4, 100000], got {self.n_samples!r}")
+        if (
+            isinstance(self.iterations, bool)
+            or not isinstance(self.iterations, int)
+            or not 1 <= self.iterations <= 100
+        ):
+            raise ValueError(f"iterations must be an integer in [1, 100], got {self.iterations!r}")
+        _check_range("horizon", self.horizon, 0.0, 60.0, lo_open=True)
+        _check_range("knot_period", self.knot_period, 0.0, 60.0, lo_open=True)
+        _check_range("noise_std", self.noise_std, 0.0, 100.0, lo_open=True)
+        _check_range("temperature", self.temperature, 0.0, 100.0, lo_open=True)
+        for name in ("w_track", "w_energy", "w_temp"):
+            _check_range(name, getattr(self, name), 0.0, 1e9)
+        _check_range("temp_margin", self.temp_margin, 0.0, 100.0)
+        if self.plan_physics_dt is not None:
+            _check_range("plan_physics_dt", self.plan_physics_dt, 0.0, 10.0, lo_open=True)
+
+
+def _whole(name: str, value: float, unit: float) -> int:
+    n = int(round(value / unit))
+    if n < 1 or abs(n * unit - value) > 1e-9 * max(value, 1.0):
+        raise ValueError(f"{name} must be a whole multiple of {unit:g} s, got {value!r}")
+    return n
+
+
+class MPPIController(BaseController):
+    """MPPI on the env's physics (see the module docstring).
+
+    Args:
+        config: the env's :class:`~spine_gym.envs.EnvConfig` (``env.config``).
+        mode: ``"oracle"`` (privileged: needs ``env``) or ``"estimated"``.
+        env: the :class:`~spine_gym.envs.SmaSpineEnv` whose state the oracle reads (``snapshot()``);
+            it can also be given later with :meth:`bind`.
+        settings: :class:`MPPIConfig` (default settings if None).
+        **kwargs: ``temperature_limit`` guard of :class:`BaseController` (``v_max`` and ``dt``
+            come from ``config``).
+    """
+
+    name = "mpc"
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        mode: str = "estimated",
+        *,
+        env=None,
+        settings: MPPIConfig | None = None,
+        **kwargs,
+    ):
+        if not isinstance(config, EnvConfig):
+            raise ValueError(f"config must be an EnvConfig (env.config), got {type(config).__name__}")
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        settings = MPPIConfig() if settings is None else settings
+        if not isinstance(settings, MPPIConfig):
+            raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
+        for key in ("v_max", "dt"):
+            if key in kwargs:
+                raise ValueError(f"{key} comes from config; do not pass it to MPPIController")
+        super().__init__(v_max=config.v_max, dt=config.control_period, **kwargs)
+        self.env_config = config
+        self.mode = mode
+        self.settings = s = settings
+        self.name = f"mpc_{mode}"
+        self.horizon_steps = _whole("horizon", s.horizon, config.control_period)
+        self.plan_dt = config.physics_dt if s.plan_physics_dt is None else float(s.plan_physics_dt)
+        self.plan_sub = _whole("control_period (with plan_physics_dt)", config.control_period, self.plan_dt)
+        knot_steps = max(1, int(round(s.knot_period / config.control_period)))
+        n_knots = math.ceil((self.horizon_steps - 1) / knot_steps) + 1
+        # (H, n_knots) linear interpolation from knots to control steps
+        pos = np.arange(self.horizon_steps) / knot_steps
+        self._interp = np.maximum(0.0, 1.0 - np.abs(pos[:, None] - np.arange(n_knots)[None, :]))
+        self._n_knots = n_knots
+        self._kernel = rollout_many if s.parallel else rollout_many_serial
+        p = config.params
+        self._side_volume = p.wire_volume * p.n_w
+        self._ks = config.solver.to_kernel()
+        self._t_lim = config.temperature_limit - s.temp_margin
+        self.estimator = PhaseEstimator(config) if mode == "estimated" else None
+        self.env = None
+        if env is not None:
+            self.bind(env)
+        n, h = s.n_samples, self.horizon_steps
+        self._work = np.empty((n, L.state_size(p.n_seg)))
+        self._angle = np.empty((n, h))
+        self._temp = np.empty((n, h, 2))
+        self._joule = np.empty((n, h, 2))
+        self._status = np.empty(n, dtype=np.int64)
+        self.reset()
+
+    # ------------------------------------------------------------------ wiring
+    def bind(self, env) -> None:
+        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its config differs
+        in a field of :data:`PLAN_FIELDS`. ``agents.runtime.run_episode`` binds each episode's env."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if not isinstance(cfg, EnvConfig) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a SmaSpineEnv), got {type(env).__name__}")
+        self.env = env
+
+    def reset(self) -> None:
+        """New episode: zero plan, fresh generator and estimator."""
+        super().reset()
+        self.plan = np.zeros((self.horizon_steps, 2))
+        self.rng = np.random.default_rng(self.settings.seed)
+        if self.estimator is not None:
+            self.estimator.reset()
+        self.last_cost = math.nan
+        self._last_preview = None
+
+    # ------------------------------------------------------------------ predict
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3 ``predict`` for one env (observation ``(10,)`` or ``(1, 10)``); ``state`` is unused."""
+        obs, _ = self._check_obs(observation)
+        if obs.shape[0] != 1:
+            raise ValueError(
+                f"MPPIController plans for one env: observation batch must have 1 row, got {obs.shape[0]}"
+            )
+        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
+            self.reset()
+        action, _ = super().predict(observation, None, None, deterministic)
+        return action, None
+
+    def _volts(self, obs, mem):
+        problem = self._problem(obs[0])
+        for _ in range(self.settings.iterations):
+            self._improve(*problem)
+        volts = self.plan[0].copy()
+        self.plan[:-1] = self.plan[1:]  # warm start: shift, repeat the last
+        return volts[None, :]
+
+    # ------------------------------------------------------------------ the planning problem
+    def _problem(self, obs):
+        """Start state, constants, loads and resolve flags, targets [deg] and angle offset [deg]."""
+        h = self.horizon_steps
+        if self.mode == "oracle":
+            if self.env is None:
+                raise ValueError(
+                    "oracle mode needs the env: MPPIController(config, 'oracle', env=env) or bind(env)"
+                )
+            snap = self.env.snapshot()
+            a = snap.arrays
+            k = snap.step_index
+            n_steps = a["forces"].shape[0]
+            idx = np.minimum(np.arange(k, k + h), n_steps - 1)
+            loads = np.zeros((h, self.env_config.params.n_seg, 2))
+            loads[:, 0, :] = a["forces"][idx]
+            resolve = a["resolve_plan"][idx] & (np.arange(k, k + h) < n_steps)
+            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), a["targets"].shape[0] - 1)]
+            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(a["side_volume"])
+        est = self.estimator
+        state0 = est.update(obs)
+        loads = np.broadcast_to(est.loads, (h, *est.loads.shape))
+        resolve = np.zeros(h, dtype=np.bool_)
+        targets = self._preview_targets(obs)
+        return state0, est.kp, loads, resolve, targets, est.angle_offset, self._side_volume
+
+    def _preview_targets(self, obs) -> np.ndarray:
+        """Targets over the horizon from the observation alone [deg].
+
+        Linear from the current target to the preview (``target_preview`` ahead), then continued
+        with the preview's own rate of change (its difference over the last period) if that is
+        at most :data:`MAX_EXTRAPOLATED_RATE` (a ramp or a sine; a jump of the preview is a step,
+        which is then held), clipped to the env's target bounds.
+        """
+        h = self.horizon_steps
+        p_steps = max(self.env_config.preview_steps, 1)
+        steps = np.arange(1, h + 1)
+        target, preview = obs[OBS_TARGET], obs[OBS_PREVIEW]
+        rate = 0.0 if self._last_preview is None else (preview - self._last_preview) / self.dt
+        self._last_preview = preview
+        if abs(rate) > MAX_EXTRAPOLATED_RATE:
+            rate = 0.0
+        ahead = np.maximum(steps - p_steps, 0) * self.dt
+        out = target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+        return np.clip(out, -ANGLE_LIMIT, ANGLE_LIMIT)
+
+    def _improve(self, state0, kp, loads, resolve, targets, offset, side_volume) -> None:
+        s = self.settings
+        n = s.n_samples
+        knots = self.rng.normal(0.0, s.noise_std, size=(n, self._n_knots, 2))
+        knots[0] = 0.0  # the current plan itself
+        noise = np.einsum("hk,nkc->nhc", self._interp, knots)
+        volts = np.clip(self.plan[None, :, :] + noise, 0.0, self.v_max)
+        volts[1] = 0.0  # both wires off
+        volts[2, :, 0], volts[2, :, 1] = self.v_max, 0.0  # full heating of one side ...
+        volts[3, :, 0], volts[3, :, 1] = 0.0, self.v_max  # ... or the other
+        self._kernel(
+            state0,
+            kp,
+            self._ks,
+            np.ascontiguousarray(volts[:, :, 0]),
+            np.ascontiguousarray(volts[:, :, 1]),
+            np.ascontiguousarray(loads),
+            np.ascontiguousarray(resolve),
+            self.plan_dt,
+            self.plan_sub,
+            self._work,
+            self._angle,
+            self._temp,
+            self._joule,
+            self._status,
+        )
+        cost = self._cost(state0, targets, offset, side_volume)
+        best = cost.min()
+        lam = s.temperature * max(cost.mean() - best, 1e-9)
+        w = np.exp(-(cost - best) / lam)
+        w /= w.sum()
+        self.plan = np.einsum("n,nhc->hc", w, volts)
+        self.last_cost = float(best)
+
+    def _cost(self, state0, targets, offset, side_volume) -> np.ndarray:
+        s = self.settings
+        err = np.degrees(self._angle) + offset - targets[None, :]
+        track = np.sum(err * err, axis=1)
+        q0 = np.array([state0[L.X_QJR], state0[L.X_QJL]])
+        energy = np.sum(self._joule[:, -1, :] - q0[None, :], axis=1) * side_volume
+        over = np.maximum(self._temp - self._t_lim, 0.0)
+        cost = s.w_track * track + s.w_energy * energy + s.w_temp * np.sum(over * over, axis=(1, 2))
+        return np.where(self._status == L.OK, cost, FAILED_COST)
+
+    def config(self) -> dict:
+        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
