@@ -36,3 +36,22 @@ def as_series(name: str, value, n: int, dt: float, shape: tuple[int, ...]) -> np
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got NaN or inf")
     return np.ascontiguousarray(arr)
+
+
+def vertex_loads(n_seg: int, n: int, dt: float, dim: int, tip_force=None, vertex_forces=None) -> np.ndarray:
+    """Vertex-force programme (n or 1, N, dim) [N] from a tip force and/or forces at every vertex.
+
+    ``tip_force``: None, (dim,), (n, dim) or callable t → (dim,) — global force on the top disk.
+    ``vertex_forces``: None, (N, dim), (n, N, dim) or callable t → (N, dim) — force at vertex P_k,
+    k = 0 (the tip) … N−1 (the base P_N is clamped). One row when both are constant, else n rows.
+    """
+    constant = (tip_force is None or np.shape(tip_force) == (dim,)) and (
+        vertex_forces is None or np.shape(vertex_forces) == (n_seg, dim)
+    )
+    rows = 1 if constant else n
+    loads = np.zeros((rows, n_seg, dim))
+    if vertex_forces is not None:
+        loads += as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, dim))
+    if tip_force is not None:
+        loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (dim,))
+    return loads

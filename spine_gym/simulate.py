@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, as_series
+from ._series import V_MAX_ALLOWED, SimulationError, as_series, vertex_loads
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import batch
@@ -87,16 +87,7 @@ def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=Non
     ``vertex_forces``: None, (N, 2), (n, N, 2) or callable t → (N, 2) — force at vertex P_k,
     k = 0 (top) … N−1 (the base P_N is clamped).
     """
-    constant = (tip_force is None or np.shape(tip_force) == (2,)) and (
-        vertex_forces is None or np.shape(vertex_forces) == (n_seg, 2)
-    )
-    rows = 1 if constant else n
-    loads = np.zeros((rows, n_seg, 2))
-    if vertex_forces is not None:
-        loads += as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 2))
-    if tip_force is not None:
-        loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (2,))
-    return loads
+    return vertex_loads(n_seg, n, dt, 2, tip_force, vertex_forces)
 
 
 def initial_state(params: ModelParams, solver: SolverOptions | None = None, loads=None) -> np.ndarray:

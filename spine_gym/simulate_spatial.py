@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, as_series
+from ._series import V_MAX_ALLOWED, SimulationError, as_series, vertex_loads
 from .layout import SpineLayout
 from .params import SolverOptions
 from .physics import layout as L
@@ -92,16 +92,7 @@ def build_loads_3d(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=
     ``vertex_forces``: None, (N, 3), (n, N, 3) or callable t → (N, 3) — force at vertex P_j,
     j = 0 (the tip) … N−1 (the base P_N is clamped), as the planar :func:`build_loads`.
     """
-    constant = (tip_force is None or np.shape(tip_force) == (3,)) and (
-        vertex_forces is None or np.shape(vertex_forces) == (n_seg, 3)
-    )
-    rows = 1 if constant else n
-    loads = np.zeros((rows, n_seg, 3))
-    if vertex_forces is not None:
-        loads += as_series("vertex_forces", vertex_forces, rows, dt, (n_seg, 3))
-    if tip_force is not None:
-        loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (3,))
-    return loads
+    return vertex_loads(n_seg, n, dt, 3, tip_force, vertex_forces)
 
 
 def initial_state_spatial(layout: SpineLayout, solver: SolverOptions | None = None, loads=None) -> np.ndarray:
