@@ -1,0 +1,46 @@
+"""numba's cache is re-validated against a kernel's own file only; physics._jit clears every cached
+kernel when any kernel source changed (an edit of solver.py must reach the kernels of env_kernels.py)."""
+
+from __future__ import annotations
+
+from spine_gym.physics import _jit
+
+
+def _tree(tmp_path):
+    src = tmp_path / "solver.py"
+    src.write_text("def advance(): return 1\n")
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    kernels = [cache / "env_kernels._step-10.py311.nbi", cache / "env_kernels._step-10.py311.1.nbc"]
+    for f in kernels:
+        f.write_bytes(b"compiled")
+    keep = cache / "solver.cpython-311.pyc"
+    keep.write_bytes(b"bytecode")
+    return src, cache, kernels, keep
+
+
+def test_unchanged_sources_keep_the_cache(tmp_path):
+    src, cache, kernels, keep = _tree(tmp_path)
+    assert _jit.clear_stale_caches([src], [cache])  # no stamp yet: first run clears and stamps
+    for f in kernels:
+        f.write_bytes(b"compiled again")
+    assert not _jit.clear_stale_caches([src], [cache])
+    assert all(f.exists() for f in kernels) and keep.exists()
+
+
+def test_an_edited_callee_clears_every_cached_kernel(tmp_path):
+    src, cache, kernels, keep = _tree(tmp_path)
+    _jit.clear_stale_caches([src], [cache])
+    for f in kernels:
+        f.write_bytes(b"compiled with the old advance")
+    src.write_text("def advance(): return 2\n")
+    assert _jit.clear_stale_caches([src], [cache])
+    assert not any(f.exists() for f in kernels)
+    assert keep.exists()  # Python's own bytecode is not ours to touch
+
+
+def test_the_package_stamp_covers_every_kernel_source():
+    names = {p.name for p in _jit.KERNEL_SOURCES}
+    expected = {"solver.py", "tube.py", "sma.py", "env_kernels.py", "spatial_solver.py", "_bookkeeping.py"}
+    assert expected <= names
+    assert (_jit.KERNEL_CACHE_DIRS[0] / _jit.STAMP_NAME).is_file()  # written when the package was imported
