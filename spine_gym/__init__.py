@@ -4,6 +4,7 @@
 Gymnasium environment ``SmaSpine-v0``.
 """
 
+from . import _kernel_cache  # noqa: F401 -- first: clears stale numba caches before any kernel loads
 from .layout import Module, SpineLayout, WireGroup
 from .params import ModelParams, SolverOptions, alternative, baseline
 from .simulate import SimulationError, SimulationResult, simulate

@@ -1,9 +1,9 @@
-"""numba's cache is re-validated against a kernel's own file only; physics._jit clears every cached
+"""numba's cache is re-validated against a kernel's own file only; spine_gym._kernel_cache clears every cached
 kernel when any kernel source changed (an edit of solver.py must reach the kernels of env_kernels.py)."""
 
 from __future__ import annotations
 
-from spine_gym.physics import _jit
+from spine_gym import _kernel_cache as kc
 
 
 def _tree(tmp_path):
@@ -21,26 +21,26 @@ def _tree(tmp_path):
 
 def test_unchanged_sources_keep_the_cache(tmp_path):
     src, cache, kernels, keep = _tree(tmp_path)
-    assert _jit.clear_stale_caches([src], [cache])  # no stamp yet: first run clears and stamps
+    assert kc.clear_stale_caches([src], [cache])  # no stamp yet: first run clears and stamps
     for f in kernels:
         f.write_bytes(b"compiled again")
-    assert not _jit.clear_stale_caches([src], [cache])
+    assert not kc.clear_stale_caches([src], [cache])
     assert all(f.exists() for f in kernels) and keep.exists()
 
 
 def test_an_edited_callee_clears_every_cached_kernel(tmp_path):
     src, cache, kernels, keep = _tree(tmp_path)
-    _jit.clear_stale_caches([src], [cache])
+    kc.clear_stale_caches([src], [cache])
     for f in kernels:
         f.write_bytes(b"compiled with the old advance")
     src.write_text("def advance(): return 2\n")
-    assert _jit.clear_stale_caches([src], [cache])
+    assert kc.clear_stale_caches([src], [cache])
     assert not any(f.exists() for f in kernels)
     assert keep.exists()  # Python's own bytecode is not ours to touch
 
 
 def test_the_package_stamp_covers_every_kernel_source():
-    names = {p.name for p in _jit.KERNEL_SOURCES}
+    names = {p.name for p in kc.KERNEL_SOURCES}
     expected = {"solver.py", "tube.py", "sma.py", "env_kernels.py", "spatial_solver.py", "_bookkeeping.py"}
     assert expected <= names
-    assert (_jit.KERNEL_CACHE_DIRS[0] / _jit.STAMP_NAME).is_file()  # written when the package was imported
+    assert (kc.KERNEL_CACHE_DIRS[0] / kc.STAMP_NAME).is_file()  # written when the package was imported

@@ -7,47 +7,9 @@ the source (``__pycache__``) and later processes load it instead of compiling ag
 
 from __future__ import annotations
 
-import hashlib
-from pathlib import Path
-
 import numba
 
-__all__ = ["jit", "pjit", "clear_stale_caches"]
-
-_PACKAGE = Path(__file__).resolve().parent.parent
-# every file that defines kernels: a kernel's cache must go when any of them changes
-KERNEL_SOURCES = (*sorted((_PACKAGE / "physics").glob("*.py")), _PACKAGE / "envs" / "_bookkeeping.py")
-STAMP_NAME = "spine_gym_sources.sha256"
-
-
-def clear_stale_caches(sources, cache_dirs) -> bool:
-    """Delete numba's cached kernels (``*.nbi``, ``*.nbc``) in ``cache_dirs`` if ``sources`` changed.
-
-    numba re-validates a cached kernel only against its *own* file, not against the callees it
-    inlined from other modules, so after an edit of ``solver.py`` the kernels of ``env_kernels.py``
-    would keep running the old ``advance``. A digest of all kernel sources, stored beside the cache,
-    catches that. Returns True if caches were cleared. A read-only install keeps its caches.
-    """
-    digest = hashlib.sha256(b"".join(Path(f).read_bytes() for f in sources)).hexdigest()
-    dirs = [Path(d) for d in cache_dirs]
-    stamp = dirs[0] / STAMP_NAME
-    if stamp.is_file() and stamp.read_text() == digest:
-        return False
-    try:
-        for d in dirs:
-            for f in (*d.glob("*.nbi"), *d.glob("*.nbc")):
-                f.unlink(missing_ok=True)
-        dirs[0].mkdir(parents=True, exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:
-        return False
-    return True
-
-
-KERNEL_CACHE_DIRS = (_PACKAGE / "physics" / "__pycache__", _PACKAGE / "envs" / "__pycache__")
-
-if not numba.config.CACHE_DIR:  # a user-chosen NUMBA_CACHE_DIR is the user's to manage
-    clear_stale_caches(KERNEL_SOURCES, KERNEL_CACHE_DIRS)
+__all__ = ["jit", "pjit"]
 
 
 def jit(func):
