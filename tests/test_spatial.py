@@ -312,10 +312,10 @@ def test_planar_moment_of_the_spatial_shape_is_model_md_10_1():
     # 0.2 N m without load: wire lengths 0.450812 / 0.469090 m (right / left)
     kp, kw, km = layout.to_kernel()
     omega, _, _ = _solve_shape(layout, np.array([[0.0, 0.2]]))
-    fs = np.empty(13)
-    tube3.half_sinc(omega, fs)
-    assert tube3.wire_length(0, omega, fs, kw, km) == pytest.approx(0.450812, abs=1e-6)
-    assert tube3.wire_length(1, omega, fs, kw, km) == pytest.approx(0.469090, abs=1e-6)
+    sums = np.empty((1, 3))
+    tube3.chord_sums(omega, km, sums)
+    assert tube3.wire_length(0, sums, kw, km) == pytest.approx(0.450812, abs=1e-6)
+    assert tube3.wire_length(1, sums, kw, km) == pytest.approx(0.469090, abs=1e-6)
 
 
 # ---------------------------------------------------------------- §7.5 equilibrium

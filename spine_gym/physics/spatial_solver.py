@@ -66,7 +66,6 @@ from .spatial_layout import (
     F_T,
     F_XM,
     F_XP,
-    M_LS,
     M_NSEG,
     M_SEG0,
     S_TIME,
@@ -83,17 +82,18 @@ from .spatial_layout import (
     wire_offset,
 )
 from .spatial_stability import add_wire_term, is_buckled, needs_stability_check, tube_jacobian
-from .stability import solve_in_place
 from .spatial_tube import (
     bending_vector,
-    half_sinc,
+    chord_sums,
+    gain_sums,
     kinematics,
+    length_slope,
     positions,
-    segment_length_gradient,
     shape_pass,
     solve_shape,
     wire_length,
 )
+from .stability import solve_in_place
 
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
 INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
@@ -137,19 +137,19 @@ def wire_block(state, field, nw):
     WK_CHORDS,  # (N, 3) chords
     WK_NEW,  # (N, 2) new ω of a shape pass
     WK_SAVED_W,  # (N, 2) saved ω
-    WK_FS,  # (N,) chord factors f
+    WK_SUMS,  # (K, 3) chord sums of the wire lengths (spatial_tube.chord_sums)
     WK_EPS,  # (W,) strains
     WK_SIG,  # (W,) stresses
     WK_G,  # (K, 2) G(M)
     WK_JAC,  # (2K, 2K) Jacobian, then the Newton matrix
-    WK_RHS,  # (2K,) right-hand side
-    WK_DM,  # (2K,) ΔM (also scratch of loop_gain)
+    WK_DM,  # (2K,) ΔM (the right-hand side G − M, solved in place)
     WK_MTRIAL,  # (K, 2) trial M
     WK_SAVED_M,  # (K, 2) saved M
     WK_WTRIAL,  # (N, 2) trial ω
     WK_RATES,  # (W, 4) rates
     WK_XNEW,  # (W, 2) new fractions
     WK_POS,  # (N + 1, 3) vertex positions
+    WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial_tube.gain_sums)
 ) = range(17)
 
 
@@ -161,12 +161,11 @@ def make_work(nw, nm, ns):
         np.empty((ns, 3)),
         np.empty((ns, 2)),
         np.empty((ns, 2)),
-        np.empty(ns),
+        np.empty((nm, 3)),
         np.empty(nw),
         np.empty(nw),
         np.empty((nm, 2)),
         np.empty((2 * nm, 2 * nm)),
-        np.empty(2 * nm),
         np.empty(2 * nm),
         np.empty((nm, 2)),
         np.empty((nm, 2)),
@@ -174,6 +173,7 @@ def make_work(nw, nm, ns):
         np.empty((nw, 4)),
         np.empty((nw, 2)),
         np.empty((ns + 1, 3)),
+        np.empty((nm, 2 * nm, 3)),
     )
 
 
@@ -184,17 +184,17 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
 
     Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
     """
-    fs = wk[WK_FS]
+    sums = wk[WK_SUMS]
     eps = wk[WK_EPS]
     sig = wk[WK_SIG]
     gm = wk[WK_G]
-    half_sinc(omega, fs)
+    chord_sums(omega, km, sums)
     for k in range(gm.shape[0]):
         gm[k, 0] = 0.0
         gm[k, 1] = 0.0
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
-        e = wire_length(j, omega, fs, kw, km) / kw[j, W_LREF] - 1.0
+        e = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
         s = stress(e, xp[j], xm[j], kp)
         eps[j] = e
         sig[j] = s
@@ -208,97 +208,68 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
 def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
     """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
 
-    ∂L/∂ω segment by segment (:func:`.spatial_tube.segment_length_gradient`), times S.
+    ∂L/∂ω · S of every wire from its module's sums (:func:`.spatial_tube.length_slope`).
     """
     jac = wk[WK_JAC]
-    row = wk[WK_DM]
+    gs = wk[WK_GAIN]
     sig = wk[WK_SIG]
     ncol = jac.shape[1]
     for r in range(ncol):
         for c in range(ncol):
             jac[r, c] = 0.0
+    gain_sums(omega, sens, km, gs)
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
         if sig[j] <= 0.0:
             continue
         k = int(kw[j, W_MOD])
-        seg0 = int(km[k, M_SEG0])
-        ls = km[k, M_LS]
-        a = kw[j, W_A]
         ex = kw[j, W_EX]
         ey = kw[j, W_EY]
+        cw = kw[j, W_NW] * aw * kw[j, W_A] / (compliance(xp[j], xm[j], kp) * kw[j, W_LREF])
         for c in range(ncol):
-            row[c] = 0.0
-        for i in range(seg0, seg0 + int(km[k, M_NSEG])):
-            g1, g2 = segment_length_gradient(omega[i, 0], omega[i, 1], ls, a, ex, ey)
-            for c in range(ncol):
-                row[c] += g1 * sens[2 * i, c] + g2 * sens[2 * i + 1, c]
-        cw = kw[j, W_NW] * aw * a / (compliance(xp[j], xm[j], kp) * kw[j, W_LREF])
-        for c in range(ncol):
-            jac[2 * k, c] += cw * ex * row[c]
-            jac[2 * k + 1, c] += cw * ey * row[c]
-
-
-@jit
-def solve_linear(a, b, x):
-    """Solve a x = b by Gaussian elimination with partial pivoting (a and b are overwritten)."""
-    n = b.shape[0]
-    if n == 2:  # one module: Cramer's rule
-        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-        x[0] = (a[1, 1] * b[0] - a[0, 1] * b[1]) / det
-        x[1] = (a[0, 0] * b[1] - a[1, 0] * b[0]) / det
-        return
-    for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(a[r, c]) > abs(a[p, c]):
-                p = r
-        if p != c:
-            for q in range(n):
-                a[c, q], a[p, q] = a[p, q], a[c, q]
-            b[c], b[p] = b[p], b[c]
-        piv = a[c, c]
-        for r in range(c + 1, n):
-            f = a[r, c] / piv
-            if f != 0.0:
-                for q in range(c, n):
-                    a[r, q] -= f * a[c, q]
-                b[r] -= f * b[c]
-    for r in range(n - 1, -1, -1):
-        s = b[r]
-        for q in range(r + 1, n):
-            s -= a[r, q] * x[q]
-        x[r] = s / a[r, r]
+            g = cw * length_slope(j, gs, c, kw, km)
+            jac[2 * k, c] += ex * g
+            jac[2 * k + 1, c] += ey * g
 
 
 @jit
 def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
-    """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega`` (mechanics recomputed).
+    """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
+    :func:`wire_mechanics` in ``wk``.
 
     Returns:
-        max |ΔM| [N m] (inf or NaN if the step is not finite).
+        max |ΔM| [N m] (inf if I − J is singular or the step is not finite).
     """
-    wire_mechanics(omega, xp, xm, kp, kw, km, wk)
     loop_gain(omega, sens, xp, xm, kp, kw, km, wk)
     a = wk[WK_JAC]
-    rhs = wk[WK_RHS]
     dm = wk[WK_DM]
     gm = wk[WK_G]
     nm = mw.shape[0]
     for k in range(nm):
-        rhs[2 * k] = gm[k, 0] - mw[k, 0]
-        rhs[2 * k + 1] = gm[k, 1] - mw[k, 1]
+        dm[2 * k] = gm[k, 0] - mw[k, 0]
+        dm[2 * k + 1] = gm[k, 1] - mw[k, 1]
     for r in range(2 * nm):
         for c in range(2 * nm):
             a[r, c] = -a[r, c]
         a[r, r] += 1.0
-    solve_linear(a, rhs, dm)
+    if not solve_in_place(a, dm):
+        return np.inf
     big = 0.0
     for r in range(2 * nm):
         if not math.isfinite(dm[r]):
             return np.inf
         big = max(big, abs(dm[r]))
     return big
+
+
+@jit
+def _residual_norm(mw, wk):
+    """max |G(M) − M| after :func:`wire_mechanics`."""
+    gm = wk[WK_G]
+    r = 0.0
+    for k in range(mw.shape[0]):
+        r = max(r, abs(gm[k, 0] - mw[k, 0]), abs(gm[k, 1] - mw[k, 1]))
+    return r
 
 
 @jit
@@ -316,6 +287,11 @@ def _predict(omega, sens, dm, scale, out):
 def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
+    Converged when the last shape pass moved ω by less than tol_theta and either the residual
+    max|G − M| or the Newton step ΔM is below tol_moment. The residual is tested first, as it needs
+    no Jacobian; in the planar case |ΔM| = |G − M| / (1 − J) <= |G − M| (J <= 0), so whenever the
+    residual test passes the planar step test passes too, and the decisions are the planar ones.
+
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
@@ -328,6 +304,9 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     e = np.inf
     passes = 0
     for _ in range(int(ks[S_MAXROOT])):
+        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+        if e < tol_th and _residual_norm(mw, wk) < tol_m:
+            return OK, passes
         big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
         if e < tol_th and big < tol_m:
             return OK, passes
@@ -371,16 +350,6 @@ def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
             sens[2 * i, c] = (trial[i, 0] - omega[i, 0]) / FD_DM
             sens[2 * i + 1, c] = (trial[i, 1] - omega[i, 1]) / FD_DM
     return OK, passes
-
-
-@jit
-def _residual_norm(mw, wk):
-    """max |G(M) − M| after :func:`wire_mechanics`."""
-    gm = wk[WK_G]
-    r = 0.0
-    for k in range(mw.shape[0]):
-        r = max(r, abs(gm[k, 0] - mw[k, 0]), abs(gm[k, 1] - mw[k, 1]))
-    return r
 
 
 @jit
@@ -596,13 +565,14 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
             nrm += d * d
     if big <= SECANT_MIN_DM:
         return
+    inv = 1.0 / nrm
     for i in range(omega.shape[0]):
         for b in range(2):
             r = 2 * i + b
             miss = omega[i, b] - saved_w[i, b]
             for c in range(2 * nm):
                 miss -= sens[r, c] * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
-            f = miss / nrm
+            f = miss * inv
             for c in range(2 * nm):
                 sens[r, c] += f * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
 

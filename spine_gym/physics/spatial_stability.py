@@ -44,7 +44,7 @@ from .layout import K_AW, K_EI, K_EPST, K_G
 from .sma import compliance
 from .solver import BUCKLING_SCREEN, SLACK_TOL
 from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_LREF, W_MOD, W_NW
-from .spatial_tube import half_sinc, rot_coeffs, shape_pass, wire_length
+from .spatial_tube import chord_sums, rot_coeffs, shape_pass, wire_length
 from .stability import dunkerley_weight, unstable_modes
 from .tube import chord_slope
 
@@ -71,9 +71,11 @@ def load_ratio(vforce, kp, km):
             hc = h + 0.5 * ls
             s += w * hc * hc
             h += ls
+            fx = vforce[i, 0]
+            fy = vforce[i, 1]
             fz = vforce[i, 2] - (km[k, M_MDISK] * g if i == seg0 else 0.0)
-            f = math.sqrt(vforce[i, 0] ** 2 + vforce[i, 1] ** 2 + fz * fz)
-            s += f * h * h
+            if fx != 0.0 or fy != 0.0 or fz != 0.0:  # most vertices carry no load: no square root
+                s += math.sqrt(fx * fx + fy * fy + fz * fz) * h * h
     return s * dunkerley_weight(kp[K_EI])
 
 
@@ -114,9 +116,10 @@ def length_gradient(w1, w2, ls, a, ex, ey):
 
     ∂ℓ/∂ω = (f'/Δθ) (ls − a e·ω) ω − f a e, f = 2 sin(Δθ/2)/Δθ, f' = :func:`.tube.chord_slope` / ls.
     """
-    th = math.sqrt(w1 * w1 + w2 * w2)
-    fp_th = -(1.0 / 12.0 - th * th / 480.0) if th < 1e-2 else chord_slope(th, 1.0) / th
-    f = rot_coeffs(th)[2]
+    th2 = w1 * w1 + w2 * w2
+    th = math.sqrt(th2)
+    fp_th = -(1.0 / 12.0 - th2 / 480.0) if th < 1e-2 else chord_slope(th, 1.0) / th
+    f = rot_coeffs(th2)[2]
     lever = fp_th * (ls - a * (ex * w1 + ey * w2))
     return lever * w1 - f * a * ex, lever * w2 - f * a * ey
 
@@ -137,8 +140,8 @@ def add_wire_term(omega, xp, xm, kp, kw, km, jac):
     ns = omega.shape[0]
     ei = kp[K_EI]
     aw = kp[K_AW]
-    fs = np.empty(ns)
-    half_sinc(omega, fs)
+    sums = np.empty((km.shape[0], 3))
+    chord_sums(omega, km, sums)
     dg = np.zeros((2, 2 * ns))  # ∂G_k/∂ω of the current module
     d = np.empty(nw)  # threshold wires of the module: d_j, and e_j below
     e1 = np.empty(nw)
@@ -154,7 +157,7 @@ def add_wire_term(omega, xp, xm, kp, kw, km, jac):
             if int(kw[j, W_MOD]) != k:
                 continue
             lref = kw[j, W_LREF]
-            ex_strain = wire_length(j, omega, fs, kw, km) / lref - 1.0 - kp[K_EPST] * (xp[j] - xm[j])
+            ex_strain = wire_length(j, sums, kw, km) / lref - 1.0 - kp[K_EPST] * (xp[j] - xm[j])
             a = kw[j, W_A]
             ex = kw[j, W_EX]
             ey = kw[j, W_EY]

@@ -12,7 +12,8 @@ SPATIAL.md §1). In the lower section's material axes the rotation is
 
 and the chord is r = ls (a t + b (ω2 d1 − ω1 d2)): length (2 ls/Δθ) sin(Δθ/2) along
 R(k, Δθ/2) t as §2 states (the integral of the arc's tangent). b is computed as
-½ (sin(Δθ/2)/(Δθ/2))², free of cancellation; both use their series below 1e-8 rad.
+½ (sin(Δθ/2)/(Δθ/2))², free of cancellation. a, b and f are even in Δθ: below 0.5 rad they come
+from their series in Δθ² (:func:`rot_coeffs`), which needs no square root, sine or cosine.
 
 Indexing as the planar core (:mod:`.tube`): segment 0 is the top one, vertex 0 the tip, and the
 loads ``vforce[j]`` (global x, y, z) [N] act at vertex j. Module tables: :mod:`.spatial_layout`.
@@ -28,21 +29,42 @@ from ._jit import jit
 from .layout import ERR_SHAPE, K_EI, K_G, OK
 from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_L0, W_MOD
 
-SMALL = 1e-8  # [rad] below this the rotation coefficients use their series (MODEL.md §4.3)
+SERIES_TH2 = 0.25  # [rad²] below this (Δθ < 0.5 rad) the rotation coefficients use their series
+_TWELFTH = 1.0 / 12.0  # products with constants in the loops: a division costs several times more
+_TWENTYFOURTH = 1.0 / 24.0
+
+# Taylor coefficients of sin(h)/h and cos(h) in u = h², h = Δθ/2, to u⁶: the first omitted term is
+# below 5e-20 for Δθ < 0.5 rad, so the series agree with sin/cos to round-off (SPATIAL.md §2).
+_SINC = (1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0, 1.0 / 6227020800.0)
+_COS = (1.0, -1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0, 1.0 / 479001600.0)
 
 
 @jit
-def rot_coeffs(th):
-    """(a, b, f) = (sin Δθ/Δθ, (1 − cos Δθ)/Δθ², 2 sin(Δθ/2)/Δθ) with small-angle series.
+def _series(u, coeffs):
+    """Σ_k coeffs[k] u^k (Horner)."""
+    acc = coeffs[-1]
+    for k in range(len(coeffs) - 2, -1, -1):
+        acc = acc * u + coeffs[k]
+    return acc
 
-    From one sine and cosine of Δθ/2: f = sin(Δθ/2)/(Δθ/2), a = f cos(Δθ/2), b = f²/2.
+
+@jit
+def rot_coeffs(th2):
+    """(a, b, f) = (sin Δθ/Δθ, (1 − cos Δθ)/Δθ², 2 sin(Δθ/2)/Δθ) from Δθ² [rad²].
+
+    From f = sin(h)/(h) and cos(h), h = Δθ/2: a = f cos h, b = f²/2. All three are even in Δθ:
+    below SERIES_TH2 they come from the series in h² (no square root, sine or cosine; exact to
+    round-off, and free of the cancellation of 1 − cos at small angles), above from sin and cos.
     """
-    if th < SMALL:
-        t2 = th * th
-        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 - t2 / 24.0
-    half = 0.5 * th
-    f = math.sin(half) / half
-    return f * math.cos(half), 0.5 * f * f, f
+    if th2 < SERIES_TH2:
+        u = 0.25 * th2
+        f = _series(u, _SINC)
+        c = _series(u, _COS)
+    else:
+        half = 0.5 * math.sqrt(th2)
+        f = math.sin(half) / half
+        c = math.cos(half)
+    return f * c, 0.5 * f * f, f
 
 
 @jit
@@ -66,7 +88,7 @@ def kinematics(omega, km, frames, chords):
             w1 = omega[i, 0]
             w2 = omega[i, 1]
             th2 = w1 * w1 + w2 * w2
-            a, b, _ = rot_coeffs(math.sqrt(th2))
+            a, b, _ = rot_coeffs(th2)
             c11 = 1.0 - b * w2 * w2
             c12 = b * w1 * w2
             c22 = 1.0 - b * w1 * w1
@@ -179,41 +201,87 @@ def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
 
 
 @jit
-def half_sinc(omega, fs):
-    """fs[i] = 2 sin(Δθ_i/2)/Δθ_i, the chord factor of every segment (one sine each)."""
-    for i in range(omega.shape[0]):
-        fs[i] = rot_coeffs(math.sqrt(omega[i, 0] ** 2 + omega[i, 1] ** 2))[2]
+def chord_sums(omega, km, sums):
+    """Per module k: sums[k] = (Σ f_n, Σ f_n ω1_n, Σ f_n ω2_n) over its segments, f_n = 2 sin(Δθ_n/2)/Δθ_n.
+
+    Every wire length of the module is linear in these three numbers (:func:`wire_length`), so one
+    pass over the segments serves all of its wires.
+    """
+    for k in range(km.shape[0]):
+        seg0 = int(km[k, M_SEG0])
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for i in range(seg0, seg0 + int(km[k, M_NSEG])):
+            w1 = omega[i, 0]
+            w2 = omega[i, 1]
+            f = rot_coeffs(w1 * w1 + w2 * w2)[2]
+            s0 += f
+            s1 += f * w1
+            s2 += f * w2
+        sums[k, 0] = s0
+        sums[k, 1] = s1
+        sums[k, 2] = s2
 
 
 @jit
-def wire_length(j, omega, fs, kw, km):
-    """Exact pore-to-pore length [m] of wire group j (SPATIAL.md §4), given ``fs`` = half_sinc.
+def wire_length(j, sums, kw, km):
+    """Exact pore-to-pore length [m] of wire group j (SPATIAL.md §4), given ``sums`` = chord_sums.
 
-    L_j = (L0 − N_k ls) + Σ_{n in module k} f_n (ls − a_j e_j·ω_n), e_j = (−sin ψ_j, cos ψ_j).
+    L_j = (L0 − N_k ls) + Σ_{n in module k} f_n (ls − a_j e_j·ω_n), e_j = (−sin ψ_j, cos ψ_j)
+        = (L0 − N_k ls) + ls Σ f_n − a_j e_j·Σ f_n ω_n.
     """
     k = int(kw[j, W_MOD])
-    seg0 = int(km[k, M_SEG0])
-    nk = int(km[k, M_NSEG])
     ls = km[k, M_LS]
     a = kw[j, W_A]
-    ex = kw[j, W_EX]
-    ey = kw[j, W_EY]
-    length = kw[j, W_L0] - nk * ls
-    for i in range(seg0, seg0 + nk):
-        length += fs[i] * (ls - a * (ex * omega[i, 0] + ey * omega[i, 1]))
-    return length
+    lever = kw[j, W_EX] * sums[k, 1] + kw[j, W_EY] * sums[k, 2]
+    return kw[j, W_L0] - km[k, M_NSEG] * ls + ls * sums[k, 0] - a * lever
 
 
 @jit
-def segment_length_gradient(w1, w2, ls, a, ex, ey):
-    """∂ℓ/∂ω of one segment's share ℓ = f (ls − a e·ω) of a wire length (SPATIAL.md §4).
+def gain_sums(omega, sens, km, out):
+    """Per module k and column c of S = dω/dM: the sums over the module's segments n of
 
-    Small-angle forms f ≈ 1 − Δθ²/24, f'/Δθ ≈ −1/12, as the planar Newton uses (a Newton step
-    only needs the slope to ~1 %): ∂ℓ/∂ω = −(ls − a e·ω) ω/12 − a (1 − Δθ²/24) e.
+        out[k, c, 0] = ω_n·S_n,c,   out[k, c, 1:3] = ω_n (ω_n·S_n,c)/12 − (1 − Δθ_n²/24) S_n,c,
+
+    S_n,c = (S[2n, c], S[2n + 1, c]). A wire's length slope along column c is linear in them
+    (:func:`length_slope`): one pass over the segments serves all of the module's wires.
     """
-    lever = (ls - a * (ex * w1 + ey * w2)) / 12.0
-    fa = a * (1.0 - (w1 * w1 + w2 * w2) / 24.0)
-    return -lever * w1 - fa * ex, -lever * w2 - fa * ey
+    ncol = sens.shape[1]
+    for k in range(km.shape[0]):
+        seg0 = int(km[k, M_SEG0])
+        for c in range(ncol):
+            p = 0.0
+            q1 = 0.0
+            q2 = 0.0
+            for i in range(seg0, seg0 + int(km[k, M_NSEG])):
+                w1 = omega[i, 0]
+                w2 = omega[i, 1]
+                s1 = sens[2 * i, c]
+                s2 = sens[2 * i + 1, c]
+                ws = w1 * s1 + w2 * s2
+                wt = ws * _TWELFTH
+                fa = 1.0 - (w1 * w1 + w2 * w2) * _TWENTYFOURTH
+                p += ws
+                q1 += w1 * wt - fa * s1
+                q2 += w2 * wt - fa * s2
+            out[k, c, 0] = p
+            out[k, c, 1] = q1
+            out[k, c, 2] = q2
+
+
+@jit
+def length_slope(j, gs, c, kw, km):
+    """Σ_n ∂ℓ_n/∂ω_n · S_n,c of wire group j [m/(N m)], given ``gs`` = gain_sums (SPATIAL.md §4).
+
+    ℓ_n = f_n (ls − a e·ω_n) is segment n's share of the wire length. With the small-angle forms
+    f ≈ 1 − Δθ²/24, f'/Δθ ≈ −1/12, as the planar Newton uses (a Newton step only needs the slope
+    to ~1 %): ∂ℓ/∂ω = −(ls − a e·ω) ω/12 − a (1 − Δθ²/24) e, so that
+    ∂ℓ/∂ω · s = −(ls/12) ω·s + a e·(ω (ω·s)/12 − (1 − Δθ²/24) s).
+    """
+    k = int(kw[j, W_MOD])
+    along = kw[j, W_EX] * gs[k, c, 1] + kw[j, W_EY] * gs[k, c, 2]
+    return -km[k, M_LS] * _TWELFTH * gs[k, c, 0] + kw[j, W_A] * along
 
 
 @jit
