@@ -556,13 +556,14 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
     With ΔM along one axis (the planar case) this is the planar secant s = Δθ/ΔM of that column.
     """
     nm = mw.shape[0]
+    mf = mw.reshape(2 * nm)  # flat views: column c of S is component c of M
+    sf = saved_m.reshape(2 * nm)
     big = 0.0
     nrm = 0.0
-    for k in range(nm):
-        for b in range(2):
-            d = mw[k, b] - saved_m[k, b]
-            big = max(big, abs(d))
-            nrm += d * d
+    for c in range(2 * nm):
+        d = mf[c] - sf[c]
+        big = max(big, abs(d))
+        nrm += d * d
     if big <= SECANT_MIN_DM:
         return
     inv = 1.0 / nrm
@@ -571,10 +572,10 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
             r = 2 * i + b
             miss = omega[i, b] - saved_w[i, b]
             for c in range(2 * nm):
-                miss -= sens[r, c] * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
+                miss -= sens[r, c] * (mf[c] - sf[c])
             f = miss * inv
             for c in range(2 * nm):
-                sens[r, c] += f * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
+                sens[r, c] += f * (mf[c] - sf[c])
 
 
 # ---------------------------------------------------------------- time step (MODEL.md §6.1)

@@ -86,12 +86,22 @@ def euler_critical_load(height, ei):
 def solve_in_place(a, b):
     """Solve a x = b by Gaussian elimination with partial pivoting; ``a`` is destroyed, x → ``b``.
 
-    Small dense systems (one row per segment angle) inside jitted code, without LAPACK.
+    Small dense systems (one row per segment angle, or per wire-moment component) inside jitted
+    code, without LAPACK; a 2 × 2 system (one spatial module's Newton step, every sub-step) by
+    Cramer's rule.
 
     Returns:
         False if ``a`` is singular to working precision (``b`` then undefined), else True.
     """
     n = a.shape[0]
+    if n == 2:
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        if det == 0.0 or not math.isfinite(det):
+            return False
+        x0 = (a[1, 1] * b[0] - a[0, 1] * b[1]) / det
+        b[1] = (a[0, 0] * b[1] - a[1, 0] * b[0]) / det
+        b[0] = x0
+        return True
     for k in range(n):
         piv = k
         big = abs(a[k, k])
