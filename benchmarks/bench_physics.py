@@ -78,6 +78,7 @@ SPATIAL_LABELS = {
     "spatial": "spatial core, one 4-wire module (wire 0 driven)",
     "chain": "spatial core, 2-module chain (8 wires, 3-D bend)",
 }
+SPATIAL_TARGETS = {"spatial": 2.0, "chain": 4.0}  # issue 11: run time / the planar default's
 
 
 def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray]]:
@@ -258,6 +259,10 @@ def main(argv=None) -> int:
             "segments": r.layout.n_seg,
             **st,
             "ratio_to_planar_default": st["median_s"] / base,
+            "target_ratio": SPATIAL_TARGETS[name],
+            "substep_ratio_to_planar_default": r.substeps / runs["newton"].substeps,
+            "us_per_substep_ratio_to_planar_default": (st["median_s"] / r.substeps)
+            / (base / runs["newton"].substeps),
             "substeps": r.substeps,
             "shape_passes": r.shape_passes,
             "ms_per_simulated_s": st["median_s"] * 1e3 / DURATION,
@@ -368,6 +373,14 @@ def main(argv=None) -> int:
         print(
             f"{r['label']:<42} {r['median_s'] * 1e3:10.2f} {r['ratio_to_planar_default']:7.2f} "
             f"{r['substeps']:9d} {r.get('max_abs_angle_diff_to_planar_reference_deg', float('nan')):12.4f}"
+        )
+    for r in spatial.values():
+        met = "met" if r["ratio_to_planar_default"] <= r["target_ratio"] else "NOT met"
+        print(
+            f"{r['label']}: {r['ratio_to_planar_default']:.2f}x the planar default (target <= "
+            f"{r['target_ratio']:g}x, {met})"
+            f" = sub-steps {r['substep_ratio_to_planar_default']:.2f}x, "
+            f"cost per sub-step {r['us_per_substep_ratio_to_planar_default']:.2f}x"
         )
     print(
         f"50-s hysteresis run (default): {hyst50['median_s'] * 1e3:.2f} ms, "

@@ -32,6 +32,7 @@ from spine_gym.physics import layout as L
 from spine_gym.physics import spatial_layout as SL
 from spine_gym.physics import spatial_solver as ss
 from spine_gym.physics import spatial_tube as tube3
+from spine_gym.physics.stability import solve_in_place
 from spine_gym.simulate_spatial import SpatialResult
 
 FIXED = SolverOptions(step_c=math.inf, h_max=1e-3)  # deterministic 1-ms sub-steps
@@ -618,6 +619,21 @@ def test_safeguard_recovers_when_the_newton_sensitivity_is_wrong():
     gm, gw, _ = ss.views(good, nw, nm, ns)
     np.testing.assert_allclose(mw, gm, rtol=0, atol=1e-6)
     np.testing.assert_allclose(omega, gw, rtol=0, atol=1e-6)
+
+
+def test_the_shared_linear_solver_matches_numpy_and_reports_singular_systems():
+    # the spatial Newton step (2K unknowns: 2 × 2 by Cramer's rule) and the whole-shape Newton
+    # (2N unknowns, elimination) both use stability.solve_in_place
+    rng = np.random.default_rng(3)
+    for n in (2, 4, 26):
+        a = rng.normal(size=(n, n)) + n * np.eye(n)
+        b = rng.normal(size=n)
+        x = b.copy()
+        assert solve_in_place(a.copy(), x)
+        np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-10, atol=1e-12)
+    for n in (2, 4):
+        assert not solve_in_place(np.ones((n, n)), np.ones(n))
+    assert not solve_in_place(np.array([[np.inf, 0.0], [0.0, 1.0]]), np.ones(2))
 
 
 def test_a_load_past_buckling_raises_a_status_not_nan():
