@@ -190,7 +190,7 @@ def plot(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5.2))
     runs = res["ppo"]
     labels = list(runs[0]["breakdown_share_of_wall"])
     left = np.zeros(len(runs))
@@ -199,14 +199,14 @@ def plot(res: dict, path: Path) -> None:
         ax.barh(range(len(runs)), vals, left=left, label=lab)
         left += vals
     ax.axvline(100 * TARGET_SHARE, color="k", ls="--", lw=1)
-    ax.text(100 * TARGET_SHARE, len(runs) - 0.45, " env target 10 %", fontsize=8)
+    ax.text(100 * TARGET_SHARE, -0.5, " env target 10 %", fontsize=8, va="bottom")
     ax.set_yticks(range(len(runs)))
     ax.set_yticklabels(
         [f"{r['numba_threads']} numba thread(s)\nenv share {100 * r['env_share']:.1f} %" for r in runs]
     )
     ax.set_xlabel("share of PPO.learn wall time [%] (the first four bars are the env's step_wait)")
     ax.set_title("PPO (shipped config, 8 native envs, torch 1 thread)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
     names, vals, cols = [], [], []
     for n, r in res["native_vs_kernel"].items():
         names += [f"N={n}\nkernel", f"N={n}\nnative"]
@@ -221,7 +221,7 @@ def plot(res: dict, path: Path) -> None:
     ax2.set_xticks(range(len(vals)))
     ax2.set_xticklabels(names, fontsize=8)
     ax2.set_ylabel("env steps per second")
-    ax2.set_title("1 numba thread: kernel alone vs native env; then 2 threads")
+    ax2.set_title("kernel alone vs native env (1 numba thread), native env on 2")
     for i, v in enumerate(vals):
         ax2.annotate(f"{v:,.0f}", (i, v), textcoords="offset points", xytext=(0, 3), ha="center", fontsize=7)
     fig.tight_layout()

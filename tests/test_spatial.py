@@ -621,6 +621,16 @@ def test_safeguard_recovers_when_the_newton_sensitivity_is_wrong():
     np.testing.assert_allclose(omega, gw, rtol=0, atol=1e-6)
 
 
+def test_rotation_coefficients_equal_their_closed_forms_on_both_sides_of_the_series_switch():
+    # SPATIAL.md §2: a = sin Δθ/Δθ, b = (1 − cos Δθ)/Δθ², f = 2 sin(Δθ/2)/Δθ; below 0.5 rad the
+    # kernels use the series in Δθ² (no sqrt/sin/cos): it must agree with the closed forms to round-off
+    th = np.concatenate([np.geomspace(1e-3, 0.499999, 400), np.geomspace(0.500001, 3.0, 100)])
+    got = np.array([tube3.rot_coeffs(t * t) for t in th])
+    want = np.stack([np.sin(th) / th, 2.0 * np.sin(th / 2) ** 2 / th**2, 2.0 * np.sin(th / 2) / th], axis=1)
+    np.testing.assert_allclose(got, want, rtol=1e-15, atol=0)
+    assert tube3.rot_coeffs(0.0) == (1.0, 0.5, 1.0)
+
+
 def test_the_shared_linear_solver_matches_numpy_and_reports_singular_systems():
     # the spatial Newton step (2K unknowns: 2 × 2 by Cramer's rule) and the whole-shape Newton
     # (2N unknowns, elimination) both use stability.solve_in_place
