@@ -23,6 +23,9 @@ Spatial core (SPATIAL.md), 20-s runs timed in the same round-robin, as ratios to
 * ``chain``    — :meth:`SpineLayout.chain` (two four-wire modules, 8 wires), wire 0 of the lower and
   wire 1 of the upper module at the drive scaled to their wire length (3.2 V × 0.5): a 3-D bend.
 
+Each is printed beside issue 11's target (≤ 2× and ≤ 4× the planar default) and split into the
+sub-step count ratio × the cost-per-sub-step ratio.
+
 Compile times: a subprocess with ``NUMBA_CACHE_DIR`` pointed at an empty temporary folder times
 ``import spine_gym`` and the first ``simulate()`` call (cold: numba compiles every kernel and
 writes the cache); a second subprocess with the same folder times the same (cached: numba loads

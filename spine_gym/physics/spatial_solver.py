@@ -264,11 +264,15 @@ def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
 
 @jit
 def _residual_norm(mw, wk):
-    """max |G(M) − M| after :func:`wire_mechanics`."""
+    """max |G(M) − M| after :func:`wire_mechanics` (inf if any component is not finite)."""
     gm = wk[WK_G]
     r = 0.0
     for k in range(mw.shape[0]):
-        r = max(r, abs(gm[k, 0] - mw[k, 0]), abs(gm[k, 1] - mw[k, 1]))
+        for b in range(2):
+            d = abs(gm[k, b] - mw[k, b])
+            if not math.isfinite(d):
+                return np.inf
+            r = max(r, d)
     return r
 
 
