@@ -46,8 +46,6 @@ POSITION_RATE_LIMIT = 5000.0  # [mm/s] bound of the tip-velocity entries
 class SpatialConfig(BaseEnvConfig):
     """Arguments the spatial envs share (layout-derived facts as properties)."""
 
-    NOISE_KEYS = ("angle", "temperature", "resistance", "position")
-
     target_kinds: tuple[str, ...] = BEND_KINDS
     target_period_range: tuple[float, float] = (20.0, 60.0)
 
@@ -267,6 +265,8 @@ class Spine3DConfig(SpatialConfig):
 @dataclass(frozen=True)
 class ChainConfig(SpatialConfig):
     """Validated arguments of ``SmaSpineChain-v0`` (see :class:`spine_gym.envs.SmaSpineChainEnv`)."""
+
+    NOISE_KEYS = ("angle", "temperature", "resistance", "position")  # position: tip [mm]
 
     n_modules: int = 2
     module_bend_limit: float = 20.0

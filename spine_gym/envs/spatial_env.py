@@ -88,7 +88,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
 
     As ``SmaSpine-v0``, with e = b*(t) − b(t) the error vector [deg] (true bending) and E the
     electrical energy of the step (all four wires), E_ref the largest one (all wires at ``v_max``,
-    lowest resistance; 5.4 J at the defaults):
+    lowest resistance; 5.3 J at the defaults):
 
         r = −|e| / error_scale − energy_weight · E / E_ref − cost_weight · cost
 
@@ -248,8 +248,8 @@ class SmaSpineChainEnv(SmaSpineEnv):
     ``module_bend_limit`` in any direction; with the defaults it spans a horizontal radius of up to
     {radius:.0f} mm (both modules bent the same way) at a height of {z_low:.0f} to 455 mm. The model
     reaches every such configuration (tested; gravity bends the arcs a little: 3.4 mm at the tip
-    with both modules at the limit between two wires): steady states (:mod:`spine_gym.envs.reach`; constant voltage from cold, 60 s,
-    no load, both modules bent the same way):
+    with both modules at the limit between two wires). Steady states (:mod:`spine_gym.envs.reach`;
+    constant voltage from cold, 60 s, no load, both modules bent the same way):
 
     {reach_table}
 

@@ -179,7 +179,8 @@ def arc_positions(bends_deg: np.ndarray, km: np.ndarray) -> np.ndarray:
     Module k (bottom first) bent by b_k (SPATIAL.md §2: polar angle |b_k| toward azimuth
     atan2(b_k2, b_k1) in the module's base frame) has every segment rotated by the same ω, of
     magnitude |b_k| / N_k about the axis normal to the bend (a parallel-transported frame turns by
-    equal steps on an arc); the positions are the spatial core's own kinematics (:func:`spine_gym.physics.spatial_tube.kinematics`).
+    equal steps on an arc); the positions are the spatial core's own kinematics
+    (:func:`spine_gym.physics.spatial_tube.kinematics`).
 
     Args:
         bends_deg: (K, 2) or (n, K, 2) module bending vectors [deg].

@@ -12,6 +12,11 @@ Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines
 ``prange``; ``step_many_serial`` is the serial twin used by the single env and by the vector env with
 ``parallel=False``. Both give bit-identical rows (tested), and each has its own on-disk cache entry
 (``_jit.pjit``), so the serial twin never runs the parallel machine code (tested).
+
+``step_many_spatial`` / ``step_many_spatial_serial`` are the same loop over spatial or chained
+spines (:func:`spatial_solver.advance` and :func:`spatial_solver.record`, SPATIAL.md), used by
+``SmaSpine3D-v0`` and ``SmaSpineChain-v0``; each spine carries its own layout tables (``kw``,
+``km``), which depend on the episode's (possibly randomised) parameters.
 """
 
 from __future__ import annotations
