@@ -362,6 +362,8 @@ def _indent(text: str) -> str:
 
 def _document() -> None:
     """Fill the generated tables into the class docstrings (from the tables and reach.py's rows)."""
+    if SmaSpine3DEnv.__doc__ is None:  # python -OO strips docstrings
+        return
     cfg3, cfgc = Spine3DConfig(), ChainConfig()
     t3, tc = cfg3.table(), cfgc.table()
     SmaSpine3DEnv.__doc__ = SmaSpine3DEnv.__doc__.format(
