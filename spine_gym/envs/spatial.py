@@ -192,7 +192,7 @@ class SpatialConfig(BaseEnvConfig):
                 ("fx", "fy", "fz"),
             ),
             Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−|e| / error_scale", ("reward_tracking",)),
+            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
             Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
         )
 
