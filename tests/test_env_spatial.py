@@ -3,6 +3,7 @@ workspace and reach tables (against SPATIAL.md and the planar model), the declar
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import pickle
 import warnings
@@ -22,7 +23,13 @@ from spine_gym.envs import BendTarget, ChainTarget, LoadSchedule, SmaSpine3DEnv,
 from spine_gym.envs.core import OBS_NAMES
 from spine_gym.envs.reach import REACH_3D, REACH_CHAIN, hold
 from spine_gym.envs.sb3 import make_sb3_vec_env
-from spine_gym.envs.spatial import ChainConfig, workspace_low_mm, workspace_radius_mm
+from spine_gym.envs.spatial import (
+    ChainConfig,
+    Spine3DBatch,
+    Spine3DConfig,
+    workspace_low_mm,
+    workspace_radius_mm,
+)
 from spine_gym.envs.table import Entry, Table
 from spine_gym.envs.task import TipForceEvent
 from spine_gym.envs.task_spatial import arc_tip_position
@@ -90,13 +97,27 @@ def test_planar_table_keeps_the_contract_layout():
     )  # fmt: skip
 
 
+class _CostObserved(Spine3DConfig):
+    """SmaSpine3D-v0 with one edit of its table: the cost entry gets observation bounds."""
+
+    def table(self) -> Table:
+        t = super().table()
+        entries = [dataclasses.replace(e, obs=(0.0, 1e4)) if e.key == "cost" else e for e in t.entries]
+        return Table(entries, t.task.key, self.noise_sigma)
+
+
 def test_adding_an_observation_entry_is_one_edit():
-    cfg = ChainConfig()
-    base = cfg.table()
-    entries = [e if e.key != "cost" else Entry(**{**e.__dict__, "obs": (0.0, 1e4)}) for e in base.entries]
-    t = Table(entries, base.task.key, cfg.noise_sigma)
-    assert t.obs_dim == base.obs_dim + 1 and "cost" in t.obs_names
-    assert t.obs_index("cost").stop - t.obs_index("cost").start == 1
+    base = Spine3DConfig().table()
+    batch = Spine3DBatch(_CostObserved(temperature_limit=300.0), 1, parallel=False)
+    t = batch.table
+    assert t.obs_dim == base.obs_dim + 1 and t.obs_names[: base.obs_dim] == base.obs_names
+    assert t.obs_index("cost") == slice(base.obs_dim, base.obs_dim + 1)
+    assert "| ``cost`` |" in t.markdown_observation()
+    rng = np.random.default_rng(0)
+    batch.reset_env(0, rng)
+    for _ in range(30):
+        obs, _, _, _, info = batch.step(np.ones((1, 4)), [rng])
+    assert info["cost"][0] > 0.0 and obs[0, t.obs_index("cost")][0] == np.float32(info["cost"][0])
     with pytest.raises(ValueError, match="source must be one of"):
         Entry("x", "nonsense", "-", "doc", ("x",))
 
