@@ -91,6 +91,9 @@ def test_spaces_and_tables_agree(env_id):
 
 
 def test_planar_table_keeps_the_contract_layout():
+    env = gym.make("SmaSpine-v0").unwrapped
+    assert env.table.markdown_observation().replace("\n", "\n    ") in type(env).__doc__
+    assert env.obs_index("previous_action") == slice(6, 8)
     assert OBS_NAMES == (
         "angle", "target", "temperature_right", "temperature_left", "angle_rate", "target_preview",
         "previous_action_right", "previous_action_left", "resistance_right", "resistance_left",
