@@ -254,6 +254,7 @@ def main(argv=None) -> int:
         print(f"PPO, {args.rollouts} rollouts, numba threads {threads} ...", flush=True)
         res["ppo"].append(ppo_share(args.rollouts, threads))
     numba.set_num_threads(n_threads)
+    time_kernel(2, _actions(2, 2))  # compile (or load) the kernel's signature for contiguous voltages
     for n in args.sizes:
         print(f"rates at N = {n} ...", flush=True)
         res["native_vs_kernel"][str(n)] = native_vs_kernel(n, args.warm, args.steps, args.repeats)
