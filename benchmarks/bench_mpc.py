@@ -15,11 +15,14 @@ is timed with ``time.perf_counter``. Reported per configuration:
 Configurations: the defaults (``MPPIConfig()``) in both modes, the default with the parallel
 ``prange`` kernel instead of the serial one (numba threads on a shared machine), then the
 estimated mode with N in ``--samples`` at the default horizon and with the horizon in
-``--horizons`` at the default N.
+``--horizons`` at the default N, and both modes with the rollouts' sub-step criterion c
+(``MPPIConfig.plan_step_c``) in ``--step-c`` (0.01 is the env's own criterion, the setting before
+the default became 0.03: where every rollout crosses a phase transformation it needs ~3x the
+sub-steps, and the 95th percentile of the plan time went over the control period).
 Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
 
     .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
-        [--samples 16 32 64] [--horizons 2 3 5]
+        [--samples 16 32 64] [--horizons 2 3 5] [--step-c 0.01 0.03 0.1]
 
 The machine is shared: the load average at start and end is recorded, and the absolute times are
 upper bounds of what a quiet machine gives.
@@ -108,7 +111,7 @@ def run(ctrl, env, scenarios, bar) -> dict:
     }
 
 
-def configurations(samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
+def configurations(samples, horizons, step_cs) -> list[tuple[str, str, MPPIConfig]]:
     d = MPPIConfig()
     out = [
         ("default oracle", "oracle", d),
@@ -124,6 +127,12 @@ def configurations(samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
         (f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h))
         for h in horizons
         if h != d.horizon
+    ]
+    out += [
+        (f"{mode} c={c:g}", mode, dataclasses.replace(d, plan_step_c=c))
+        for c in step_cs
+        if c != d.plan_step_c
+        for mode in ("oracle", "estimated")
     ]
     return out
 
@@ -143,7 +152,9 @@ def plot(res: dict, path: Path) -> None:
             for r in rows
             if r["mode"] == "estimated"
             and r["parallel"] == d.parallel
-            and all(r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon") if k != key)
+            and all(
+                r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon", "plan_step_c") if k != key
+            )
         ]
         sel.sort(key=lambda r: r["settings"][key])
         x = [r["settings"][key] for r in sel]
@@ -177,6 +188,13 @@ def main(argv=None) -> dict:
     p.add_argument("--scenarios", nargs="+", default=["step_cross", "sine_fast_dist"])
     p.add_argument("--samples", nargs="+", type=int, default=[16, 32, 64])
     p.add_argument("--horizons", nargs="+", type=float, default=[2.0, 3.0, 5.0])
+    p.add_argument(
+        "--step-c",
+        nargs="+",
+        type=float,
+        default=[0.01, 0.03, 0.1],
+        help="rollout sub-step criteria c to compare (0.01: the env's own)",
+    )
     p.add_argument("--out", default=str(OUT))
     args = p.parse_args(argv)
     names = sorted({n.removesuffix("_dist") for n in args.scenarios})
@@ -194,7 +212,7 @@ def main(argv=None) -> dict:
         env.config, "oracle", env=env, settings=MPPIConfig(n_samples=4, horizon=0.2, parallel=False)
     )
     warm.predict(env.reset(seed=0)[0])
-    cfgs = configurations(args.samples, args.horizons)
+    cfgs = configurations(args.samples, args.horizons, args.step_c)
     steps = len(suite) * env.unwrapped.config.n_steps
     res = {"machine": info, "duration_s": args.duration, "scenarios": [s.name for s in suite], "configs": []}
     with tqdm(total=steps * (len(cfgs) + 1), desc="bench_mpc", unit="step") as bar:

@@ -333,3 +333,24 @@ def test_planning_sub_step_settings_are_validated_and_reach_the_rollout_solver()
         MPPIConfig(plan_h_min=0.2)  # longer than the 0.1-s planning step
     with pytest.raises(ValueError, match="plan_h_min"):
         MPPIController(env.config, settings=MPPIConfig(plan_physics_dt=None, plan_h_min=0.05))
+
+
+def test_estimator_identifies_ambient_temperature_and_martensite_resistivity_of_a_randomised_plant():
+    """MODEL.md §3.10: the spine starts at T_E with x_A = 0, so R = λ_M L0 / A_w (§3.7); on three
+    randomised plants (T_E ± 10 K, λ_M × [0.95, 1.05]) the first observation gives both (to
+    float32 rounding of the observation), and with ``identify=False`` the nominal values stay."""
+    for seed in (1, 2, 3):
+        env = _env(domain_randomization=True)
+        obs, _ = env.reset(seed=seed)
+        truth = env.model_params
+        est = PhaseEstimator(env.config)
+        est.reset()
+        est.update(obs)
+        assert truth.T_E != spine_gym.ModelParams().T_E
+        assert est.params.T_E == pytest.approx(truth.T_E, abs=1e-4)
+        assert est.params.lam_M == pytest.approx(truth.lam_M, rel=1e-6)
+        assert est.kp[L.K_TE] == est.params.T_E
+        plain = PhaseEstimator(env.config, identify=False)
+        plain.reset()
+        plain.update(obs)
+        assert plain.params == env.config.params
