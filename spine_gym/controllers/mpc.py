@@ -22,8 +22,9 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     episode's future targets and loads (tip-force pulses, payload). No real controller has this;
     it is the upper bound of what the plant allows with this planner.
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
-    infers the state (phase fractions from the resistances), the parameters are nominal, the loads
-    are unknown (none assumed) and the targets over the horizon come from the observed target and
+    infers the state (phase fractions from the resistances) and identifies the ambient
+    temperature and the martensite resistivity from the episode's first observation; the other
+    parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon come from the observed target and
     its 1-s preview (linear in between, then continued at the preview's rate of change). The
     observed angle minus the estimated one is an output disturbance held over the horizon
     (offset-free MPC).
