@@ -59,7 +59,9 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
         window: how many finished episodes the mean energy Ē is taken over.
     """
 
-    def __init__(self, venv: VecEnv, budget_J: float, energy_ref_J: float, lam0: float = 0.5, window: int = 32):
+    def __init__(
+        self, venv: VecEnv, budget_J: float, energy_ref_J: float, lam0: float = 0.5, window: int = 32
+    ):
         check_budget_args(budget_J, energy_ref_J, lam0, 1.0)
         super().__init__(venv)
         self.budget = float(budget_J)
@@ -91,7 +93,9 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
 class LagrangianCallback(BaseCallback):
     """Dual ascent on λ of an :class:`EnergyBudgetVecEnv` after each rollout (multiplicative)."""
 
-    def __init__(self, budget_env: EnergyBudgetVecEnv, eta: float = 0.5, lam_range=(0.02, 20.0), verbose: int = 0):
+    def __init__(
+        self, budget_env: EnergyBudgetVecEnv, eta: float = 0.5, lam_range=(0.02, 20.0), verbose: int = 0
+    ):
         check_budget_args(budget_env.budget, budget_env.energy_ref, budget_env.lam, eta)
         super().__init__(verbose)
         self.budget_env = budget_env
@@ -109,4 +113,5 @@ class LagrangianCallback(BaseCallback):
         self.logger.record("lagrangian/lambda", self.budget_env.lam)
         self.logger.record("lagrangian/energy_ratio", ratio)
         if self.verbose:
-            print(f"step {self.num_timesteps}: energy/budget {ratio:.3f}  lambda {self.budget_env.lam:.3f}", flush=True)
+            lam = self.budget_env.lam
+            print(f"step {self.num_timesteps}: energy/budget {ratio:.3f}  lambda {lam:.3f}", flush=True)

@@ -42,6 +42,7 @@ __all__ = [
     "vecnormalize_candidates",
     "load_tuned",
     "GUARD_MARGIN_K",
+    "OBSERVATION_KWARGS",
     "VALIDATION_SEED_BASE",
     "validation_scores",
 ]
@@ -89,6 +90,8 @@ def run_episode(
     return Trajectory.from_infos(infos, actions, rewards)
 
 
+# env kwargs that change what a controller observes, not the task: a reference PID runs without them
+OBSERVATION_KWARGS = ("target_preview",)
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
 
 

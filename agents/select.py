@@ -23,7 +23,14 @@ from pathlib import Path
 
 from .common import StoreDict
 from .evaluate import write_csv
-from .runtime import VALIDATION_SEED_BASE, build_controller, load_policy, make_env, validation_scores
+from .runtime import (
+    OBSERVATION_KWARGS,
+    VALIDATION_SEED_BASE,
+    build_controller,
+    load_policy,
+    make_env,
+    validation_scores,
+)
 
 __all__ = ["VALIDATION_SEED_BASE", "validation_scores", "main"]
 
@@ -45,8 +52,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     import torch
 
     torch.set_num_threads(1)
-    probe = make_env(args.env_kwargs)
-    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes, args.env_kwargs)
+    # the PID reference sees the env's default observation (preview), as in the evaluation suite
+    pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
+    probe = make_env(pid_kwargs)
+    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes, pid_kwargs)
     probe.close()
     rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):

@@ -27,7 +27,8 @@ correction, default 1); the baseline's settings go into ``meta.json`` with the m
 ``energy_budget: pid`` (or a number of joules) replaces the reward's fixed energy weight by a
 Lagrange multiplier that dual ascent adjusts after every rollout so that the mean episode energy
 meets the budget (:mod:`agents.lagrangian`); ``pid`` is the tuned PID's mean energy on
-``budget_episodes`` validation episodes of the training distribution. ``lagrangian_init`` and
+``budget_episodes`` validation episodes of the training distribution (with the env's default
+observation: a longer ``target_preview`` of the policy is not given to the PID). ``lagrangian_init`` and
 ``lagrangian_lr`` set the initial multiplier and its step; the budget goes into ``meta.json``.
 """
 
@@ -47,7 +48,14 @@ from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyper
 from .envs import make_vec_env
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .residual import ResidualVecEnv, base_spec
-from .runtime import build_controller, env_temperature_limit, make_env, validation_scores, vecnormalize_candidates
+from .runtime import (
+    OBSERVATION_KWARGS,
+    build_controller,
+    env_temperature_limit,
+    make_env,
+    validation_scores,
+    vecnormalize_candidates,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -237,7 +245,8 @@ def train(argv: list[str] | None = None) -> Path:
 
     callbacks = []
     if budget_env is not None:
-        callbacks.append(LagrangianCallback(budget_env, eta=float(special["lagrangian_lr"]), verbose=args.verbose))
+        eta = float(special["lagrangian_lr"])
+        callbacks.append(LagrangianCallback(budget_env, eta=eta, verbose=args.verbose))
     if args.save_freq > 0:
         callbacks.append(
             CheckpointCallback(
@@ -300,11 +309,12 @@ def train(argv: list[str] | None = None) -> Path:
 def energy_budget(spec, env_kwargs: dict, n_episodes: int) -> float:
     """The energy budget per episode [J]: a number as given, or ``"pid"``: the tuned PID's mean
     energy on ``n_episodes`` validation episodes of the training distribution ``env_kwargs``."""
-    if spec == "pid":
-        probe = make_env(env_kwargs)
+    if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
+        kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
+        probe = make_env(kw)
         pid = build_controller("pid", probe)
         probe.close()
-        return validation_scores(pid, n_episodes, env_kwargs)[1]
+        return validation_scores(pid, n_episodes, kw)[1]
     try:
         value = float(spec)
     except (TypeError, ValueError):

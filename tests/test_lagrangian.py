@@ -7,13 +7,12 @@ import json
 import numpy as np
 import pytest
 import torch
+from test_agents import TINY, run_cli
 
 from agents.envs import make_vec_env
 from agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
 from agents.runtime import make_env
 from agents.train import energy_budget
-
-from test_agents import TINY, run_cli
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}

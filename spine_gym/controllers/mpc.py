@@ -24,10 +24,10 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
     infers the state (phase fractions from the resistances) and identifies the ambient
     temperature and the martensite resistivity from the episode's first observation; the other
-    parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon come from the observed target and
-    its 1-s preview (linear in between, then continued at the preview's rate of change). The
-    observed angle minus the estimated one is an output disturbance held over the horizon
-    (offset-free MPC).
+    parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon
+    come from the observed target and its 1-s preview (linear in between, then continued at the
+    preview's rate of change). The observed angle minus the estimated one is an output
+    disturbance held over the horizon (offset-free MPC).
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
 SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
@@ -42,8 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..envs.core import OBS_PREVIEW, OBS_TARGET, EnvConfig
-from ..params import SolverOptions
 from ..envs.task import ANGLE_LIMIT
+from ..params import SolverOptions
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
@@ -214,7 +214,8 @@ class MPPIController(BaseController):
         self._side_volume = p.wire_volume * p.n_w
         if s.plan_h_min is not None and s.plan_h_min > self.plan_dt:
             raise ValueError(
-                f"plan_h_min must be in (0, {self.plan_dt:g}] s (the rollouts' physics step), got {s.plan_h_min!r}"
+                f"plan_h_min must be in (0, {self.plan_dt:g}] s (the rollouts' physics step), "
+                f"got {s.plan_h_min!r}"
             )
         self._ks = s.plan_solver(config.solver).to_kernel()
         self._t_lim = config.temperature_limit - s.temp_margin
