@@ -43,6 +43,8 @@ __all__ = [
     "load_tuned",
     "GUARD_MARGIN_K",
     "OBSERVATION_KWARGS",
+    "TASK_KWARGS",
+    "evaluation_env_kwargs",
     "VALIDATION_SEED_BASE",
     "validation_scores",
 ]
@@ -92,6 +94,24 @@ def run_episode(
 
 # env kwargs that change what a controller observes, not the task: a reference PID runs without them
 OBSERVATION_KWARGS = ("target_preview",)
+# env kwargs that only shape the training distribution of episodes; the evaluation suite sets the
+# episode itself (targets, loads, plant), so a policy is evaluated without them
+TASK_KWARGS = (
+    "episode_duration",
+    "target_range",
+    "target_kinds",
+    "sine_period_range",
+    "tip_force_range",
+    "tip_force_count",
+    "tip_force_duration",
+    "payload_range",
+    "domain_randomization",
+)
+
+
+def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
+    """A policy's training env kwargs without :data:`TASK_KWARGS` (what the suite's env keeps)."""
+    return {k: v for k, v in policy_env_kwargs.items() if k not in TASK_KWARGS}
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
 
 
