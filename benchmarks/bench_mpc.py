@@ -154,16 +154,15 @@ def plot(res: dict, path: Path) -> None:
 
     d = MPPIConfig()
     rows = res["configs"]
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
-    for key, label, ax_i in (("n_samples", "rollouts N", 0), ("horizon", "horizon [s]", 1)):
+    sweeps = (("n_samples", "rollouts N"), ("horizon", "horizon [s]"), ("plan_step_c", "rollout sub-step c"))
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4))
+    for ax_i, (key, label) in enumerate(sweeps):
         sel = [
             r
             for r in rows
             if r["mode"] == "estimated"
             and r["parallel"] == d.parallel
-            and all(
-                r["settings"][k] == getattr(d, k) for k in ("n_samples", "horizon", "plan_step_c") if k != key
-            )
+            and all(r["settings"][k] == getattr(d, k) for k, _ in sweeps if k != key)
         ]
         sel.sort(key=lambda r: r["settings"][key])
         x = [r["settings"][key] for r in sel]
@@ -173,10 +172,12 @@ def plot(res: dict, path: Path) -> None:
         ax.set_xlabel(label)
         ax.set_ylabel("RMSE [deg]")
         ax2 = ax.twinx()
-        ax2.plot(x, [r["plan_ms_median"] for r in sel], "s:", color="C3")
-        ax2.set_ylabel("median plan time [ms]", color="C3")
+        ax2.plot(x, [r.get("plan_cpu_ms_p95", np.nan) for r in sel], "s:", color="C3")
+        ax2.set_ylabel("p95 plan CPU time [ms]", color="C3")
+        if key == "plan_step_c":
+            ax.set_xscale("log")
         ax.legend(fontsize=8)
-    ax = axes[2]
+    ax = axes[3]
     names = [r["name"] for r in rows]
     ax.barh(names, [r["realtime_factor_median"] for r in rows], color="C0", label="median")
     ax.barh(names, [r["realtime_factor_p95"] for r in rows], color="C1", alpha=0.7, label="p95")
@@ -185,7 +186,7 @@ def plot(res: dict, path: Path) -> None:
     ax.axvline(1.0, color="k", lw=1)
     ax.set_xlabel("real-time factor (0.1 s / plan time)")
     ax.tick_params(axis="y", labelsize=7)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="lower right")
     la = res["machine"]["load_average_start"][0]
     fig.suptitle(f"MPPI on SmaSpine-v0 ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)")
     fig.tight_layout()
