@@ -11,6 +11,11 @@ the training seeds, the tuning seeds and the evaluation suite's seeds. The tuned
 episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg] and mean
 energy [J] per model, and the ratio of both to the PID's.
 
+``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
+model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
+default observation (``agents.runtime.OBSERVATION_KWARGS`` such as ``target_preview`` are the
+policy's, not the reference's).
+
 Selecting the shipped policies this way keeps the evaluation suite a test set: the suite's numbers
 are not what the models were picked by.
 """
