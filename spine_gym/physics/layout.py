@@ -92,8 +92,10 @@ SCHEMES = {"frozen": SCHEME_FROZEN, "coupled": SCHEME_COUPLED}
     X_QLR,  # [J/m^3] accumulated latent heat released into the wire, right
     X_QLL,  # [J/m^3] accumulated latent heat released into the wire, left
     X_HNEXT,  # [s] sub-step the coupled scheme's error control proposes next (0: none yet)
-    X_HEAD,  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
+    X_RCACHE,  # start of RCACHE_SIZE floats: (σ_R, T_R, σ_L, T_L) and the rates and slopes there
 ) = range(20)
+RCACHE_SIZE = 4 + 24  # the coupled scheme's rates at the end of the last sub-step (a cache, keyed)
+X_HEAD = X_RCACHE + RCACHE_SIZE  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
 
 
 def state_size(n_seg: int) -> int:

@@ -62,6 +62,7 @@ from .layout import (
     X_ER,
     X_HEAD,
     X_HNEXT,
+    X_RCACHE,
     X_ML,
     X_MR,
     X_MW,
@@ -90,6 +91,9 @@ NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes 
 SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 STEP_GROW = 4.0  # largest factor by which the coupled scheme's error control lengthens a sub-step
 STEP_SHRINK = 0.2  # smallest factor by which it shortens one
+# [K] temperature error that counts as much as an error of 1 in a fraction: 1 K moves the
+# instability stresses by ≈ 7 MPa (§3.1), as much as ≈ 0.3 % of transformation of a clamped wire
+T_PER_FRACTION = 370.0
 
 
 @jit
@@ -716,21 +720,45 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
 
 
 @jit
-def _coupled_error(h, cw):
-    """Local error of the coupled step relative to ``tol`` ... (see :func:`_substep_coupled`)."""
+def _heating_rate(t, xp, xm, fp, fm, sigma, j_num, kp):
+    """dT/dt of the heat balance §3.9 [K/s] for kinetics (fp, fm) = dx±/dt."""
+    lp, lm = latent_heats(sigma, kp)
+    j = j_num / resistivity(xp, xm, kp)
+    return (j - kp[K_ASV] * (t - kp[K_TE]) + lp * fp + lm * fm) / kp[K_RHOC]
+
+
+@jit
+def _coupled_error(state, h, jr_num, jl_num, kp, cw):
+    """Local error estimate of the coupled step, in units of the fractions (see :func:`_substep_coupled`).
+
+    The larger of (i) the Newton correction (I − hJ)⁻¹ (h F₁ − Δx) that the linearisation missed,
+    (ii) the implicit Euler truncation error ½ h |F₁ − F₀| of each fraction and (iii) that of each
+    temperature, ½ h |Ṫ₁ − Ṫ₀|, divided by ``T_PER_FRACTION``. cw.x0/cw.rt hold the start, the
+    state and cw.xs/cw.rt_new the end of the step.
+    """
+    trunc = 0.0
     for w in range(2):
         i = 2 * w
         f0p, f0m = _kinetics(cw.x0[i], cw.x0[i + 1], cw.rt[w])
         f1p, f1m = _kinetics(cw.xs[i], cw.xs[i + 1], cw.rt_new[w])
-        cw.vec[i] = h * (1.5 * f1p - 0.5 * f0p) - (cw.xs[i] - cw.x0[i])
-        cw.vec[i + 1] = h * (1.5 * f1m - 0.5 * f0m) - (cw.xs[i + 1] - cw.x0[i + 1])
+        trunc = max(trunc, 0.5 * h * abs(f1p - f0p), 0.5 * h * abs(f1m - f0m))
+        j_num = jr_num if w == 0 else jl_num
+        t1 = state[X_TR] if w == 0 else state[X_TL]
+        sig1 = state[X_SR] if w == 0 else state[X_SL]
+        t0 = cw.backup[X_TR] if w == 0 else cw.backup[X_TL]
+        sig0 = cw.backup[X_SR] if w == 0 else cw.backup[X_SL]
+        d0 = _heating_rate(t0, cw.x0[i], cw.x0[i + 1], f0p, f0m, sig0, j_num, kp)
+        d1 = _heating_rate(t1, cw.xs[i], cw.xs[i + 1], f1p, f1m, sig1, j_num, kp)
+        trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
+        cw.vec[i] = h * f1p - (cw.xs[i] - cw.x0[i])
+        cw.vec[i + 1] = h * f1m - (cw.xs[i + 1] - cw.x0[i + 1])
     cw.lu[:, :] = cw.amat
     if not solve_in_place(cw.lu, cw.vec):
         return np.inf
     e = 0.0
     for i in range(4):
         e = max(e, abs(cw.vec[i]))
-    return e
+    return max(e, trunc)
 
 
 @jit
@@ -760,7 +788,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
     if not h > 0.0:
         h = rem
     h = min(h, ks[S_HMAX])
-    for i in range(X_HEAD):
+    for i in range(X_RCACHE):
         cw.backup[i] = state[i]
     passes = 0
     while True:
@@ -776,7 +804,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
             return st, hh, passes, solved
         rates_and_slopes(state[X_SR], state[X_TR], kp, cw.rt_new[0])
         rates_and_slopes(state[X_SL], state[X_TL], kp, cw.rt_new[1])
-        err = _coupled_error(hh, cw) / tol
+        err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
         fac = min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
         if err <= 1.0 or hh <= h_min:
             cw.rt[:, :] = cw.rt_new
@@ -785,7 +813,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
                 h_next = max(h_next, h)
             state[X_HNEXT] = h_next
             return OK, hh, passes, solved
-        for i in range(X_HEAD):  # rejected: back to the start of the sub-step
+        for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
             state[i] = cw.backup[i]
         if solved:
             for i in range(n):
@@ -796,22 +824,58 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
 CoupledWork = namedtuple("CoupledWork", "x0 xs rt rt_new sens a_t b_t amat lu vec backup")
 
 
+COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 16 + 16 + 4 + X_RCACHE  # floats of CoupledWork
+
+
 @jit
-def coupled_work():
-    """Scratch arrays of the coupled sub-step (:class:`CoupledWork`), allocated once per call."""
+def coupled_work(buf):
+    """Scratch arrays of the coupled sub-step (:class:`CoupledWork`) as views of one flat ``buf``."""
+    v = buf[:COUPLED_WORK_SIZE]
     return CoupledWork(
-        np.empty(4),
-        np.empty(4),
-        np.empty((2, 12)),
-        np.empty((2, 12)),
-        np.empty((2, 4)),
-        np.empty(2),
-        np.empty((2, 2)),
-        np.empty((4, 4)),
-        np.empty((4, 4)),
-        np.empty(4),
-        np.empty(X_HEAD),
+        v[0:4],
+        v[4:8],
+        v[8:32].reshape((2, 12)),
+        v[32:56].reshape((2, 12)),
+        v[56:64].reshape((2, 4)),
+        v[64:66],
+        v[66:70].reshape((2, 2)),
+        v[70:86].reshape((4, 4)),
+        v[86:102].reshape((4, 4)),
+        v[102:106],
+        v[106:COUPLED_WORK_SIZE],
     )
+
+
+@jit
+def _cached_rates(state, kp, rt):
+    """Rates and slopes (2, 12) at the state's stresses and temperatures into ``rt``: from the
+    state's cache if it was filled at exactly these (σ_R, T_R, σ_L, T_L), else computed."""
+    c = X_RCACHE
+    if (
+        state[c] == state[X_SR]
+        and state[c + 1] == state[X_TR]
+        and state[c + 2] == state[X_SL]
+        and state[c + 3] == state[X_TL]
+    ):
+        for k in range(12):
+            rt[0, k] = state[c + 4 + k]
+            rt[1, k] = state[c + 16 + k]
+        return
+    rates_and_slopes(state[X_SR], state[X_TR], kp, rt[0])
+    rates_and_slopes(state[X_SL], state[X_TL], kp, rt[1])
+
+
+@jit
+def _cache_rates(state, rt):
+    """Keep the rates ``rt`` at the state's (σ_R, T_R, σ_L, T_L) for the next output step."""
+    c = X_RCACHE
+    state[c] = state[X_SR]
+    state[c + 1] = state[X_TR]
+    state[c + 2] = state[X_SL]
+    state[c + 3] = state[X_TL]
+    for k in range(12):
+        state[c + 4 + k] = rt[0, k]
+        state[c + 16 + k] = rt[1, k]
 
 
 @jit
@@ -837,8 +901,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         (status, sub-steps, shape passes).
     """
     n = (state.shape[0] - X_HEAD) // 2
-    work = np.empty(n)
-    saved = np.empty(n)
+    buf = np.empty(2 * n + COUPLED_WORK_SIZE)  # one allocation per output step
+    work = buf[:n]
+    saved = buf[n : 2 * n]
+    cw = coupled_work(buf[2 * n :])
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
     passes = 0
     check = needs_stability_check(vforce, kp)
@@ -850,14 +916,12 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     jr_num = v_r * v_r / l0sq
     jl_num = v_l * v_l / l0sq
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
-    cw = coupled_work()
     max_sub = int(ks[S_MAXSUB])
     rem = dt
     nsub = 0
     solved = False
     if coupled:
-        rates_and_slopes(state[X_SR], state[X_TR], kp, cw.rt[0])
-        rates_and_slopes(state[X_SL], state[X_TL], kp, cw.rt[1])
+        _cached_rates(state, kp, cw.rt)
     while rem > 0.0:
         if coupled:
             st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
@@ -871,6 +935,8 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    if coupled:
+        _cache_rates(state, cw.rt)
     # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
     # sub-step would triple the cost of a heavily loaded run)
     dth = state[X_HEAD : X_HEAD + n]
