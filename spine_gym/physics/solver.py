@@ -113,8 +113,8 @@ def wire_mechanics(dth, xpr, xmr, xpl, xml, kp):
 
 
 @jit
-def strain_per_moment(dth, s, kp):
-    """dε_R/dM and dε_L/dM [1/(N m)] of the shape response s = dΔθ/dM (MODEL.md §4.8).
+def length_per_moment(dth, s, kp):
+    """dL_R/dM and dL_L/dM [m/(N m)] of the shape response s = dΔθ/dM (MODEL.md §4.8).
 
     ∂L_R/∂Δθ_n = c'_n − a cos(Δθ_n/2), ∂L_L/∂Δθ_n = c'_n + a cos(Δθ_n/2), with the small-angle
     forms c' ≈ −ls Δθ/12 and cos ≈ 1 − Δθ²/8 (a Newton step or a Jacobian only needs ~1 %).
@@ -127,8 +127,7 @@ def strain_per_moment(dth, s, kp):
         x = dth[i]
         sum_c += (-ls * x / 12.0) * s[i]
         sum_k += a * (1.0 - x * x / 8.0) * s[i]
-    lref = kp[K_LREF]
-    return (sum_c - sum_k) / lref, (sum_c + sum_k) / lref
+    return sum_c - sum_k, sum_c + sum_k
 
 
 @jit
@@ -141,13 +140,14 @@ def _taut_stiffness(sigma, xp, xm, kp):
 def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
     """dG/dM = Σ_n ∂G/∂Δθ_n s_n ≤ 0: how the wire moment answers a change of the applied moment.
 
-    G = n_w A_w a (σ_R − σ_L) with dσ_w = E*_w dε_w (see :func:`strain_per_moment`); a slack wire
-    (σ = 0) has zero tangent stiffness.
+    G = n_w A_w a (σ_R − σ_L) with dσ_w = E*_w dL_w / L_ref (see :func:`length_per_moment`); a
+    slack wire (σ = 0) has zero tangent stiffness.
     """
-    e_r, e_l = strain_per_moment(dth, s, kp)
+    dl_r, dl_l = length_per_moment(dth, s, kp)
     k_r = _taut_stiffness(sr, xpr, xmr, kp)
     k_l = _taut_stiffness(sl, xpl, xml, kp)
-    return kp[K_NW] * kp[K_AW] * kp[K_A] * (k_r * e_r - k_l * e_l)
+    pref = kp[K_NW] * kp[K_AW] * kp[K_A] / kp[K_LREF]
+    return pref * (k_r * dl_r - k_l * dl_l)
 
 
 @jit
@@ -157,9 +157,11 @@ def stress_sensitivity(dth, s, sr, sl, xpr, xmr, xpl, xml, kp, out):
     Rows: σ_R, σ_L; columns: x₊R, x₋R, x₊L, x₋L. At fixed strain the constitutive law §3.6 gives
     ∂σ/∂x₊ = −E* (ε_T + σ k_E) and ∂σ/∂x₋ = E* (ε_T − σ k_E) (E* = 1/compliance, 0 when slack);
     the moment then moves by dM = n_w A_w a (dσ_R − dσ_L)|_ε / (1 − dG/dM) and each strain by
-    (dε_w/dM) dM (:func:`strain_per_moment`). Used as the Jacobian of the coupled time step.
+    (dε_w/dM) dM (:func:`length_per_moment`). Used as the Jacobian of the coupled time step.
     """
-    e_r, e_l = strain_per_moment(dth, s, kp)
+    dl_r, dl_l = length_per_moment(dth, s, kp)
+    e_r = dl_r / kp[K_LREF]
+    e_l = dl_l / kp[K_LREF]
     k_r = _taut_stiffness(sr, xpr, xmr, kp)
     k_l = _taut_stiffness(sl, xpl, xml, kp)
     eps_t = kp[K_EPST]
