@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from spine_gym import ModelParams, SimulationError, SolverOptions, simulate
-from spine_gym.params import FINE_REFERENCE
 from spine_gym.capacity import CapacityProtocol, capacity_metrics, metrics_from_result, run_protocol
+from spine_gym.params import FINE_REFERENCE
 
 HYST_V = lambda t: 3.2 if t < 20.0 - 1e-9 else 0.0  # noqa: E731  §10.2
 ALT_VR = HYST_V

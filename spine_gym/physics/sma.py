@@ -141,7 +141,12 @@ def rates(sigma, T, kp):
     dGpA, dGAp, dGmA, dGAm = barriers(sigma, T, kp)
     lam = kp[K_VLKB] / T
     inv_tau = kp[K_INVTAU]
-    return _rate(lam, dGpA, inv_tau), _rate(lam, dGAp, inv_tau), _rate(lam, dGmA, inv_tau), _rate(lam, dGAm, inv_tau)
+    return (
+        _rate(lam, dGpA, inv_tau),
+        _rate(lam, dGAp, inv_tau),
+        _rate(lam, dGmA, inv_tau),
+        _rate(lam, dGAm, inv_tau),
+    )
 
 
 @jit

@@ -55,14 +55,13 @@ from .layout import (
     S_METHOD,
     S_SCHEME,
     S_TOLM,
+    S_TOLTH,
     S_TOLX,
     SCHEME_COUPLED,
-    S_TOLTH,
     X_EL,
     X_ER,
     X_HEAD,
     X_HNEXT,
-    X_RCACHE,
     X_ML,
     X_MR,
     X_MW,
@@ -74,13 +73,23 @@ from .layout import (
     X_QJR,
     X_QLL,
     X_QLR,
+    X_RCACHE,
     X_SL,
     X_SR,
     X_TIME,
     X_TL,
     X_TR,
 )
-from .sma import clip_fractions, compliance, latent_heats, phase_step, rates, rates_and_slopes, resistivity, stress
+from .sma import (
+    clip_fractions,
+    compliance,
+    latent_heats,
+    phase_step,
+    rates,
+    rates_and_slopes,
+    resistivity,
+    stress,
+)
 from .stability import solve_in_place, unstable_modes
 from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, wire_lengths
 
@@ -928,7 +937,9 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         if coupled:
             st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
         else:
-            st, h, p, sol = _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw.xs)
+            st, h, p, sol = _substep_frozen(
+                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw.xs
+            )
         passes += p
         solved = solved or sol
         if st != OK:

@@ -17,11 +17,17 @@ from ._jit import jit
 from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
 from .stability import dunkerley_weight
 
-
 SERIES_MAX = 0.3  # [rad] below this |angle| the sines and cosines of small angles are Taylor series
 # Taylor coefficients (as multiplications: a division costs several times more, on the hot loop)
 _S3, _S5, _S7, _S9, _S11 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0
-_C2, _C4, _C6, _C8, _C10, _C12 = -0.5, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0, 1.0 / 479001600.0
+_C2, _C4, _C6, _C8, _C10, _C12 = (
+    -0.5,
+    1.0 / 24.0,
+    -1.0 / 720.0,
+    1.0 / 40320.0,
+    -1.0 / 3628800.0,
+    1.0 / 479001600.0,
+)
 # 2 sin(x/2)/x = Σ_k (−1)^k x^{2k} / (4^k (2k+1)!)
 _K2, _K4, _K6, _K8, _K10 = -1.0 / 24.0, 1.0 / 1920.0, -1.0 / 322560.0, 1.0 / 92897280.0, -1.0 / 40874803200.0
 
