@@ -18,7 +18,6 @@ implicit convection and exact discrete energy bookkeeping (§6.1).
 from __future__ import annotations
 
 import math
-from collections import namedtuple
 
 import numpy as np
 
@@ -713,7 +712,7 @@ def _quiet(x0, rt, h):
 
 @jit
 def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
-    """Linearly implicit Euler step of the fractions over h into cw.xs; cw.amat keeps its matrix
+    """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_AMAT] keeps its matrix
     (the identity for a :func:`_quiet` step).
 
     Returns False if the matrix is singular.
@@ -721,38 +720,38 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     n = (state.shape[0] - X_HEAD) // 2
     dth = state[X_HEAD : X_HEAD + n]
     s = state[X_HEAD + n : X_HEAD + 2 * n]
-    x0 = cw.x0
+    x0 = cw[CW_X0]
     x0[0] = state[X_PR]
     x0[1] = state[X_MR]
     x0[2] = state[X_PL]
     x0[3] = state[X_ML]
-    if _quiet(x0, cw.rt, h):
+    if _quiet(x0, cw[CW_RT], h):
         for w in range(2):
             i = 2 * w
-            r = cw.rt[w]
-            cw.xs[i], cw.xs[i + 1] = phase_step(x0[i], x0[i + 1], h, r[0], r[1], r[2], r[3])
+            r = cw[CW_RT][w]
+            cw[CW_XS][i], cw[CW_XS][i + 1] = phase_step(x0[i], x0[i + 1], h, r[0], r[1], r[2], r[3])
         for i in range(4):
             for j in range(4):
-                cw.amat[i, j] = 1.0 if i == j else 0.0
+                cw[CW_AMAT][i, j] = 1.0 if i == j else 0.0
         return True
-    stress_sensitivity(dth, s, state[X_SR], state[X_SL], x0[0], x0[1], x0[2], x0[3], kp, cw.sens)
+    stress_sensitivity(dth, s, state[X_SR], state[X_SL], x0[0], x0[1], x0[2], x0[3], kp, cw[CW_SENS])
     inv = 1.0 / (kp[K_RHOC] + h * kp[K_ASV])
     for w in range(2):
         j_num = jr_num if w == 0 else jl_num
         t = state[X_TR] if w == 0 else state[X_TL]
         sig = state[X_SR] if w == 0 else state[X_SL]
         j = j_num / resistivity(x0[2 * w], x0[2 * w + 1], kp)
-        cw.a_t[w] = h * (j + kp[K_ASV] * (kp[K_TE] - t)) * inv
+        cw[CW_A_T][w] = h * (j + kp[K_ASV] * (kp[K_TE] - t)) * inv
         lp, lm = latent_heats(sig, kp)
-        cw.b_t[w, 0] = lp * inv
-        cw.b_t[w, 1] = lm * inv
-    _linear_system(x0, cw.rt, cw.sens, h, cw.a_t, cw.b_t, cw.amat, cw.vec)
-    cw.lu[:, :] = cw.amat
-    if not solve_in_place(cw.lu, cw.vec):
+        cw[CW_B_T][w, 0] = lp * inv
+        cw[CW_B_T][w, 1] = lm * inv
+    _linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
+    cw[CW_LU][:, :] = cw[CW_AMAT]
+    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
         return False
     for w in range(2):
         i = 2 * w
-        cw.xs[i], cw.xs[i + 1] = clip_fractions(x0[i] + cw.vec[i], x0[i + 1] + cw.vec[i + 1])
+        cw[CW_XS][i], cw[CW_XS][i + 1] = clip_fractions(x0[i] + cw[CW_VEC][i], x0[i + 1] + cw[CW_VEC][i + 1])
     return True
 
 
@@ -770,31 +769,31 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
 
     The larger of (i) the Newton correction (I − hJ)⁻¹ (h F₁ − Δx) that the linearisation missed,
     (ii) the implicit Euler truncation error ½ h |F₁ − F₀| of each fraction and (iii) that of each
-    temperature, ½ h |Ṫ₁ − Ṫ₀|, divided by ``T_PER_FRACTION``. cw.x0/cw.rt hold the start, the
-    state and cw.xs/cw.rt_new the end of the step.
+    temperature, ½ h |Ṫ₁ − Ṫ₀|, divided by ``T_PER_FRACTION``. cw[CW_X0]/cw[CW_RT] hold the start, the
+    state and cw[CW_XS]/cw[CW_RT_NEW] the end of the step.
     """
     trunc = 0.0
     for w in range(2):
         i = 2 * w
-        f0p, f0m = _kinetics(cw.x0[i], cw.x0[i + 1], cw.rt[w])
-        f1p, f1m = _kinetics(cw.xs[i], cw.xs[i + 1], cw.rt_new[w])
+        f0p, f0m = _kinetics(cw[CW_X0][i], cw[CW_X0][i + 1], cw[CW_RT][w])
+        f1p, f1m = _kinetics(cw[CW_XS][i], cw[CW_XS][i + 1], cw[CW_RT_NEW][w])
         trunc = max(trunc, 0.5 * h * abs(f1p - f0p), 0.5 * h * abs(f1m - f0m))
         j_num = jr_num if w == 0 else jl_num
         t1 = state[X_TR] if w == 0 else state[X_TL]
         sig1 = state[X_SR] if w == 0 else state[X_SL]
-        t0 = cw.backup[X_TR] if w == 0 else cw.backup[X_TL]
-        sig0 = cw.backup[X_SR] if w == 0 else cw.backup[X_SL]
-        d0 = _heating_rate(t0, cw.x0[i], cw.x0[i + 1], f0p, f0m, sig0, j_num, kp)
-        d1 = _heating_rate(t1, cw.xs[i], cw.xs[i + 1], f1p, f1m, sig1, j_num, kp)
+        t0 = cw[CW_BACKUP][X_TR] if w == 0 else cw[CW_BACKUP][X_TL]
+        sig0 = cw[CW_BACKUP][X_SR] if w == 0 else cw[CW_BACKUP][X_SL]
+        d0 = _heating_rate(t0, cw[CW_X0][i], cw[CW_X0][i + 1], f0p, f0m, sig0, j_num, kp)
+        d1 = _heating_rate(t1, cw[CW_XS][i], cw[CW_XS][i + 1], f1p, f1m, sig1, j_num, kp)
         trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
-        cw.vec[i] = h * f1p - (cw.xs[i] - cw.x0[i])
-        cw.vec[i + 1] = h * f1m - (cw.xs[i + 1] - cw.x0[i + 1])
-    cw.lu[:, :] = cw.amat
-    if not solve_in_place(cw.lu, cw.vec):
+        cw[CW_VEC][i] = h * f1p - (cw[CW_XS][i] - cw[CW_X0][i])
+        cw[CW_VEC][i + 1] = h * f1m - (cw[CW_XS][i + 1] - cw[CW_X0][i + 1])
+    cw[CW_LU][:, :] = cw[CW_AMAT]
+    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
         return np.inf
     e = 0.0
     for i in range(4):
-        e = max(e, abs(cw.vec[i]))
+        e = max(e, abs(cw[CW_VEC][i]))
     return max(e, trunc)
 
 
@@ -811,7 +810,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
     the step's own matrix (I − hJ)⁻¹ so that fast modes at their quasi-steady state do not count
     (Shampine's filter). A step whose error exceeds ``tol_x`` is rejected and retried smaller
     (down to ``h_min``); the next step is proposed as h · 0.9 (tol/err)^½ and kept in the state.
-    The rates at the end of an accepted step are the next step's (cw.rt), so they are computed
+    The rates at the end of an accepted step are the next step's (cw[CW_RT]), so they are computed
     once per sub-step.
 
     Returns:
@@ -826,49 +825,53 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         h = rem
     h = min(h, ks[S_HMAX])
     for i in range(X_RCACHE):
-        cw.backup[i] = state[i]
+        cw[CW_BACKUP][i] = state[i]
     passes = 0
     while True:
         hh = _last_h(rem, dt, h)
         if not _predict_coupled(state, kp, hh, jr_num, jl_num, cw):
             return ERR_NONFINITE, hh, passes, False
-        st = _apply_heat(state, cw.xs, hh, jr_num, jl_num, kp)
+        st = _apply_heat(state, cw[CW_XS], hh, jr_num, jl_num, kp)
         solved = False
         if st == OK:
-            st, p, solved = _mechanics_update(state, cw.xs, vforce, kp, ks, work, saved)
+            st, p, solved = _mechanics_update(state, cw[CW_XS], vforce, kp, ks, work, saved)
             passes += p
         if st != OK:
             return st, hh, passes, solved
-        rates_and_slopes(state[X_SR], state[X_TR], kp, cw.rt_new[0])
-        rates_and_slopes(state[X_SL], state[X_TL], kp, cw.rt_new[1])
+        rates_and_slopes(state[X_SR], state[X_TR], kp, cw[CW_RT_NEW][0])
+        rates_and_slopes(state[X_SL], state[X_TL], kp, cw[CW_RT_NEW][1])
         err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
         fac = min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
         if err <= 1.0 or hh <= h_min:
-            cw.rt[:, :] = cw.rt_new
+            cw[CW_RT][:, :] = cw[CW_RT_NEW]
             h_next = hh * fac
             if hh < h:  # truncated at the end of the output step: keep the larger proposal
                 h_next = max(h_next, h)
             state[X_HNEXT] = h_next
             return OK, hh, passes, solved
         for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
-            state[i] = cw.backup[i]
+            state[i] = cw[CW_BACKUP][i]
         if solved:
             for i in range(n):
                 dth[i] = saved[i]
         h = max(hh * min(fac, 0.5), h_min)
 
 
-CoupledWork = namedtuple("CoupledWork", "x0 xs rt rt_new sens a_t b_t amat lu vec backup")
+# the coupled sub-step's scratch arrays: a tuple indexed by these (compile-time) constants
+CW_X0, CW_XS, CW_RT, CW_RT_NEW, CW_SENS, CW_A_T, CW_B_T, CW_AMAT, CW_LU, CW_VEC, CW_BACKUP = range(11)
 
 
-COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 16 + 16 + 4 + X_RCACHE  # floats of CoupledWork
+COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 16 + 16 + 4 + X_RCACHE  # floats of the CW_* scratch
 
 
 @jit
 def coupled_work(buf):
-    """Scratch arrays of the coupled sub-step (:class:`CoupledWork`) as views of one flat ``buf``."""
+    """Scratch arrays of the coupled sub-step (the CW_* fields) as views of one flat ``buf``:
+    fractions at the start and end (4), rates and slopes at the start and end (2, 12), dσ/dx (2, 4),
+    the temperature terms a_t (2) and b_t (2, 2), the step matrix and its copy (4, 4), a vector (4),
+    the state's head before the step (X_RCACHE)."""
     v = buf[:COUPLED_WORK_SIZE]
-    return CoupledWork(
+    return (
         v[0:4],
         v[4:8],
         v[8:32].reshape((2, 12)),
@@ -958,13 +961,13 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     nsub = 0
     solved = False
     if coupled:
-        _cached_rates(state, kp, cw.rt)
+        _cached_rates(state, kp, cw[CW_RT])
     while rem > 0.0:
         if coupled:
             st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
         else:
             st, h, p, sol = _substep_frozen(
-                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw.xs
+                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw[CW_XS]
             )
         passes += p
         solved = solved or sol
@@ -975,7 +978,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
     if coupled:
-        _cache_rates(state, cw.rt)
+        _cache_rates(state, cw[CW_RT])
     # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
     # sub-step would triple the cost of a heavily loaded run)
     dth = state[X_HEAD : X_HEAD + n]
