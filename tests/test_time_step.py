@@ -84,3 +84,19 @@ def test_scheme_and_tolerance_are_validated():
     with pytest.raises(ValueError, match="tol_x"):
         SolverOptions(tol_x=0.5)
     assert SolverOptions(scheme="frozen").to_kernel()[L.S_SCHEME] == L.SCHEME_FROZEN
+
+
+def test_rate_cache_never_serves_rates_of_other_constants():
+    # the state caches the end-of-step rates; a copy advanced with other constants (the MPC's
+    # nominal model on a randomised plant's state) must give what a cold cache gives
+    n = ModelParams().n_seg
+    st = simulate(9.0, 3.2, 0.0).final_state
+    kp2 = ModelParams(V_L=6e-23, tau=0.012).to_kernel()
+    ks = SolverOptions().to_kernel()
+    vf = np.zeros((n, 2))
+    warm, cold = st.copy(), st.copy()
+    cold[L.X_RCACHE : L.X_RCACHE + L.RCACHE_SIZE] = 0.0
+    for s in (warm, cold):
+        for _ in range(20):
+            assert solver.advance(s, kp2, ks, 3.2, 0.0, vf, 0.01, False)[0] == L.OK
+    np.testing.assert_array_equal(warm, cold)

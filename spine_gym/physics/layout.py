@@ -94,7 +94,8 @@ SCHEMES = {"frozen": SCHEME_FROZEN, "coupled": SCHEME_COUPLED}
     X_HNEXT,  # [s] sub-step the coupled scheme's error control proposes next (0: none yet)
     X_RCACHE,  # start of RCACHE_SIZE floats: (σ_R, T_R, σ_L, T_L) and the rates and slopes there
 ) = range(20)
-RCACHE_SIZE = 4 + 24  # the coupled scheme's rates at the end of the last sub-step (a cache, keyed)
+RCACHE_SIZE = 4 + 9 + 24  # the coupled scheme's rates at the end of its last sub-step, keyed by
+# (σ_R, T_R, σ_L, T_L) and the 9 constants they depend on (solver.RATE_KP)
 X_HEAD = X_RCACHE + RCACHE_SIZE  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
 
 

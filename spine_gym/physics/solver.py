@@ -31,9 +31,15 @@ from .layout import (
     K_A,
     K_ASV,
     K_AW,
+    K_DETA,
+    K_DSIG,
+    K_DU,
+    K_EA,
     K_EI,
+    K_EM,
     K_EPS0,
     K_EPST,
+    K_INVTAU,
     K_KE,
     K_L0,
     K_LREF,
@@ -42,6 +48,7 @@ from .layout import (
     K_RHOC,
     K_TE,
     K_TMAX,
+    K_VLKB,
     METHOD_BISECT,
     METHOD_NEWTON,
     OK,
@@ -886,36 +893,47 @@ def coupled_work(buf):
     )
 
 
+# kp entries the rates depend on (§3.1–3.4): part of the cache key, so that a state advanced with
+# other constants (the MPC's nominal model on a copy of a randomised plant's state) recomputes them
+RATE_KP = (K_EA, K_EM, K_EPST, K_DSIG, K_KE, K_DETA, K_DU, K_VLKB, K_INVTAU)
+_KEY = 4 + len(RATE_KP)  # (σ_R, T_R, σ_L, T_L) and the RATE_KP constants
+
+
 @jit
 def _cached_rates(state, kp, rt):
     """Rates and slopes (2, 12) at the state's stresses and temperatures into ``rt``: from the
-    state's cache if it was filled at exactly these (σ_R, T_R, σ_L, T_L), else computed."""
+    state's cache if it was filled at exactly these (σ_R, T_R, σ_L, T_L) and constants, else computed."""
     c = X_RCACHE
-    if (
+    hit = (
         state[c] == state[X_SR]
         and state[c + 1] == state[X_TR]
         and state[c + 2] == state[X_SL]
         and state[c + 3] == state[X_TL]
-    ):
+    )
+    for k in range(len(RATE_KP)):
+        hit = hit and state[c + 4 + k] == kp[RATE_KP[k]]
+    if hit:
         for k in range(12):
-            rt[0, k] = state[c + 4 + k]
-            rt[1, k] = state[c + 16 + k]
+            rt[0, k] = state[c + _KEY + k]
+            rt[1, k] = state[c + _KEY + 12 + k]
         return
     rates_and_slopes(state[X_SR], state[X_TR], kp, rt[0])
     rates_and_slopes(state[X_SL], state[X_TL], kp, rt[1])
 
 
 @jit
-def _cache_rates(state, rt):
-    """Keep the rates ``rt`` at the state's (σ_R, T_R, σ_L, T_L) for the next output step."""
+def _cache_rates(state, kp, rt):
+    """Keep the rates ``rt`` at the state's (σ_R, T_R, σ_L, T_L) and constants for the next output step."""
     c = X_RCACHE
     state[c] = state[X_SR]
     state[c + 1] = state[X_TR]
     state[c + 2] = state[X_SL]
     state[c + 3] = state[X_TL]
+    for k in range(len(RATE_KP)):
+        state[c + 4 + k] = kp[RATE_KP[k]]
     for k in range(12):
-        state[c + 4 + k] = rt[0, k]
-        state[c + 16 + k] = rt[1, k]
+        state[c + _KEY + k] = rt[0, k]
+        state[c + _KEY + 12 + k] = rt[1, k]
 
 
 @jit
@@ -978,7 +996,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
     if coupled:
-        _cache_rates(state, cw[CW_RT])
+        _cache_rates(state, kp, cw[CW_RT])
     # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
     # sub-step would triple the cost of a heavily loaded run)
     dth = state[X_HEAD : X_HEAD + n]
