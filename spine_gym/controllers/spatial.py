@@ -123,25 +123,22 @@ class SpatialSignals:
     @classmethod
     def from_env(cls, env) -> SpatialSignals:
         """Read the layout, the task, the per-wire full scale and the indices from a spatial env
-        (its observation table: ``env.table.obs_index(key)``)."""
-        env = getattr(env, "unwrapped", env)
-        table, layout = env.table, env.layout
-        task = table.task.key
-        bend_key = "tip_bending" if task == "tip_bending" else "module_bending"
+        (its configuration's declarative observation table, entries found by their source)."""
+        cfg = getattr(env, "unwrapped", env).config
+        table = cfg.table()
+        task = table.task.source
 
-        def index(key):
-            try:
-                return table.obs_index(key)
-            except ValueError:
-                return None
+        def index(source):
+            keys = [e.key for e in table.entries if e.source == source and e.obs is not None]
+            return table.obs_index(keys[0]) if keys else None
 
         return cls(
-            layout=layout,
+            layout=cfg.layout,
             task=task,
-            bending=index(bend_key),
+            bending=index("tip_bending" if task == "tip_bending" else "module_bending"),
             target=index("target"),
             temperature=index("temperature"),
-            v_max=np.asarray(env.wire_v_max, dtype=np.float64),
+            v_max=2.0 * np.asarray(cfg.volt_coef, dtype=np.float64),  # volts = (a + 1) · volt_coef
             preview=index("preview"),
             tip_position=index("tip_position") if task == "tip_position" else None,
         )
