@@ -39,10 +39,10 @@ from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import build_controller, env_temperature_limit, load_policy, make_env, run_episode
 from .scenarios import SUITES, Scenario, get_suite
+from .video import require_ffmpeg, write_videos
 
 #: unit of the tracking error per env (the metric columns are named *_deg after the planar angle)
 ERROR_UNIT = {CHAIN_ENV_ID: "mm"}
-from .video import require_ffmpeg, write_videos
 
 MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
@@ -226,7 +226,11 @@ def plot_controller(
             ax.plot(tr.time, target[:, c], "--", color=f"C{c}", lw=1, label="target" if c == 0 else None)
             ax.plot(tr.time, tracked[:, c], color=f"C{c}", lw=1.3, label="tracked" if c == 0 else None)
         ax.set_title(sc.name, fontsize=9)
-        labels = ["right", "left"] if tr.voltage.shape[1] == 2 else [f"wire {w}" for w in range(tr.voltage.shape[1])]
+        labels = (
+            ["right", "left"]
+            if tr.voltage.shape[1] == 2
+            else [f"wire {w}" for w in range(tr.voltage.shape[1])]
+        )
         for w, lab in enumerate(labels):
             axes[1, j].plot(tr.time, tr.voltage[:, w], lw=1, label=lab)
             axes[2, j].plot(tr.time, tr.temperature[:, w], lw=1, label=lab)
@@ -252,7 +256,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--baselines",
         nargs="*",
         default=None,
-        help=f"registered controllers to run (default for {ENV_ID}: {' '.join(BASELINES)}; all: {' '.join(REGISTRY)})",
+        help=f"registered controllers to run (default for {ENV_ID}: {' '.join(BASELINES)}; "
+        f"all: {' '.join(REGISTRY)}; other envs: their registry)",
     )
     p.add_argument(
         "--mpc",
@@ -366,7 +371,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.video:
         videos = write_videos(
             controllers, scenarios, out / "videos", env_kwargs,
-            make_env=lambda kw: make_env(kw, env_id=args.env), run_episode=run_episode, speed=args.video_speed,
+            make_env=lambda kw: make_env(kw, env_id=args.env), run_episode=run_episode,
+            speed=args.video_speed,
         )  # fmt: skip
         print(f"wrote {len(videos)} videos to {out / 'videos'}")
     wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")

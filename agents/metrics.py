@@ -55,7 +55,9 @@ class Trajectory:
     reward: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @classmethod
-    def from_infos(cls, infos: list[dict], actions: list, rewards: list, keys: tuple[str, str] = PLANAR_KEYS) -> Trajectory:
+    def from_infos(
+        cls, infos: list[dict], actions: list, rewards: list, keys: tuple[str, str] = PLANAR_KEYS
+    ) -> Trajectory:
         """Stack the per-step ``info`` dicts of an episode; ``keys`` = (tracked, target) info keys."""
         if not infos:
             raise ValueError("an episode needs at least one step")

@@ -140,13 +140,18 @@ TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)
 def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
     return {
         "step": ControllerSpec(
-            SpatialStepController, "open-loop steady-state step voltage per bending axis", guard=False, from_env=True
+            SpatialStepController,
+            "open-loop steady-state step voltage per bending axis",
+            guard=False,
+            from_env=True,
         ),
         "bang_bang": ControllerSpec(
             SpatialBangBangController, "relay with hysteresis per wire", _bang_bang_space, from_env=True
         ),
         "pid": ControllerSpec(
-            SpatialPIDController, "PID per module and bending axis, split over the antagonistic wires", pid_space,
+            SpatialPIDController,
+            "PID per module and bending axis, split over the antagonistic wires",
+            pid_space,
             from_env=True,
         ),  # fmt: skip
     }

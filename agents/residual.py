@@ -78,7 +78,9 @@ def build_base(spec: dict):
         ctrl = cls.from_env(env, **spec["params"], temperature_limit=spec["temperature_limit"])
         env.close()
         return ctrl
-    return cls(**spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"])
+    return cls(
+        **spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"]
+    )
 
 
 def combine(base_action: np.ndarray, residual: np.ndarray, scale: float) -> np.ndarray:
@@ -125,7 +127,9 @@ class ResidualVecEnv(VecEnvWrapper):
             term = infos[i].get("terminal_observation")
             if term is not None:  # the baseline's action on the last state, its memory continued
                 a, _ = self.base.predict(term[None, :], state=self._mem[i : i + 1].copy())
-                infos[i]["terminal_observation"] = np.concatenate([term, a.reshape(self.n_act)]).astype(np.float32)
+                infos[i]["terminal_observation"] = np.concatenate([term, a.reshape(self.n_act)]).astype(
+                    np.float32
+                )
         return self._augment(obs, np.asarray(dones, dtype=bool)), rewards, dones, infos
 
 

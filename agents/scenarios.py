@@ -42,11 +42,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
 from spine_gym.envs import default_randomization
 from spine_gym.envs.task import LoadSchedule, TargetProfile
-from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
 from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 
@@ -210,7 +210,9 @@ def build_suite(
 
 SUITES = {
     "full": lambda: build_suite(60.0),
-    "quick": lambda: build_suite(20.0, ["step_cross", "ramp_swing", "sine_fast"], groups=("nominal", "disturbed")),
+    "quick": lambda: build_suite(
+        20.0, ["step_cross", "ramp_swing", "sine_fast"], groups=("nominal", "disturbed")
+    ),
 }
 
 
@@ -229,13 +231,21 @@ def _profiles_3d(duration: float) -> dict[str, tuple[str, str, dict]]:
     return {
         "step_diag": ("step", "", {"kind": "steps", "times": (0.0, h), "values": (zero, _polar(30.0, 45.0))}),
         "step_tour": (
-            "step", "",
-            {"kind": "steps", "times": (0.0, h, h + q, h + 2 * q),
-             "values": (zero, _polar(25.0, 0.0), _polar(35.0, 120.0), _polar(20.0, 240.0))},
+            "step",
+            "",
+            {
+                "kind": "steps",
+                "times": (0.0, h, h + q, h + 2 * q),
+                "values": (zero, _polar(25.0, 0.0), _polar(35.0, 120.0), _polar(20.0, 240.0)),
+            },
         ),  # fmt: skip
         "hold_40": ("step", "", {"kind": "steps", "times": (0.0, h), "values": (zero, _polar(40.0, 200.0))}),
         "circle": ("circle", "", {"kind": "circle", "amplitude": 25.0, "period": d / 2.0}),
-        "figure8": ("figure8", "", {"kind": "figure8", "amplitude": 30.0, "period": d / 2.0, "rotation_deg": 30.0}),
+        "figure8": (
+            "figure8",
+            "",
+            {"kind": "figure8", "amplitude": 30.0, "period": d / 2.0, "rotation_deg": 30.0},
+        ),
     }
 
 
@@ -254,14 +264,26 @@ def _profiles_chain(duration: float) -> dict[str, tuple[str, str, dict]]:
         return BendTarget(kind, amplitude=amplitude, period=d / 2.0, **kw)
 
     return {
-        "hold": ("step", "", {"modules": (steps(zero, (15.0, 5.0), (15.0, 5.0)), steps(zero, (10.0, 0.0), (10.0, 0.0)))}),
+        "hold": (
+            "step",
+            "",
+            {"modules": (steps(zero, (15.0, 5.0), (15.0, 5.0)), steps(zero, (10.0, 0.0), (10.0, 0.0)))},
+        ),
         "steps": (
-            "step", "",
+            "step",
+            "",
             {"modules": (steps(zero, (15.0, 0.0), (-5.0, 12.0)), steps(zero, (10.0, 5.0), (-10.0, 8.0)))},
         ),  # fmt: skip
         "circle": ("circle", "", {"modules": (pattern("circle", 15.0), pattern("circle", 10.0))}),
         "figure8": (
-            "figure8", "", {"modules": (pattern("figure8", 15.0, rotation_deg=60.0), pattern("figure8", 10.0, rotation_deg=60.0))},
+            "figure8",
+            "",
+            {
+                "modules": (
+                    pattern("figure8", 15.0, rotation_deg=60.0),
+                    pattern("figure8", 10.0, rotation_deg=60.0),
+                )
+            },
         ),  # fmt: skip
     }
 
@@ -297,8 +319,15 @@ def build_spatial_suite(
             payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
             out.append(
                 Scenario(
-                    name=name + SUFFIX[group], group=group, kind=kind, target=(ctor, kwargs), payload_kg=payload,
-                    tip_pulses=pulses, duration=duration, seed=EVAL_SEED_BASE + k, env_id=env_id,
+                    name=name + SUFFIX[group],
+                    group=group,
+                    kind=kind,
+                    target=(ctor, kwargs),
+                    payload_kg=payload,
+                    tip_pulses=pulses,
+                    duration=duration,
+                    seed=EVAL_SEED_BASE + k,
+                    env_id=env_id,
                 )  # fmt: skip
             )
     return out

@@ -1,4 +1,4 @@
-"""Train PPO or SAC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0`` / ``SmaSpineChain-v0``; RL-Zoo-style command line).
+"""Train PPO or SAC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...; RL-Zoo-style CLI).
 
 Example::
 

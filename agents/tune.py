@@ -27,7 +27,7 @@ import yaml
 
 from .common import ENV_ID, ENV_IDS, StoreDict
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
-from .runtime import build_controller, env_temperature_limit, run_episode
+from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
 
 __all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
@@ -115,7 +115,9 @@ def tune(
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="python -m agents.tune", description=__doc__.split("\n")[0])
     p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
-    p.add_argument("--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)")
+    p.add_argument(
+        "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
+    )
     p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
     p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
     p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")

@@ -145,7 +145,7 @@ def arc_chain_ik(target, lengths, *, tol: float = 1e-10, max_iter: int = 60) -> 
 
     res = residual(pq)
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
         if np.linalg.norm(res) < tol:
             break
         h = 1e-7

@@ -110,7 +110,8 @@ def test_design_problem_with_fixed_chain_round_trips_and_optimises():
 def test_cli_sweeps_layouts(tmp_path):
     out = tmp_path / "sw"
     cmd = [sys.executable, "-m", "spine_gym.design", "sweep", "--param", "n_modules=1,2", "--param",
-           "a=8e-3,12e-3", "--protocol", "t_stable=10,t_respond=6,t_load=4", "--no-progress", "--out", str(out)]  # fmt: skip
+           "a=8e-3,12e-3", "--protocol", "t_stable=10,t_respond=6,t_load=4", "--no-progress",
+           "--out", str(out)]  # fmt: skip
     r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "4 designs" in r.stdout and (out / "curves_n_modules.png").exists()

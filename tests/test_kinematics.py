@@ -20,7 +20,11 @@ def test_single_arc_closed_form():
     pos, frame = arc_chain_tip([[theta * math.cos(beta), theta * math.sin(beta)]], [length])
     rho = length / theta
     assert pos == pytest.approx(
-        [rho * (1 - math.cos(theta)) * math.cos(beta), rho * (1 - math.cos(theta)) * math.sin(beta), rho * math.sin(theta)],
+        [
+            rho * (1 - math.cos(theta)) * math.cos(beta),
+            rho * (1 - math.cos(theta)) * math.sin(beta),
+            rho * math.sin(theta),
+        ],
         abs=1e-15,
     )
     tangent = frame[:, 2]

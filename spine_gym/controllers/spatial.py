@@ -61,14 +61,16 @@ __all__ = [
     "TASKS",
 ]
 
-TASKS = ("tip_bending", "tip_position")
-TIP_OFFSET_MM = 30.0  # [mm] bound of the tip-error integral added to the IK target (anti-windup)  # what the env tracks: a bending vector [deg] or a position [mm]
+TASKS = ("tip_bending", "tip_position")  # what the env tracks: a bending vector [deg] or a position [mm]
+TIP_OFFSET_MM = 30.0  # [mm] bound of the tip-error integral added to the IK target (anti-windup)
 
 
 def _indices(name: str, idx, size: int | None) -> np.ndarray:
     arr = np.asarray(idx if not isinstance(idx, slice) else range(idx.start, idx.stop), dtype=np.int64)
     if arr.ndim != 1 or (size is not None and arr.size != size) or np.any(arr < 0):
-        raise ValueError(f"{name} must be {size if size is not None else 'some'} observation indices >= 0, got {idx!r}")
+        raise ValueError(
+            f"{name} must be {size if size is not None else 'some'} observation indices >= 0, got {idx!r}"
+        )
     return arr
 
 
@@ -230,7 +232,8 @@ class SpatialController(BaseController):
         single = obs.ndim == 1
         obs = obs[None, :] if single else obs
         if obs.ndim != 2 or obs.shape[0] < 1 or obs.shape[1] < need:
-            raise ValueError(f"observation must have shape (d,) or (n_envs, d) with d >= {need}, got {np.shape(observation)}")
+            shape = np.shape(observation)
+            raise ValueError(f"observation must have shape (d,) or (n_envs, d) with d >= {need}, got {shape}")
         if not np.all(np.isfinite(obs)):
             raise ValueError("observation must be finite, got NaN or inf")
         return obs, single
@@ -344,7 +347,13 @@ class SpatialBangBangController(SpatialController):
         return np.where(on > 0, self.v_on, np.where(opposed, 0.0, self.v_hold))
 
     def config(self) -> dict:
-        return {"v_on": self.v_on, "band": self.band, "release": self.release, "v_hold": self.v_hold, **super().config()}
+        return {
+            "v_on": self.v_on,
+            "band": self.band,
+            "release": self.release,
+            "v_hold": self.v_hold,
+            **super().config(),
+        }
 
 
 # --------------------------------------------------------------------------- PID

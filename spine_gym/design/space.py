@@ -95,9 +95,9 @@ PROTOCOL_PARAMS: dict[str, tuple[float, float]] = {"voltage": (0.0, 100.0)}  # [
 LAYOUT_PARAMS: dict[str, tuple[int, int]] = {"n_modules": (1, MAX_MODULES)}  # SpineLayout.chain
 
 _MODEL_FIELDS = frozenset(field_names())
-_INT_FIELDS = frozenset(f.name for f in dataclasses.fields(ModelParams) if f.type in ("int", int)) | frozenset(
-    LAYOUT_PARAMS
-)
+_INT_FIELDS = frozenset(
+    f.name for f in dataclasses.fields(ModelParams) if f.type in ("int", int)
+) | frozenset(LAYOUT_PARAMS)
 
 
 def design_parameter_names() -> list[str]:
