@@ -4,7 +4,8 @@ An episode is recorded as a :class:`Trajectory` from the env's ``info`` dicts (k
 contract: ``time``, the tracked quantity and its target (``angle_deg``, ``target_deg`` for
 ``SmaSpine-v0``; the task and target entries of a spatial env's table), ``voltage``,
 ``temperature``, ``energy_J``, ``cost``). Vector tasks (a 3-D tip bending vector, a tip position)
-use the Euclidean norm of the error. :func:`episode_metrics` turns it into the numbers of the evaluation table.
+use the Euclidean norm of the error. :func:`episode_metrics` turns it into the numbers of the
+evaluation table.
 """
 
 from __future__ import annotations
