@@ -254,6 +254,12 @@ class SpatialController(BaseController):
     def _temperatures(self, obs):
         return obs[:, self.signals.temperature]
 
+    def reference(self, observation) -> np.ndarray:
+        """(n, K, 2) module reference bending vectors [deg] of observation(s) (the target itself
+        for a bending task, its inverse kinematics for a tip-position task)."""
+        obs, _ = self._check_obs(observation)
+        return self._reference(obs, self.signals.target)
+
     # ---- output
     def _split(self, u: np.ndarray) -> np.ndarray:
         """(n, W) wire voltages [V] from (n, K, 2) axis commands in seed-equivalent volts."""
