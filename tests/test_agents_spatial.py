@@ -41,8 +41,8 @@ TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-freq", "0", "--save-freq
 )
 def test_train_smoke_on_the_spatial_ids(tmp_path, env_id, extra):
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "--env", env_id, "-n", "256", "--n-envs", "2", "-f", str(tmp_path),
-        *TINY, "-params", "n_steps:64", "batch_size:64", "n_epochs:1", *extra,
+        "-m", "agents.train", "--algo", "ppo", "--env", env_id, "-n", "256", "--n-envs", "2",
+        "-f", str(tmp_path), *TINY, "-params", "n_steps:64", "batch_size:64", "n_epochs:1", *extra,
     )  # fmt: skip
     run = tmp_path / "ppo" / f"{env_id}_1"
     meta = json.loads((run / "meta.json").read_text())
