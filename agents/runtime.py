@@ -27,7 +27,7 @@ import yaml
 import spine_gym  # noqa: F401 - registers the env
 
 from .common import ENV_ID
-from .metrics import PLANAR_KEYS, Trajectory
+from .metrics import Trajectory
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import Scenario
@@ -59,10 +59,9 @@ def env_id_of(env) -> str:
 
 
 def tracking_keys(env) -> tuple[str, str]:
-    """The info keys (tracked quantity, its target) of an env: its table's task and target entries."""
-    table = getattr(getattr(env, "unwrapped", env), "table", None)
-    if table is None:
-        return PLANAR_KEYS
+    """The info keys (tracked quantity, its target) of an env: the task and target entries of its
+    declarative table (``angle_deg``, ``target_deg`` for ``SmaSpine-v0``)."""
+    table = getattr(env, "unwrapped", env).config.table()
     target = [e.key for e in table.entries if e.source == "target"]
     return table.task.key, target[0]
 
