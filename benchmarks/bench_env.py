@@ -53,7 +53,7 @@ import numba
 import numpy as np
 
 import spine_gym
-from spine_gym.envs.core import SpineBatch
+from spine_gym.envs.planar import PlanarBatch
 from spine_gym.physics import env_kernels
 
 OUT = Path(__file__).resolve().parent / "results"
@@ -136,7 +136,7 @@ def time_kernel(n: int, acts: np.ndarray, warm: int = 0) -> float:
     for a in acts[:warm]:
         venv.step(a)
     acts = acts[warm:]
-    core: SpineBatch = venv.unwrapped._core
+    core: PlanarBatch = venv.unwrapped._core
     cfg = core.cfg
     resolve = np.zeros(n, dtype=np.bool_)
     active = np.ones(n, dtype=np.bool_)

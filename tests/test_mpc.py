@@ -137,7 +137,7 @@ def test_rollout_batch_equals_single_env_rollouts_with_the_same_voltages(kernel)
         status,
     )
     assert (status == L.OK).all()
-    side = snap.arrays["side_volume"]
+    side = snap.arrays["wvol"][0]  # wire volume of one side
     for i in range(n):
         env.restore(snap)
         e0 = snap.state[[L.X_QJR, L.X_QJL]].sum() * side

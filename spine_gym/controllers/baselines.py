@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..envs.core import planar_obs_index
 from ..params import ModelParams
 from ..simulate import simulate
 
@@ -50,8 +51,12 @@ __all__ = [
     "action_to_volts",
 ]
 
-OBS_ANGLE, OBS_TARGET, OBS_TEMP_R, OBS_TEMP_L = 0, 1, 2, 3  # fixed observation indices (env contract)
-N_FIXED_OBS = 4
+# SmaSpine-v0's observation indices, from its table (the first four entries are the env contract)
+OBS_ANGLE = planar_obs_index("angle_deg")
+OBS_TARGET = planar_obs_index("target_deg")
+OBS_TEMP_R = planar_obs_index("temperature")
+OBS_TEMP_L = OBS_TEMP_R + 1
+N_FIXED_OBS = 1 + max(OBS_ANGLE, OBS_TARGET, OBS_TEMP_L)
 
 
 def _check_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False) -> float:
@@ -437,7 +442,7 @@ class PIDController(BaseController):
         feedforward: float = PIDGains.feedforward,
         preview: float = PIDGains.preview,
         *,
-        preview_index: int = 5,
+        preview_index: int = planar_obs_index("target_preview"),
         ss_map: SteadyStateMap | None = None,
         params: ModelParams | None = None,
         **kwargs,

@@ -29,21 +29,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..envs.core import (
-    OBS_ANGLE,
-    OBS_DIM,
-    OBS_PREV_L,
-    OBS_PREV_R,
-    OBS_RES_L,
-    OBS_RES_R,
-    OBS_TEMP_L,
-    OBS_TEMP_R,
-    EnvConfig,
-)
+from ..envs.core import OBS_NAMES, EnvConfig, planar_obs_index
 from ..physics import layout as L
 from ..physics.solver import advance, composite, init_state, needs_stability_check
 
 __all__ = ["PhaseEstimator", "austenite_from_resistance"]
+
+# SmaSpine-v0's observation indices, from its table (right before left in each pair)
+OBS_DIM = len(OBS_NAMES)
+OBS_ANGLE = planar_obs_index("angle_deg")
+OBS_TEMP_R = planar_obs_index("temperature")
+OBS_TEMP_L = OBS_TEMP_R + 1
+OBS_PREV_R = planar_obs_index("previous_action")
+OBS_PREV_L = OBS_PREV_R + 1
+OBS_RES_R = planar_obs_index("resistance")
+OBS_RES_L = OBS_RES_R + 1
 
 
 def austenite_from_resistance(resistance: np.ndarray, params) -> np.ndarray:

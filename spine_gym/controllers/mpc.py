@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.core import OBS_PREVIEW, OBS_TARGET, EnvConfig
+from ..envs.core import EnvConfig, planar_obs_index
 from ..envs.task import ANGLE_LIMIT
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
@@ -48,6 +48,9 @@ from .baselines import BaseController, _check_range
 from .estimator import PhaseEstimator
 
 __all__ = ["MPPIConfig", "MPPIController", "MODES", "FAILED_COST"]
+
+OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
+OBS_PREVIEW = planar_obs_index("target_preview")
 
 MODES = ("oracle", "estimated")
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
@@ -262,8 +265,8 @@ class MPPIController(BaseController):
             loads = np.zeros((h, self.env_config.params.n_seg, 2))
             loads[:, 0, :] = a["forces"][idx]
             resolve = a["resolve_plan"][idx] & (np.arange(k, k + h) < n_steps)
-            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), a["targets"].shape[0] - 1)]
-            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(a["side_volume"])
+            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), a["targets"].shape[0] - 1), 0]
+            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(a["wvol"][0])
         est = self.estimator
         state0 = est.update(obs)
         loads = np.broadcast_to(est.loads, (h, *est.loads.shape))

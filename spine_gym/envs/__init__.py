@@ -1,9 +1,13 @@
-"""Gymnasium environments of spine_gym; importing this package registers ``SmaSpine-v0``.
+"""Gymnasium environments of spine_gym; importing this package registers ``SmaSpine-v0``,
+``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
 
-* :class:`SmaSpineEnv` (``gym.make("SmaSpine-v0")``) — the single environment; its class docstring
-  is the documentation page.
-* :class:`SmaSpineVectorEnv` (``gym.make_vec("SmaSpine-v0", num_envs=N)``) — N environments stepped
-  by one parallel numba loop over the same code.
+* :class:`SmaSpineEnv` (``gym.make("SmaSpine-v0")``) — the planar spine; its class docstring is
+  the documentation page. :class:`SmaSpine3DEnv` (``"SmaSpine3D-v0"``, four wires, two bending
+  planes) and :class:`SmaSpineChainEnv` (``"SmaSpineChain-v0"``, chained four-wire modules) — the
+  spatial spines (SPATIAL.md), on the same env layer.
+* :class:`SmaSpineVectorEnv` (``gym.make_vec(id, num_envs=N)``, and its spatial subclasses) — N
+  environments stepped by one parallel numba loop over the same code.
+* :mod:`spine_gym.envs.table` — the declarative observation/info table every env is built from.
 * :mod:`spine_gym.envs.task` — :class:`TargetProfile`, :class:`LoadSchedule`, :class:`TipForceEvent`.
 * :mod:`spine_gym.envs.sb3` — a Stable-Baselines3 ``VecEnv`` over the vector env (imports SB3).
 """
@@ -13,14 +17,24 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 from .core import OBS_NAMES, OBS_UNITS, EnvConfig, default_randomization
+from .spatial_env import SmaSpine3DEnv, SmaSpine3DVectorEnv, SmaSpineChainEnv, SmaSpineChainVectorEnv
 from .spine_env import SmaSpineEnv
 from .task import LoadSchedule, TargetProfile, TipForceEvent
+from .task_spatial import BendTarget, ChainTarget
 from .vector_env import SmaSpineVectorEnv
 
 __all__ = [
     "ENV_ID",
+    "ENV_ID_3D",
+    "ENV_ID_CHAIN",
     "SmaSpineEnv",
     "SmaSpineVectorEnv",
+    "SmaSpine3DEnv",
+    "SmaSpine3DVectorEnv",
+    "SmaSpineChainEnv",
+    "SmaSpineChainVectorEnv",
+    "BendTarget",
+    "ChainTarget",
     "TargetProfile",
     "LoadSchedule",
     "TipForceEvent",
@@ -31,12 +45,20 @@ __all__ = [
 ]
 
 ENV_ID = "SmaSpine-v0"
+ENV_ID_3D = "SmaSpine3D-v0"
+ENV_ID_CHAIN = "SmaSpineChain-v0"
 MAX_EPISODE_STEPS = 600  # default episode_duration / control_period = 60 s / 0.1 s
 
-if ENV_ID not in registry:
-    register(
-        id=ENV_ID,
-        entry_point="spine_gym.envs.spine_env:SmaSpineEnv",
-        vector_entry_point="spine_gym.envs.vector_env:SmaSpineVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-    )
+_ENTRY_POINTS = {
+    ENV_ID: ("spine_env:SmaSpineEnv", "vector_env:SmaSpineVectorEnv"),
+    ENV_ID_3D: ("spatial_env:SmaSpine3DEnv", "spatial_env:SmaSpine3DVectorEnv"),
+    ENV_ID_CHAIN: ("spatial_env:SmaSpineChainEnv", "spatial_env:SmaSpineChainVectorEnv"),
+}
+for _id, (_single, _vector) in _ENTRY_POINTS.items():
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point=f"spine_gym.envs.{_single}",
+            vector_entry_point=f"spine_gym.envs.{_vector}",
+            max_episode_steps=MAX_EPISODE_STEPS,
+        )

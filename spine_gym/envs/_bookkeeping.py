@@ -1,20 +1,25 @@
 """Jitted bookkeeping of one env step: sensors, observation, reward, info (no physics here).
 
-After :func:`spine_gym.physics.env_kernels.step_many` has advanced the spines and written
-:func:`spine_gym.physics.batch.record` rows, :func:`finish_rows` turns each row into what the
-environment returns: unit conversions (rad -> deg, resistivity -> Ohm), the step's electrical energy
-from the model's Joule-heat accumulators, the sensor delay line plus the noise drawn in Python,
-the observation vector (clipped to its bounds), the reward terms, the over-temperature cost and
-the termination/truncation flags. It runs for the single env (one row) and the vector env (all
-rows) alike, so both return the same numbers; doing it in one jitted call instead of ~40 small
-NumPy operations keeps the per-step Python cost of the single env low.
+After the plant's step kernel (:func:`spine_gym.physics.env_kernels.step_many` for the planar
+spine, :func:`~spine_gym.physics.env_kernels.step_many_spatial` for the spatial ones) has advanced
+the spines and recorded them, a probe (:func:`planar_probe`, :func:`spatial_probe`) converts each
+record into the common probe row (degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns
+it into what the environment returns: the step's electrical energy from the model's Joule-heat
+accumulators, the sensor delay line plus the noise drawn in Python, the step row of the env's
+declarative table (:mod:`spine_gym.envs.table`: which quantity goes to which column and which are
+observed comes in as integer maps), the observation (clipped to its bounds), the reward terms, the
+over-temperature cost and the termination/truncation flags. The same code runs for every env id,
+for the single env (one row) and the vector env (all rows), so both return the same numbers;
+doing it in one jitted call instead of ~40 small NumPy operations keeps the per-step Python cost
+of the single env low.
 
-The formulas are documented in :class:`spine_gym.envs.SmaSpineEnv` (Observation space, Rewards).
+The formulas are documented in the env classes (Observation space, Rewards).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -22,173 +27,260 @@ from ..physics._jit import jit
 from ..physics.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
 from ..physics.layout import OK, X_QJL, X_QJR, X_TL, X_TR
 
-# columns of the info matrix written by finish_rows (pairs are adjacent so that they slice)
-(
-    I_VOLT_R,
-    I_VOLT_L,
-    I_POWER_R,
-    I_POWER_L,
-    I_TEMP_R,
-    I_TEMP_L,
-    I_RES_R,
-    I_RES_L,
-    I_FORCE_X,
-    I_FORCE_Y,
-    I_ANGLE,
-    I_TARGET,
-    I_ERROR,
-    I_ENERGY,
-    I_COST,
-    I_TIME,
-    I_REWARD,
-    I_R_TRACK,
-    I_R_ENERGY,
-    N_INFO,
-) = range(20)
-N_CHANNELS = 5  # sensor channels: angle [deg], T_R, T_L [K], R_R, R_L [Ohm]
-# scalar settings passed as one float array
+# scalar settings passed as one float array (Spec.settings)
 S_PERIOD, S_ERROR_SCALE, S_ENERGY_COEF, S_COST_WEIGHT, S_T_LIMIT, N_SETTINGS = range(6)
 
 
-@jit
-def channels(meas_row, ohm_per_resistivity, out):
-    """True sensor channels of a ``batch.record`` row: angle [deg], T_R, T_L [K], R_R, R_L [Ohm]."""
-    out[0] = meas_row[OUT_ANGLE] * (180.0 / math.pi)
-    out[1] = meas_row[X_TR]
-    out[2] = meas_row[X_TL]
-    out[3] = meas_row[OUT_RES_R] * ohm_per_resistivity
-    out[4] = meas_row[OUT_RES_L] * ohm_per_resistivity
+# ====================================================================== the table-driven writer
+# One writer for every env (SmaSpine-v0, SmaSpine3D-v0, SmaSpineChain-v0): which quantity goes to
+# which column, what is observed and what is a sensor channel comes from the env's declarative
+# table (spine_gym.envs.table), passed in as the integer maps of ``Spec``.
+
+# ids of the physics readings in the probe row (their columns: Spec.probe_cols[id]); the probe row
+# of every env is [tip bending (2) deg | tip position (3) mm | module bending (2K) deg |
+# temperature (W) K | resistance (W) Ohm | cumulative Joule heat of each wire group (W) J]
+PB_TIPB, PB_TIPP, PB_MODB, PB_TEMP, PB_RES, PB_JOULE, N_PB = range(7)
+# ids of the step quantities (their row columns: Spec.qcol[id], -1 if the env has none)
+(
+    Q_VOLT,  # (W) applied voltage [V]
+    Q_POWER,  # (W) mean electrical power of the step [W]
+    Q_ACTION,  # (W) the clipped action of the step (the "previous action" of the next one)
+    Q_FORCE,  # (F) force on the top disk over the step [N]
+    Q_TARGET,  # (d) target of the tracked entry at the end of the step
+    Q_PREVIEW,  # (d) target preview_steps later
+    Q_ERROR,  # (d) target − true tracked entry
+    Q_RATE,  # (d) difference quotient of the measured tracked entry
+    Q_ENERGY,  # electrical energy of the step [J]
+    Q_COST,  # Σ over wires of max(0, T − T_limit) [K]
+    Q_TIME,  # [s]
+    Q_REWARD,
+    Q_R_TRACK,
+    Q_R_ENERGY,
+    N_Q,
+) = range(15)
+C_PREVIEW, C_MAX_STEPS, N_COUNTS = range(3)  # integer settings (Spec.counts)
+
+# the per-environment memory the writer updates (rows of (B, ...) arrays; part of a snapshot)
+Memory = namedtuple("Memory", ["k", "joule", "hist", "prev_task", "prev_action"])
+# what the step produced: rows stepped, their physics readings, the applied inputs and the noise
+Step = namedtuple("Step", ["rows", "probe", "status", "actions", "volts", "loads", "targets", "noise"])
+# the env's maps (from its table) and settings
+Spec = namedtuple(
+    "Spec",
+    ["qcol", "probe_cols", "chan_src", "chan_dst", "obs_cols", "task", "low", "high", "settings", "counts"],
+)
+# outputs: observations (n, OBS_DIM) float32, true step rows (n, width), flags (n,)
+Out = namedtuple("Out", ["obs", "row", "terminated", "truncated"])
 
 
 @jit
-def assemble(obs_row, measured, rate, target, preview, prev_r, prev_l, low, high):
-    """Observation entries (layout of ``core.OBS_NAMES``), clipped to [low, high]."""
-    obs_row[0] = measured[0]
-    obs_row[1] = target
-    obs_row[2] = measured[1]
-    obs_row[3] = measured[2]
-    obs_row[4] = rate
-    obs_row[5] = preview
-    obs_row[6] = prev_r
-    obs_row[7] = prev_l
-    obs_row[8] = measured[3]
-    obs_row[9] = measured[4]
-    for q in range(obs_row.shape[0]):
-        v = obs_row[q]
-        if v < low[q]:
-            v = low[q]
-        elif v > high[q]:
-            v = high[q]
-        obs_row[q] = v
+def _put(row, col, value):
+    if col >= 0:
+        row[col] = value
 
 
 @jit
-def finish_rows(
-    rows,
-    meas,
-    k,
-    joule,
-    side_volume,
-    ohm_per_resistivity,
-    hist,
-    noise,
-    prev_measured_angle,
-    prev_action,
-    actions,
-    volts,
-    loads,
-    status,
-    targets,
-    preview_steps,
-    max_steps,
-    low,
-    high,
-    settings,
-    obs_out,
-    info_out,
-    terminated,
-    truncated,
-):
-    """Bookkeeping of the step just taken by the spines ``rows`` (updates the per-env memory).
+def _sensors(j, i, step, mem, spec, fresh, true, measured):
+    """True channels from the probe row -> delay line -> measured = oldest + noise."""
+    p = step.probe[i]
+    delay = mem.hist.shape[1] - 1
+    nc = spec.chan_src.shape[0]
+    for c in range(nc):
+        true[c] = p[spec.chan_src[c]]
+    if fresh:  # the sensors read the initial state before t = 0
+        for q in range(delay + 1):
+            for c in range(nc):
+                mem.hist[i, q, c] = true[c]
+    else:
+        for q in range(delay):
+            for c in range(nc):
+                mem.hist[i, q, c] = mem.hist[i, q + 1, c]
+        for c in range(nc):
+            mem.hist[i, delay, c] = true[c]
+    for c in range(nc):
+        measured[c] = mem.hist[i, 0, c] + step.noise[j, c]
+
+
+@jit
+def _energy(i, step, mem, spec, fresh, row, period):
+    """Electrical energy of the step from the model's cumulative Joule heat; per-wire power."""
+    p = step.probe[i]
+    jc = spec.probe_cols[PB_JOULE]
+    pc = spec.qcol[Q_POWER]
+    energy = 0.0
+    for w in range(mem.joule.shape[1]):
+        if fresh:
+            mem.joule[i, w] = p[jc + w]
+        e = p[jc + w] - mem.joule[i, w]
+        mem.joule[i, w] = p[jc + w]
+        energy += e
+        if pc >= 0:
+            row[pc + w] = e / period
+    return energy
+
+
+@jit
+def _tracking(i, kk, step, spec, row):
+    """Target, preview and error of the tracked entry; returns |error| (Euclidean)."""
+    last = step.targets.shape[1] - 1
+    tcol, d = spec.task[0], spec.task[2]
+    k0 = min(kk, last)
+    k1 = min(kk + spec.counts[C_PREVIEW], last)
+    sq = 0.0
+    e0 = 0.0
+    for q in range(d):
+        target = step.targets[i, k0, q]
+        e = target - row[tcol + q]
+        if q == 0:
+            e0 = e
+        sq += e * e
+        if spec.qcol[Q_TARGET] >= 0:
+            row[spec.qcol[Q_TARGET] + q] = target
+        if spec.qcol[Q_PREVIEW] >= 0:
+            row[spec.qcol[Q_PREVIEW] + q] = step.targets[i, k1, q]
+        if spec.qcol[Q_ERROR] >= 0:
+            row[spec.qcol[Q_ERROR] + q] = e
+    return abs(e0) if d == 1 else math.sqrt(sq)
+
+
+@jit
+def finish_rows(step, mem, spec, out, fresh):
+    """Bookkeeping of the spines ``step.rows`` after a step (or at reset if ``fresh``).
+
+    For each row: the step counter, the electrical energy of the step (from the model's Joule
+    accumulators), the sensor channels through the delay line plus the noise drawn in Python, the
+    step row of the env's table (true values), its measured copy (sensor columns measured, the
+    rate from the measured tracked entry), the observation gathered from the measured copy and
+    clipped to its bounds, the reward on the true state, the cost and the episode flags.
+    ``fresh``: the episode starts (k = 0, no energy, zero reward terms and voltages, rate 0).
 
     Args:
-        rows: (n,) int64 indices of the environments that stepped.
-        meas: (B, OUT_SIZE) ``batch.record`` rows after the step.
-        k: (B,) steps taken in the episode, incremented here.
-        joule: (B, 2) cumulative Joule heat of each side at the last step [J], updated.
-        side_volume: (B,) wire volume of one side [m^3]; ohm_per_resistivity: (B,) L0/A_w [1/m].
-        hist: (B, delay + 1, N_CHANNELS) true channels, oldest first, shifted here.
-        noise: (n, N_CHANNELS) sensor noise of this step (zeros when off).
-        prev_measured_angle: (B,) measured angle of the last step [deg], updated.
-        prev_action: (B, 2) last clipped action, updated; actions: (B, 2) clipped actions.
-        volts: (B, 2) applied voltages [V]; loads: (B, N, 2) vertex forces of the step [N].
-        status: (B,) status of the step; targets: (B, n_grid) θ*(t_k) [deg].
-        preview_steps, max_steps: look-ahead of the preview entry, truncation step count.
-        low, high: observation bounds; settings: S_* scalars.
-        obs_out: (n, OBS_DIM) float32 out; info_out: (n, N_INFO) out (I_* columns);
-        terminated, truncated: (n,) bool out.
+        step: :data:`Step` (``actions``, ``volts`` (B, W); ``loads`` (B, N, F); ``targets``
+            (B, n_grid, d); ``noise`` (n, C); ``probe`` (B, probe width); ``status`` (B,)).
+        mem: :data:`Memory`, updated in place.
+        spec: :data:`Spec` of the env's table.
+        out: :data:`Out`, written.
     """
-    period = settings[S_PERIOD]
-    last = targets.shape[1] - 1
-    delay = hist.shape[1] - 1
-    true = np.empty(N_CHANNELS)
-    measured = np.empty(N_CHANNELS)
-    obs = np.empty(obs_out.shape[1])
+    st = spec.settings
+    period = st[S_PERIOD]
+    qc = spec.qcol
+    tchan, d = spec.task[1], spec.task[2]
+    nc = spec.chan_src.shape[0]
+    nw = mem.joule.shape[1]
+    true = np.empty(nc)
+    measured = np.empty(nc)
+    meas_row = np.empty(out.row.shape[1])
+    for j in range(step.rows.shape[0]):
+        i = step.rows[j]
+        if fresh:
+            mem.k[i] = 0
+        else:
+            mem.k[i] += 1
+        kk = mem.k[i]
+        row = out.row[j]
+        energy = _energy(i, step, mem, spec, fresh, row, period)
+        _sensors(j, i, step, mem, spec, fresh, true, measured)
+        for c in range(nc):
+            row[spec.chan_dst[c]] = true[c]
+        err = _tracking(i, kk, step, spec, row)
+        # cost on the true temperatures
+        tc = spec.probe_cols[PB_TEMP]
+        cost = 0.0
+        for w in range(nw):
+            cost += max(step.probe[i, tc + w] - st[S_T_LIMIT], 0.0)
+        for w in range(nw):
+            mem.prev_action[i, w] = step.actions[i, w]
+            if qc[Q_ACTION] >= 0:
+                row[qc[Q_ACTION] + w] = step.actions[i, w]
+            if qc[Q_VOLT] >= 0:
+                row[qc[Q_VOLT] + w] = 0.0 if fresh else step.volts[i, w]
+        if qc[Q_FORCE] >= 0:
+            for q in range(step.loads.shape[2]):
+                row[qc[Q_FORCE] + q] = step.loads[i, 0, q]
+        if fresh:
+            r_track = 0.0
+            r_energy = 0.0
+            reward = 0.0
+        else:
+            r_track = -err / st[S_ERROR_SCALE]
+            r_energy = -st[S_ENERGY_COEF] * energy
+            reward = r_track + r_energy - st[S_COST_WEIGHT] * cost
+        _put(row, qc[Q_ENERGY], energy)
+        _put(row, qc[Q_COST], cost)
+        _put(row, qc[Q_TIME], kk * period)
+        _put(row, qc[Q_REWARD], reward)
+        _put(row, qc[Q_R_TRACK], r_track)
+        _put(row, qc[Q_R_ENERGY], r_energy)
+        # the measured copy: sensor columns as measured, rate from the measured tracked entry
+        for q in range(row.shape[0]):
+            meas_row[q] = row[q]
+        for c in range(nc):
+            meas_row[spec.chan_dst[c]] = measured[c]
+        for q in range(d):
+            m = measured[tchan + q]
+            rate = 0.0 if fresh else (m - mem.prev_task[i, q]) / period
+            mem.prev_task[i, q] = m
+            if qc[Q_RATE] >= 0:
+                row[qc[Q_RATE] + q] = rate
+                meas_row[qc[Q_RATE] + q] = rate
+        for q in range(spec.obs_cols.shape[0]):
+            v = meas_row[spec.obs_cols[q]]
+            if v < spec.low[q]:
+                v = spec.low[q]
+            elif v > spec.high[q]:
+                v = spec.high[q]
+            out.obs[j, q] = v
+        ok = step.status[i] == OK
+        out.terminated[j] = not fresh and not ok
+        out.truncated[j] = not fresh and kk >= spec.counts[C_MAX_STEPS] and ok
+
+
+@jit
+def planar_probe(rows, meas, ohm, vol, probe_cols, probe):
+    """Probe rows of planar spines from their ``batch.record`` rows (``ohm`` (B, 2) L0/A_w [1/m],
+    ``vol`` (B, 2) wire volume of each side [m^3]); tip position and module bending stay 0."""
+    tb, te, rs, jl = probe_cols[PB_TIPB], probe_cols[PB_TEMP], probe_cols[PB_RES], probe_cols[PB_JOULE]
     for j in range(rows.shape[0]):
         i = rows[j]
-        k[i] += 1
-        kk = k[i]
         m = meas[i]
-        # electrical energy of the step from the model's Joule-heat accumulators
-        jr = m[X_QJR] * side_volume[i]
-        jl = m[X_QJL] * side_volume[i]
-        e_r = jr - joule[i, 0]
-        e_l = jl - joule[i, 1]
-        joule[i, 0] = jr
-        joule[i, 1] = jl
-        energy = e_r + e_l
-        # sensors: true channels -> delay line -> noise
-        channels(m, ohm_per_resistivity[i], true)
-        for q in range(delay):
-            for c in range(N_CHANNELS):
-                hist[i, q, c] = hist[i, q + 1, c]
-        for c in range(N_CHANNELS):
-            hist[i, delay, c] = true[c]
-            measured[c] = hist[i, 0, c] + noise[j, c]
-        rate = (measured[0] - prev_measured_angle[i]) / period
-        prev_measured_angle[i] = measured[0]
-        prev_action[i, 0] = actions[i, 0]
-        prev_action[i, 1] = actions[i, 1]
-        target = targets[i, min(kk, last)]
-        preview = targets[i, min(kk + preview_steps, last)]
-        assemble(obs, measured, rate, target, preview, actions[i, 0], actions[i, 1], low, high)
-        for q in range(obs.shape[0]):
-            obs_out[j, q] = obs[q]
-        # reward on the true state
-        error = target - true[0]
-        cost = max(true[1] - settings[S_T_LIMIT], 0.0) + max(true[2] - settings[S_T_LIMIT], 0.0)
-        r_track = -abs(error) / settings[S_ERROR_SCALE]
-        r_energy = -settings[S_ENERGY_COEF] * energy
-        reward = r_track + r_energy - settings[S_COST_WEIGHT] * cost
-        row = info_out[j]
-        row[I_VOLT_R] = volts[i, 0]
-        row[I_VOLT_L] = volts[i, 1]
-        row[I_POWER_R] = e_r / period
-        row[I_POWER_L] = e_l / period
-        row[I_TEMP_R] = true[1]
-        row[I_TEMP_L] = true[2]
-        row[I_RES_R] = true[3]
-        row[I_RES_L] = true[4]
-        row[I_FORCE_X] = loads[i, 0, 0]
-        row[I_FORCE_Y] = loads[i, 0, 1]
-        row[I_ANGLE] = true[0]
-        row[I_TARGET] = target
-        row[I_ERROR] = error
-        row[I_ENERGY] = energy
-        row[I_COST] = cost
-        row[I_TIME] = kk * period
-        row[I_REWARD] = reward
-        row[I_R_TRACK] = r_track
-        row[I_R_ENERGY] = r_energy
-        terminated[j] = status[i] != OK
-        truncated[j] = kk >= max_steps and status[i] == OK
+        p = probe[i]
+        p[tb] = m[OUT_ANGLE] * (180.0 / math.pi)
+        p[te] = m[X_TR]
+        p[te + 1] = m[X_TL]
+        p[rs] = m[OUT_RES_R] * ohm[i, 0]
+        p[rs + 1] = m[OUT_RES_L] * ohm[i, 1]
+        p[jl] = m[X_QJR] * vol[i, 0]
+        p[jl + 1] = m[X_QJL] * vol[i, 1]
+
+
+# columns of a spatial_solver.record row the probe reads (SpatialPlant.record_cols)
+R_MODB, R_TIPB, R_TIPP, R_RHO, R_TEMP, R_QJ, N_R = range(7)
+
+
+@jit
+def spatial_probe(rows, rec, record_cols, ohm, vol, probe_cols, probe):
+    """Probe rows of spatial spines from their ``spatial_solver.record`` rows (``ohm`` (B, W)
+    L0/A_w of each wire [1/m], ``vol`` (B, W) wire volume of each group [m^3])."""
+    deg = 180.0 / math.pi
+    nmb = probe_cols[PB_TEMP] - probe_cols[PB_MODB]
+    nw = ohm.shape[1]
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        r = rec[i]
+        p = probe[i]
+        for q in range(2):
+            p[probe_cols[PB_TIPB] + q] = r[record_cols[R_TIPB] + q] * deg
+        for q in range(3):
+            p[probe_cols[PB_TIPP] + q] = r[record_cols[R_TIPP] + q] * 1000.0
+        for q in range(nmb):
+            p[probe_cols[PB_MODB] + q] = r[record_cols[R_MODB] + q] * deg
+        for w in range(nw):
+            p[probe_cols[PB_TEMP] + w] = r[record_cols[R_TEMP] + w]
+            p[probe_cols[PB_RES] + w] = r[record_cols[R_RHO] + w] * ohm[i, w]
+            p[probe_cols[PB_JOULE] + w] = r[record_cols[R_QJ] + w] * vol[i, w]
+
+
+def probe_cols(n_wires: int, n_modules: int) -> np.ndarray:
+    """Columns of the PB_* blocks in the probe row of a spine with W wire groups and K modules."""
+    sizes = (2, 3, 2 * n_modules, n_wires, n_wires, n_wires)
+    return np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)

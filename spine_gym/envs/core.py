@@ -1,12 +1,12 @@
-"""The functional core shared by :class:`SmaSpineEnv` and :class:`SmaSpineVectorEnv`.
+"""Configuration and conventions shared by every env of spine_gym, and ``SmaSpine-v0``'s table.
 
-:class:`EnvConfig` holds the validated constructor arguments; :class:`SpineBatch` holds B spines
-and implements reset (per environment, with that environment's random generator) and step (all
-environments at once: one jitted call of :func:`spine_gym.physics.env_kernels.step_many`, then
-observations, rewards and infos as array operations). The single env is a batch of one, so the
-single and the vector env run the same code and give the same numbers (the vector-equivalence
-test checks this bit for bit). The physics (MODEL.md) lives only in ``spine_gym.physics``; this
-module converts units and does bookkeeping.
+:class:`BaseEnvConfig` holds and validates the arguments all envs share (voltages, periods, loads,
+domain randomisation, sensors, reward weights); :class:`EnvConfig` adds ``SmaSpine-v0``'s task
+and its declarative observation/info table (:meth:`EnvConfig.table`, see :mod:`.table`); the
+spatial envs' configurations are in :mod:`.spatial`. :class:`SpineSnapshot` is the full state of
+one env (``snapshot()`` / ``restore()``). The batch that runs every env is
+:class:`.table_batch.TableBatch` (planar plant: :class:`.planar.PlanarBatch`). The physics
+(MODEL.md, SPATIAL.md) lives only in ``spine_gym.physics``.
 """
 
 from __future__ import annotations
@@ -14,23 +14,22 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..params import ModelParams, SolverOptions, field_names
-from ..physics import batch, env_kernels
 from ..physics import layout as L
-from ..physics.solver import init_state
 from ..uncertainty import ParameterUncertainty
-from . import _bookkeeping as bk
+from .table import Entry, Table
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
 __all__ = [
+    "BaseEnvConfig",
     "EnvConfig",
-    "SpineBatch",
+    "planar_obs_index",
     "OBS_NAMES",
     "OBS_UNITS",
     "default_randomization",
@@ -42,42 +41,13 @@ __all__ = [
     "status_texts",
 ]
 
-# observation layout (indices 0..3 are fixed by the env contract)
-(
-    OBS_ANGLE,
-    OBS_TARGET,
-    OBS_TEMP_R,
-    OBS_TEMP_L,
-    OBS_RATE,
-    OBS_PREVIEW,
-    OBS_PREV_R,
-    OBS_PREV_L,
-    OBS_RES_R,
-    OBS_RES_L,
-    OBS_DIM,
-) = range(11)
-OBS_NAMES = (
-    "angle",
-    "target",
-    "temperature_right",
-    "temperature_left",
-    "angle_rate",
-    "target_preview",
-    "previous_action_right",
-    "previous_action_left",
-    "resistance_right",
-    "resistance_left",
-)
-OBS_UNITS = ("deg", "deg", "K", "K", "deg/s", "deg", "-", "-", "Ohm", "Ohm")
-
 ANGLE_OBS_LIMIT = 180.0  # [deg] bound of the angle entry
 RATE_OBS_LIMIT = 1000.0  # [deg/s] bound of the angle-rate entry
 TEMP_OBS_HIGH = 2000.0  # [K] = the kernel's temperature sanity bound (layout.K_TMAX)
 TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at full transformation)
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
-N_CHANNELS = bk.N_CHANNELS  # measured channels: angle, T_R, T_L, R_R, R_L
 RESET_OPTION_KEYS = ("target", "loads", "params")
-# the env attributes held in SpineBatch.episodes[i], in that order
+# the env attributes held in TableBatch.episodes[i], in that order
 EPISODE_ATTRS = ("target_profile", "load_schedule", "model_params")
 
 # default domain randomisation: field -> ("scale" | "shift", low, high) about the nominal value
@@ -169,16 +139,15 @@ def validate_actions(actions, shape: tuple[int, ...]) -> np.ndarray:
 
 # ---------------------------------------------------------------- configuration
 @dataclass(frozen=True)
-class EnvConfig:
-    """Validated arguments of ``SmaSpine-v0`` (see :class:`spine_gym.envs.SmaSpineEnv` for meanings)."""
+class BaseEnvConfig:
+    """Validated arguments every env of spine_gym shares (the task's own are in the subclasses)."""
+
+    NOISE_KEYS = ("angle", "temperature", "resistance")  # sensor_noise keys (units in the env docs)
 
     v_max: float = 5.0
     control_period: float = 0.1
     physics_dt: float = 0.01
     episode_duration: float = 60.0
-    target_range: tuple[float, float] = (-45.0, 45.0)
-    target_kinds: tuple[str, ...] = TARGET_KINDS
-    sine_period_range: tuple[float, float] = (20.0, 60.0)
     target_preview: float = 1.0
     tip_force_range: tuple[float, float] | None = (0.0, 0.5)
     tip_force_count: tuple[int, int] = (0, 2)
@@ -225,18 +194,7 @@ class EnvConfig:
             _real("episode_duration", self.episode_duration, self.control_period, 86400.0),
         )
         _multiple("episode_duration", self.episode_duration, self.control_period, "control_period")
-        s(self, "target_range", _pair("target_range", self.target_range, -TARGET_REACH, TARGET_REACH))
-        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
-        if not kinds or any(k not in TARGET_KINDS for k in kinds):
-            raise ValueError(
-                f"target_kinds must be a non-empty subset of {TARGET_KINDS}, got {self.target_kinds!r}"
-            )
-        s(self, "target_kinds", kinds)
-        s(
-            self,
-            "sine_period_range",
-            _pair("sine_period_range", self.sine_period_range, 2.0 * self.control_period, 1e6),
-        )
+        self._check_task()
         s(self, "target_preview", _real("target_preview", self.target_preview, 0.0, 600.0))
         s(self, "tip_force_range", _pair("tip_force_range", self.tip_force_range, 0.0, 20.0, allow_none=True))
         s(self, "tip_force_count", _pair("tip_force_count", self.tip_force_count, 0, 100, integer=True))
@@ -245,7 +203,7 @@ class EnvConfig:
             raise ValueError(f"tip_force_duration must be > 0 s, got {self.tip_force_duration!r}")
         s(self, "payload_range", _pair("payload_range", self.payload_range, 0.0, 1.0, allow_none=True))
         s(self, "domain_randomization", self._check_dr(self.domain_randomization, params))
-        s(self, "sensor_noise", self._check_noise(self.sensor_noise))
+        s(self, "sensor_noise", self._check_noise(self.sensor_noise, self.NOISE_KEYS))
         s(self, "sensor_delay", _int("sensor_delay", self.sensor_delay, 0, 1000))
         s(
             self,
@@ -255,6 +213,14 @@ class EnvConfig:
         s(self, "error_scale", _real("error_scale", self.error_scale, 0.0, 1e6, lo_open=True))
         s(self, "energy_weight", _real("energy_weight", self.energy_weight, 0.0, 1e6))
         s(self, "cost_weight", _real("cost_weight", self.cost_weight, 0.0, 1e6))
+
+    def _check_task(self) -> None:
+        """Validate the task's own fields (subclasses)."""
+
+    @property
+    def noise_sigma(self) -> dict[str, float]:
+        """``sensor_noise`` as {key: standard deviation} over :attr:`NOISE_KEYS` (0 = off)."""
+        return dict(zip(self.NOISE_KEYS, self.sensor_noise, strict=True))
 
     @staticmethod
     def _check_dr(value, params: ModelParams) -> tuple[tuple[str, float, float], ...]:
@@ -288,14 +254,13 @@ class EnvConfig:
         return tuple(out)
 
     @staticmethod
-    def _check_noise(value) -> tuple[float, float, float]:
+    def _check_noise(value, keys: tuple[str, ...]) -> tuple[float, ...]:
         if value is None or value is False:
-            return (0.0, 0.0, 0.0)
-        keys = ("angle", "temperature", "resistance")
+            return (0.0,) * len(keys)
         if not isinstance(value, Mapping) or set(value) - set(keys):
             raise ValueError(
-                f"sensor_noise must be None or a dict with keys among {keys} (standard deviations in "
-                f"deg, K, Ohm), got {value!r}"
+                f"sensor_noise must be None or a dict with keys among {keys} (standard deviations, "
+                f"units in the env's documentation), got {value!r}"
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
 
@@ -314,6 +279,30 @@ class EnvConfig:
     def preview_steps(self) -> int:
         """Control periods between the current target and the preview target."""
         return int(round(self.target_preview / self.control_period))
+
+
+@dataclass(frozen=True)
+class EnvConfig(BaseEnvConfig):
+    """Validated arguments of ``SmaSpine-v0`` (see :class:`spine_gym.envs.SmaSpineEnv` for meanings)."""
+
+    target_range: tuple[float, float] = (-45.0, 45.0)
+    target_kinds: tuple[str, ...] = TARGET_KINDS
+    sine_period_range: tuple[float, float] = (20.0, 60.0)
+
+    def _check_task(self) -> None:
+        s = object.__setattr__
+        s(self, "target_range", _pair("target_range", self.target_range, -TARGET_REACH, TARGET_REACH))
+        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
+        if not kinds or any(k not in TARGET_KINDS for k in kinds):
+            raise ValueError(
+                f"target_kinds must be a non-empty subset of {TARGET_KINDS}, got {self.target_kinds!r}"
+            )
+        s(self, "target_kinds", kinds)
+        s(
+            self,
+            "sine_period_range",
+            _pair("sine_period_range", self.sine_period_range, 2.0 * self.control_period, 1e6),
+        )
 
     @property
     def energy_reference(self) -> float:
@@ -335,83 +324,115 @@ class EnvConfig:
         r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.sensor_noise[2])
 
-    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(low, high) of the observation entries, float32."""
-        low = np.zeros(OBS_DIM, dtype=np.float32)
-        high = np.zeros(OBS_DIM, dtype=np.float32)
-        low[[OBS_ANGLE]], high[[OBS_ANGLE]] = -ANGLE_OBS_LIMIT, ANGLE_OBS_LIMIT
-        low[[OBS_TARGET, OBS_PREVIEW]], high[[OBS_TARGET, OBS_PREVIEW]] = -ANGLE_LIMIT, ANGLE_LIMIT
-        low[[OBS_TEMP_R, OBS_TEMP_L]], high[[OBS_TEMP_R, OBS_TEMP_L]] = 0.0, TEMP_OBS_HIGH
-        low[OBS_RATE], high[OBS_RATE] = -RATE_OBS_LIMIT, RATE_OBS_LIMIT
-        low[[OBS_PREV_R, OBS_PREV_L]], high[[OBS_PREV_R, OBS_PREV_L]] = -1.0, 1.0
-        low[[OBS_RES_R, OBS_RES_L]], high[[OBS_RES_R, OBS_RES_L]] = 0.0, self.resistance_bound()
-        return low, high
+    # ------------------------------------------------------------------ the plant and the table
+    n_wires = 2  # right, left
+    n_modules = 1
+    force_dim = 2  # global (x, y)
 
+    @property
+    def n_seg(self) -> int:
+        return self.params.n_seg
 
-def parse_reset_options(options) -> dict[str, Any]:
-    """Validate ``reset(options=...)``: keys among :data:`RESET_OPTION_KEYS`, objects of the right type."""
-    if options is None:
-        return {}
-    if not isinstance(options, Mapping):
-        raise ValueError(f"options must be a dict with keys among {RESET_OPTION_KEYS}, got {options!r}")
-    unknown = set(options) - set(RESET_OPTION_KEYS)
-    if unknown:
-        raise ValueError(f"unknown reset option(s) {sorted(unknown)}; valid keys: {RESET_OPTION_KEYS}")
-    out = {}
-    target = options.get("target")
-    if target is not None:
-        if isinstance(target, int | float | np.number) and not isinstance(target, bool):
-            target = TargetProfile.constant(float(target))
-        if not isinstance(target, TargetProfile):
-            raise ValueError(f"options['target'] must be a TargetProfile or a number [deg], got {target!r}")
-        out["target"] = target
-    loads = options.get("loads")
-    if loads is not None:
-        if not isinstance(loads, LoadSchedule):
-            raise ValueError(f"options['loads'] must be a LoadSchedule, got {loads!r}")
-        out["loads"] = loads
-    params = options.get("params")
-    if params is not None:
-        if not isinstance(params, ModelParams):
-            raise ValueError(f"options['params'] must be a ModelParams, got {params!r}")
-        out["params"] = params
-    return out
+    @property
+    def volt_coef(self) -> float:
+        """Volts per unit of (action + 1)."""
+        return 0.5 * self.v_max
+
+    def table(self) -> Table:
+        """The declarative observation/info table of ``SmaSpine-v0`` (one place per entry)."""
+        lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
+        rl = ("right", "left")
+        entries = (
+            Entry(
+                "voltage", "voltage", "V", "applied voltage [right, left]", ("voltage_right", "voltage_left")
+            ),
+            Entry(
+                "angle_deg",
+                "angle",
+                "deg",
+                "bending angle θ (sum of segment angles)",
+                ("angle",),
+                (-ANGLE_OBS_LIMIT, ANGLE_OBS_LIMIT),
+                noise="angle",
+            ),
+            Entry("target_deg", "target", "deg", "current target θ*(t)", ("target",), lim),
+            Entry("tracking_error_deg", "error", "deg", "target − angle", ("tracking_error",)),
+            Entry("energy_J", "energy", "J", "electrical energy of the step (both sides)", ("energy",)),
+            Entry("power_W", "power", "W", "mean electrical power per side", ("power_right", "power_left")),
+            Entry("cost", "cost", "K", "Σ over both wires of max(0, T − temperature_limit)", ("cost",)),
+            Entry(
+                "temperature",
+                "temperature",
+                "K",
+                "wire temperature",
+                tuple(f"temperature_{w}" for w in rl),
+                (0.0, TEMP_OBS_HIGH),
+                noise="temperature",
+            ),
+            Entry(
+                "angle_rate",
+                "rate",
+                "deg/s",
+                "angle rate (difference of measured angles)",
+                ("angle_rate",),
+                (-RATE_OBS_LIMIT, RATE_OBS_LIMIT),
+                info=False,
+            ),
+            Entry(
+                "target_preview",
+                "preview",
+                "deg",
+                "target preview θ*(t + target_preview)",
+                ("target_preview",),
+                lim,
+                info=False,
+            ),
+            Entry(
+                "previous_action",
+                "action",
+                "-",
+                "previous action (after clipping)",
+                tuple(f"previous_action_{w}" for w in rl),
+                (-1.0, 1.0),
+                info=False,
+            ),
+            Entry(
+                "resistance",
+                "resistance",
+                "Ohm",
+                "wire resistance (one wire)",
+                tuple(f"resistance_{w}" for w in rl),
+                (0.0, self.resistance_bound()),
+                noise="resistance",
+            ),
+            Entry("time", "time", "s", "time at the end of the step", ("time",)),
+            Entry(
+                "tip_force",
+                "force",
+                "N",
+                "force on the top disk (events + payload weight), global x/y",
+                ("fx", "fy"),
+            ),
+            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
+            Entry("reward_tracking", "reward_tracking", "-", "−|e| / error_scale", ("reward_tracking",)),
+            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+        )
+        return Table(entries, "angle_deg", self.noise_sigma)
 
 
 # ---------------------------------------------------------------- snapshots
-# per-environment rows of SpineBatch that make up one environment's full state (one place)
-SNAPSHOT_ARRAYS = (
-    "states",  # model state vector (physics.layout)
-    "kps",  # the episode's (possibly randomised) constants
-    "loads",  # vertex forces of the last step
-    "meas",  # batch.record row of the last step
-    "status",
-    "targets",
-    "forces",
-    "resolve_plan",
-    "k",
-    "prev_action",
-    "hist",
-    "prev_measured_angle",
-    "joule",
-    "side_volume",
-    "ohm_per_resistivity",
-    "volts",
-)
-
-
 @dataclass(frozen=True, eq=False)
 class SpineSnapshot:
     """The full state of one environment: model state, episode data, bookkeeping and RNG.
 
-    Made by ``snapshot()`` of :class:`SpineBatch`, :class:`~spine_gym.envs.SmaSpineEnv` or
+    Made by ``snapshot()`` of :class:`~.table_batch.TableBatch`, :class:`~spine_gym.envs.SmaSpineEnv` or
     :class:`~spine_gym.envs.SmaSpineVectorEnv`; ``restore(snapshot)`` puts it back, after which the
     env continues bit for bit as it would have from the moment of the snapshot (tested). The arrays
     are private copies (read-only); a snapshot can be restored any number of times and into any
     env of the same configuration.
 
     Attributes:
-        arrays: name -> copy of the environment's row of each :data:`SNAPSHOT_ARRAYS` entry.
+        arrays: name -> copy of the environment's row of each array of ``TableBatch.snapshot_arrays``.
         episode: the episode's (TargetProfile, LoadSchedule, ModelParams).
         rng_state: ``bit_generator.state`` of the env's generator (sensor noise and later resets),
             or None if the batch alone was snapshotted.
@@ -443,330 +464,12 @@ class SpineSnapshot:
         return dataclasses.replace(self, rng_state=rng_state, extra={**self.extra, **extra})
 
 
-# ---------------------------------------------------------------- the batch of spines
-class SpineBatch:
-    """B spines with their episode data; the one implementation behind both environments.
+def make_renderer(cfg: BaseEnvConfig):
+    """The ``rgb_array`` renderer of an env (imported on the first ``render()``: ``import spine_gym``
+    stays free of matplotlib)."""
+    from . import render  # noqa: PLC0415  (matplotlib only when rendering)
 
-    Args:
-        cfg: validated configuration.
-        num_envs: B.
-        parallel: step with the ``prange`` kernel (else its serial twin).
-    """
-
-    def __init__(self, cfg: EnvConfig, num_envs: int, parallel: bool):
-        self.cfg = cfg
-        self.num_envs = b = int(num_envs)
-        self.parallel = bool(parallel)
-        p = cfg.params
-        n = p.n_seg
-        self.nominal_kp = p.to_kernel()
-        self.ks = cfg.solver.to_kernel()
-        self.states = np.zeros((b, L.state_size(n)))
-        self.backup = np.zeros_like(self.states)
-        self.kps = np.tile(self.nominal_kp, (b, 1))
-        self.loads = np.zeros((b, n, 2))
-        self.meas = np.zeros((b, batch.OUT_SIZE))
-        self.status = np.zeros(b, dtype=np.int64)
-        n_grid = cfg.n_steps + 1 + cfg.preview_steps
-        self.time_grid = np.arange(n_grid) * cfg.control_period  # [s] t_k = k Δt
-        self.targets = np.zeros((b, n_grid))  # [deg] θ*(t_k)
-        self.forces = np.zeros((b, cfg.n_steps, 2))  # [N] tip force + payload weight over step k
-        self.resolve_plan = np.zeros((b, cfg.n_steps), dtype=np.bool_)
-        self.k = np.zeros(b, dtype=np.int64)  # control steps taken in the episode
-        self.prev_action = np.full((b, 2), -1.0)
-        self.hist = np.zeros((b, cfg.sensor_delay + 1, N_CHANNELS))  # true channels, oldest first
-        self.prev_measured_angle = np.zeros(b)
-        self.joule = np.zeros((b, 2))  # [J] cumulative Joule heat of each side
-        self.side_volume = np.zeros(b)  # [m^3] wire volume of one side
-        self.ohm_per_resistivity = np.zeros(b)  # [1/m] L0 / A_w
-        self.episodes: list[tuple[TargetProfile, LoadSchedule, ModelParams] | None] = [None] * b
-        self.obs_low, self.obs_high = cfg.observation_bounds()
-        self.noise_sigma = np.array(
-            [
-                cfg.sensor_noise[0],
-                cfg.sensor_noise[1],
-                cfg.sensor_noise[1],
-                cfg.sensor_noise[2],
-                cfg.sensor_noise[2],
-            ]
-        )
-        self.noisy = bool(self.noise_sigma.any())
-        self.energy_ref = cfg.energy_reference
-        self.settings = np.zeros(bk.N_SETTINGS)
-        self.settings[bk.S_PERIOD] = cfg.control_period
-        self.settings[bk.S_ERROR_SCALE] = cfg.error_scale
-        self.settings[bk.S_ENERGY_COEF] = cfg.energy_weight / self.energy_ref
-        self.settings[bk.S_COST_WEIGHT] = cfg.cost_weight
-        self.settings[bk.S_T_LIMIT] = cfg.temperature_limit
-        self.max_steps = cfg.n_steps  # truncation (the vector env may lower it to max_episode_steps)
-        self.volts = np.zeros((b, 2))  # [V] applied over the last step
-        self._all = np.ones(b, dtype=np.bool_)
-        self._row_ids = np.arange(b)
-
-    # ------------------------------------------------------------------ reset
-    def reset_env(self, i: int, rng: np.random.Generator, options=None) -> np.ndarray:
-        """Start a new episode in environment ``i`` and return its first observation (float32).
-
-        The draws come from ``rng`` in this order: target profile, load schedule, randomised
-        parameters (each only if not pinned by ``options``), then the sensor noise.
-        """
-        cfg = self.cfg
-        opts = parse_reset_options(options)
-        target = opts.get("target")
-        if target is None:
-            target = TargetProfile.sample(
-                rng, cfg.episode_duration, cfg.target_range, cfg.target_kinds, cfg.sine_period_range
-            )
-        loads = opts.get("loads")
-        if loads is None:
-            loads = LoadSchedule.sample(
-                rng,
-                cfg.episode_duration,
-                cfg.tip_force_range,
-                cfg.tip_force_count,
-                cfg.tip_force_duration,
-                cfg.payload_range,
-            )
-        params = opts.get("params")
-        if params is None:
-            if isinstance(cfg.domain_randomization, ParameterUncertainty):
-                params = cfg.domain_randomization.draw(rng, cfg.params)
-                kp = params.to_kernel()
-            elif cfg.domain_randomization:
-                draws = {name: float(rng.uniform(lo, hi)) for name, lo, hi in cfg.domain_randomization}
-                try:
-                    params = cfg.params.replace(**draws)
-                except ValueError as e:
-                    raise ValueError(
-                        f"domain_randomization drew an invalid parameter set {draws}: {e}"
-                    ) from None
-                kp = params.to_kernel()
-            else:
-                params, kp = cfg.params, self.nominal_kp
-        else:
-            if params.n_seg != cfg.params.n_seg:
-                raise ValueError(
-                    f"options['params'].n_seg must equal the env's n_seg = {cfg.params.n_seg}, "
-                    f"got {params.n_seg}"
-                )
-            kp = params.to_kernel()
-        self.episodes[i] = (target, loads, params)
-        self.kps[i] = kp
-        self.targets[i] = target(self.time_grid)
-        weight = loads.payload_force(params.g)
-        self.forces[i] = loads.tip_force(self.time_grid[: cfg.n_steps]) + weight
-        plan = self.resolve_plan[i]
-        plan[0] = np.any(self.forces[i, 0] != weight)  # the initial state is solved under the payload only
-        plan[1:] = np.any(self.forces[i, 1:] != self.forces[i, :-1], axis=1)
-        vforce = np.zeros((params.n_seg, 2))
-        vforce[0] = weight
-        st = init_state(self.states[i], kp, self.ks, vforce)
-        if st != L.OK:
-            raise ValueError(
-                f"the initial state cannot be solved under a payload of {loads.payload:g} kg "
-                f"({L.STATUS_TEXT.get(st, st)}); use a lighter payload"
-            )
-        self.status[i] = L.OK
-        self.k[i] = 0
-        self.prev_action[i] = -1.0  # 0 V on both wires before the episode
-        self.side_volume[i] = params.wire_volume * params.n_w
-        self.ohm_per_resistivity[i] = params.L0 / params.wire_area
-        rows = np.array([i], dtype=np.int64)
-        env_kernels.record_many(self.states, self.kps, rows, self.meas)
-        m = self.meas[i]
-        self.joule[i] = (m[L.X_QJR] * self.side_volume[i], m[L.X_QJL] * self.side_volume[i])
-        true = np.empty(N_CHANNELS)
-        bk.channels(m, self.ohm_per_resistivity[i], true)
-        self.hist[i] = true  # the sensors read the initial state before t = 0
-        measured = true + (rng.normal(size=N_CHANNELS) * self.noise_sigma if self.noisy else 0.0)
-        self.prev_measured_angle[i] = measured[0]
-        obs = np.empty(OBS_DIM)
-        preview = self.targets[i, min(cfg.preview_steps, self.targets.shape[1] - 1)]
-        bk.assemble(obs, measured, 0.0, self.targets[i, 0], preview, -1.0, -1.0, self.obs_low, self.obs_high)
-        return obs.astype(np.float32)
-
-    def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        """Info arrays (the keys of :meth:`step`) of freshly reset environments ``rows``; no step
-        was taken, so voltage, power, energy and both reward terms are 0."""
-        n = rows.shape[0]
-        m = self.meas[rows]
-        angle = np.degrees(m[:, batch.OUT_ANGLE])
-        target = self.targets[rows, 0]
-        temps = m[:, [L.X_TR, L.X_TL]]
-        return {
-            "voltage": np.zeros((n, 2)),
-            "angle_deg": angle,
-            "target_deg": target,
-            "tracking_error_deg": target - angle,
-            "energy_J": np.zeros(n),
-            "power_W": np.zeros((n, 2)),
-            "cost": self._cost(temps),
-            "temperature": temps,
-            "resistance": m[:, [batch.OUT_RES_R, batch.OUT_RES_L]] * self.ohm_per_resistivity[rows, None],
-            "time": np.zeros(n),
-            "tip_force": self._weights(rows),
-            "status": np.zeros(n, dtype=np.int64),
-            "reward_tracking": np.zeros(n),
-            "reward_energy": np.zeros(n),
-        }
-
-    def _weights(self, rows):
-        out = np.zeros((rows.shape[0], 2))
-        for j, i in enumerate(rows):
-            _, loads, params = self.episodes[i]
-            out[j] = loads.payload_force(params.g)
-        return out
-
-    # ------------------------------------------------------------------ step
-    def step(
-        self, actions: np.ndarray, rngs: Sequence[np.random.Generator], active: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """Advance the active environments by one control period.
-
-        Args:
-            actions: (B, 2) finite float64 (validated by the caller), clipped here to [-1, 1].
-            rngs: per-environment generators (only used for sensor noise).
-            active: (B,) bool, environments to step (default all).
-
-        Returns:
-            ``(obs, reward, terminated, truncated, info)`` for the active rows only, in row order;
-            ``info`` is a dict of arrays with one row per active environment.
-        """
-        cfg = self.cfg
-        if active is None:
-            active = self._all
-            rows = self._row_ids
-        else:
-            rows = np.flatnonzero(active)
-        n = rows.shape[0]
-        a = np.clip(actions, -1.0, 1.0)
-        np.multiply(a + 1.0, 0.5 * cfg.v_max, out=self.volts)
-        k0 = self.k[rows]
-        kk = np.minimum(k0, cfg.n_steps - 1)
-        self.loads[rows, 0, :] = self.forces[rows, kk]
-        resolve = np.zeros(self.num_envs, dtype=np.bool_)
-        resolve[rows] = self.resolve_plan[rows, kk] & (k0 < cfg.n_steps)
-        kernel = env_kernels.step_many if self.parallel else env_kernels.step_many_serial
-        kernel(
-            self.states,
-            self.backup,
-            self.kps,
-            self.ks,
-            self.volts[:, 0],
-            self.volts[:, 1],
-            self.loads,
-            resolve,
-            active,
-            cfg.physics_dt,
-            cfg.n_sub,
-            self.status,
-            self.meas,
-        )
-        noise = np.zeros((n, N_CHANNELS))
-        if self.noisy:  # drawn per environment from its own generator, after the physics
-            for j, i in enumerate(rows):
-                noise[j] = rngs[i].normal(size=N_CHANNELS) * self.noise_sigma
-        obs = np.empty((n, OBS_DIM), dtype=np.float32)
-        info = np.empty((n, bk.N_INFO))
-        terminated = np.empty(n, dtype=np.bool_)
-        truncated = np.empty(n, dtype=np.bool_)
-        bk.finish_rows(
-            rows,
-            self.meas,
-            self.k,
-            self.joule,
-            self.side_volume,
-            self.ohm_per_resistivity,
-            self.hist,
-            noise,
-            self.prev_measured_angle,
-            self.prev_action,
-            a,
-            self.volts,
-            self.loads,
-            self.status,
-            self.targets,
-            cfg.preview_steps,
-            self.max_steps,
-            self.obs_low,
-            self.obs_high,
-            self.settings,
-            obs,
-            info,
-            terminated,
-            truncated,
-        )
-        out = {
-            "voltage": info[:, bk.I_VOLT_R : bk.I_VOLT_L + 1],
-            "angle_deg": info[:, bk.I_ANGLE],
-            "target_deg": info[:, bk.I_TARGET],
-            "tracking_error_deg": info[:, bk.I_ERROR],
-            "energy_J": info[:, bk.I_ENERGY],
-            "power_W": info[:, bk.I_POWER_R : bk.I_POWER_L + 1],
-            "cost": info[:, bk.I_COST],
-            "temperature": info[:, bk.I_TEMP_R : bk.I_TEMP_L + 1],
-            "resistance": info[:, bk.I_RES_R : bk.I_RES_L + 1],
-            "time": info[:, bk.I_TIME],
-            "tip_force": info[:, bk.I_FORCE_X : bk.I_FORCE_Y + 1],
-            "status": self.status[rows],
-            "reward_tracking": info[:, bk.I_R_TRACK],
-            "reward_energy": info[:, bk.I_R_ENERGY],
-        }
-        return obs, info[:, bk.I_REWARD], terminated, truncated, out
-
-    # ------------------------------------------------------------------ snapshot / restore
-    def snapshot(self, i: int) -> SpineSnapshot:
-        """Copy of environment ``i``'s full state (without its generator; the envs add that)."""
-        if self.episodes[i] is None:
-            raise RuntimeError("call reset() before snapshot()")
-        arrays = {}
-        for name in SNAPSHOT_ARRAYS:
-            row = np.array(getattr(self, name)[i], copy=True)
-            row.setflags(write=False)
-            arrays[name] = row
-        return SpineSnapshot(arrays=arrays, episode=self.episodes[i])
-
-    def restore(self, i: int, snap: SpineSnapshot) -> None:
-        """Put a :meth:`snapshot` back into environment ``i``; ValueError if it does not fit."""
-        if not isinstance(snap, SpineSnapshot):
-            raise ValueError(f"snapshot must be a SpineSnapshot, got {type(snap).__name__}")
-        missing = set(SNAPSHOT_ARRAYS) - set(snap.arrays)
-        if missing:
-            raise ValueError(f"snapshot lacks {sorted(missing)}")
-        for name in SNAPSHOT_ARRAYS:
-            dest = getattr(self, name)
-            src = np.asarray(snap.arrays[name])
-            if src.shape != dest.shape[1:]:
-                raise ValueError(
-                    f"snapshot does not fit this env: {name} has shape {src.shape}, the env's "
-                    f"{dest.shape[1:]} (different n_seg, episode length, preview or sensor delay)"
-                )
-        for name in SNAPSHOT_ARRAYS:
-            getattr(self, name)[i] = snap.arrays[name]
-        self.episodes[i] = snap.episode
-
-    # ------------------------------------------------------------------ helpers
-    def _cost(self, temps: np.ndarray) -> np.ndarray:
-        """Σ over both wires of max(0, T − temperature_limit) [K] (as ``_bookkeeping.finish_rows``)."""
-        over = np.maximum(temps - self.cfg.temperature_limit, 0.0)
-        return over[:, 0] + over[:, 1]
-
-    def state_summary(self, i: int) -> dict[str, Any]:
-        """What the renderer needs for environment ``i``."""
-        n = self.cfg.params.n_seg
-        target, loads, params = self.episodes[i]
-        k = int(self.k[i])
-        return {
-            "dth": self.states[i, L.X_HEAD : L.X_HEAD + n].copy(),
-            "kp": self.kps[i].copy(),
-            "temperature": (float(self.states[i, L.X_TR]), float(self.states[i, L.X_TL])),
-            "ambient": float(params.T_E),
-            "target_deg": float(self.targets[i, min(k, self.targets.shape[1] - 1)]),
-            "angle_deg": float(np.degrees(self.states[i, L.X_HEAD : L.X_HEAD + n].sum())),
-            "tip_force": self.forces[i, min(k, self.cfg.n_steps - 1)].copy(),
-            "time": k * self.cfg.control_period,
-            "voltage": (self.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,
-        }
+    return render.make_renderer(cfg)
 
 
 def status_text(code: int) -> str:
@@ -781,6 +484,19 @@ def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
 
 
-def config_fields() -> list[str]:
-    """Names of the env's keyword arguments held in :class:`EnvConfig`."""
-    return [f.name for f in dataclasses.fields(EnvConfig)]
+def config_fields(cls: type = EnvConfig) -> list[str]:
+    """Names of the env's keyword arguments held in its configuration class (default ``SmaSpine-v0``'s)."""
+    return [f.name for f in dataclasses.fields(cls)]
+
+
+# the planar observation layout, from its table (units and names of the default configuration)
+_PLANAR_TABLE = EnvConfig().table()
+OBS_NAMES = _PLANAR_TABLE.obs_names
+OBS_UNITS = tuple(e.unit for e in _PLANAR_TABLE.entries if e.obs is not None for _ in e.names)
+
+
+def planar_obs_index(key: str) -> int:
+    """Observation index of the first component of ``SmaSpine-v0``'s table entry ``key`` (e.g.
+    ``"angle_deg"``, ``"target_deg"``, ``"target_preview"``, ``"temperature"``, ``"previous_action"``,
+    ``"resistance"``); controllers derive their indices from it."""
+    return _PLANAR_TABLE.obs_index(key).start

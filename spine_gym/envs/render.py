@@ -24,7 +24,10 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from ..physics import layout as L
+from ..physics import spatial_layout as SL
+from ..physics.spatial_tube import kinematics, positions
 from ..physics.tube import vertices
+from .task_spatial import arc_positions
 
 FRAME_SIZE = (480, 480)  # [px] width, height
 CMAP = "coolwarm"  # wire colour: blue at ambient, red at the temperature limit
@@ -156,6 +159,100 @@ class SpineRenderer:
         canvas.restore_region(self._background)
         for a in self._dynamic:
             self._fig.draw_artist(a)
+        return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
+
+    def close(self):
+        self._fig = None
+
+
+def make_renderer(cfg):
+    """The renderer of an env configuration: :class:`SpineRenderer` (planar) or
+    :class:`SpatialRenderer` (``SmaSpine3D-v0``, ``SmaSpineChain-v0``)."""
+    if hasattr(cfg, "layout"):
+        return SpatialRenderer(cfg.temperature_limit)
+    return SpineRenderer(cfg.temperature_limit)
+
+
+class SpatialRenderer:
+    """Frames of a spatial spine: two orthogonal views (x-z left, y-z right) of the centre line
+    (the spatial core's kinematics), each wire group at its pore offset coloured by temperature
+    (blue = ambient, red = ``temperature_limit``), the target (a dashed arc for a bending target,
+    a cross for a tip-position target), the force on the top disk as an arrow (0.3 spine lengths
+    per newton)."""
+
+    def __init__(self, temperature_limit: float, size: tuple[int, int] = FRAME_SIZE):
+        self.temperature_limit = float(temperature_limit)
+        self.size = size
+        self._fig = None
+
+    def _setup(self):
+        dpi = 100
+        self._fig = fig = Figure(figsize=(self.size[0] / dpi, self.size[1] / dpi), dpi=dpi)
+        FigureCanvasAgg(fig)
+        self._axes = [fig.add_axes((0.01 + 0.49 * c, 0.0, 0.48, 0.86)) for c in range(2)]
+        self._cmap = matplotlib.colormaps[CMAP]
+        self._text = fig.text(0.02, 0.985, "", va="top", ha="left", family="monospace", fontsize=7)
+
+    def draw(self, s: dict) -> np.ndarray:
+        """Frame (H, W, 3) uint8 of a :meth:`SpatialBatch.state_summary` dict."""
+        if self._fig is None:
+            self._setup()
+        km, kw = s["km"], s["kw"]
+        ns = s["omega"].shape[0]
+        frames = np.empty((ns + 1, 3, 3))
+        chords = np.empty((ns, 3))
+        pos = np.empty((ns + 1, 3))
+        kinematics(s["omega"], km, frames, chords)
+        positions(chords, pos)
+        length = s["length"]
+        t_lo, t_hi = s["ambient"], max(self.temperature_limit, s["ambient"] + 1.0)
+        target = np.asarray(s["target"])
+        if s["task"] == "tip_bending_deg":
+            arc = arc_positions(target[None, :], km[:1] if km.shape[0] == 1 else km) / 1000.0
+            target_pts = arc if km.shape[0] == 1 else None
+        else:
+            target_pts = target[None, :] / 1000.0
+        f = np.asarray(s["tip_force"], dtype=float)
+        for c, ax in enumerate(self._axes):
+            ax.cla()
+            ax.set_aspect("equal")
+            ax.axis("off")
+            half = 0.75 * length
+            ax.set_xlim(-half, half)
+            ax.set_ylim(-0.1 * length, 1.12 * length)
+            ax.axhline(0.0, color="0.3", lw=3)
+            ax.set_title("x-z (front)" if c == 0 else "y-z (side)", fontsize=8)
+            ax.plot(pos[:, c], pos[:, 2], color="0.55", lw=8, solid_capstyle="round", zorder=1)
+            for j in range(kw.shape[0]):
+                k = int(kw[j, SL.W_MOD])
+                s0, nk = int(km[k, SL.M_SEG0]), int(km[k, SL.M_NSEG])
+                ex, ey, a = kw[j, SL.W_EX], kw[j, SL.W_EY], kw[j, SL.W_A]
+                fr = frames[s0 : s0 + nk + 1]
+                w = pos[s0 : s0 + nk + 1] + a * (ey * fr[:, 0] - ex * fr[:, 1])  # pore at (cos ψ, sin ψ)
+                level = np.clip((s["temperature"][j] - t_lo) / (t_hi - t_lo), 0.0, 1.0)
+                ax.plot(w[:, c], w[:, 2], lw=2.5, color=self._cmap(level), zorder=3)
+            if target_pts is not None:
+                style = (
+                    {"ls": "--", "lw": 2} if target_pts.shape[0] > 1 else {"marker": "x", "ms": 10, "mew": 3}
+                )
+                ax.plot(target_pts[:, c], target_pts[:, 2], color=TARGET_COLOR, zorder=4, **style)
+            fn = float(np.linalg.norm(f))
+            if fn > 1e-9:
+                d = f / fn * length * min(max(0.3 * fn, 0.05), 0.4)
+                ax.annotate(
+                    "",
+                    xy=(pos[0, c] + d[c], pos[0, 2] + d[2]),
+                    xytext=(pos[0, c], pos[0, 2]),
+                    arrowprops={"arrowstyle": "-|>", "color": "k", "lw": 2},
+                )
+        temps = " ".join(f"{t:4.0f}" for t in s["temperature"])
+        volts = " ".join(f"{v:4.2f}" for v in s["voltage"])
+        self._text.set_text(
+            f"t = {s['time']:6.1f} s   target {np.array2string(target, precision=1)}\n"
+            f"T [K] {temps}\nV [V] {volts}"
+        )
+        canvas = self._fig.canvas
+        canvas.draw()
         return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
     def close(self):

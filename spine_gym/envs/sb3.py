@@ -35,10 +35,18 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
+from . import ENV_ID, ENV_ID_3D, ENV_ID_CHAIN
 from .core import RESET_OPTION_KEYS
+from .spatial_env import SmaSpine3DVectorEnv, SmaSpineChainVectorEnv
 from .vector_env import SmaSpineVectorEnv
 
-__all__ = ["SmaSpineSB3VecEnv", "make_sb3_vec_env"]
+__all__ = ["SmaSpineSB3VecEnv", "make_sb3_vec_env", "VECTOR_ENVS"]
+
+VECTOR_ENVS = {
+    ENV_ID: SmaSpineVectorEnv,
+    ENV_ID_3D: SmaSpine3DVectorEnv,
+    ENV_ID_CHAIN: SmaSpineChainVectorEnv,
+}
 
 
 def _rows_to_dicts(info: dict[str, Any], n: int) -> list[dict[str, Any]]:
@@ -59,17 +67,20 @@ def _rows_to_dicts(info: dict[str, Any], n: int) -> list[dict[str, Any]]:
 
 
 class SmaSpineSB3VecEnv(VecEnv):
-    """SB3 ``VecEnv`` of ``num_envs`` SmaSpine-v0 environments stepped by the native vector env.
+    """SB3 ``VecEnv`` of ``num_envs`` environments of ``env_id`` stepped by the native vector env.
 
     Args:
         num_envs: number of environments.
         seed: seed of the first reset (env i gets ``seed + i``); ``VecEnv.seed`` works as usual.
-        **env_kwargs: arguments of :class:`~spine_gym.envs.SmaSpineEnv` (and ``parallel``,
-            ``max_episode_steps`` of the vector env).
+        env_id: ``"SmaSpine-v0"`` (default), ``"SmaSpine3D-v0"`` or ``"SmaSpineChain-v0"``.
+        **env_kwargs: arguments of the env (e.g. :class:`~spine_gym.envs.SmaSpineEnv`; and
+            ``parallel``, ``max_episode_steps`` of the vector env).
     """
 
-    def __init__(self, num_envs: int = 1, seed: int | None = None, **env_kwargs):
-        self.venv = SmaSpineVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
+    def __init__(self, num_envs: int = 1, seed: int | None = None, env_id: str = ENV_ID, **env_kwargs):
+        if env_id not in VECTOR_ENVS:
+            raise ValueError(f"env_id must be one of {sorted(VECTOR_ENVS)}, got {env_id!r}")
+        self.venv = VECTOR_ENVS[env_id](num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self.metadata = {**self.metadata, "render_fps": self.venv.metadata["render_fps"]}
         if seed is not None:
@@ -155,6 +166,7 @@ def make_sb3_vec_env(
     monitor: bool = True,
     normalize: bool | dict = False,
     env_kwargs: dict | None = None,
+    env_id: str = ENV_ID,
 ) -> VecEnv:
     """:class:`SmaSpineSB3VecEnv`, optionally wrapped in ``VecMonitor`` and ``VecNormalize``.
 
@@ -163,9 +175,10 @@ def make_sb3_vec_env(
         seed: seed of the first reset (env i gets ``seed + i``).
         monitor: wrap in ``VecMonitor`` (episode return/length in ``info["episode"]``).
         normalize: ``True`` or a dict of ``VecNormalize`` keyword arguments.
-        env_kwargs: arguments of :class:`~spine_gym.envs.SmaSpineEnv`.
+        env_kwargs: arguments of the env (:class:`~spine_gym.envs.SmaSpineEnv` by default).
+        env_id: which env (see :class:`SmaSpineSB3VecEnv`).
     """
-    env: VecEnv = SmaSpineSB3VecEnv(num_envs, seed=seed, **(env_kwargs or {}))
+    env: VecEnv = SmaSpineSB3VecEnv(num_envs, seed=seed, env_id=env_id, **(env_kwargs or {}))
     if monitor:
         env = VecMonitor(env)
     if normalize:

@@ -2,7 +2,7 @@
 
 The class docstring of :class:`SmaSpineEnv` is the documentation page. The physics is the jitted
 model of ``spine_gym.physics`` (MODEL.md); this module maps actions to wire voltages, runs one
-control period of the model per step through :class:`spine_gym.envs.core.SpineBatch` (the code the
+control period of the model per step through :class:`spine_gym.envs.table_batch.TableBatch` (the code the
 vector env runs too) and returns observations, rewards and infos.
 """
 
@@ -17,7 +17,8 @@ from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
 from ..physics import layout as L
-from .core import OBS_NAMES, EnvConfig, SpineBatch, SpineSnapshot, status_text, validate_actions
+from .core import EnvConfig, SpineSnapshot, make_renderer, status_text, validate_actions
+from .planar import PlanarBatch
 from .task import TARGET_KINDS
 
 __all__ = ["SmaSpineEnv"]
@@ -197,6 +198,7 @@ class SmaSpineEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    BATCH = PlanarBatch  # the batch class behind the env
 
     def __init__(
         self,
@@ -224,11 +226,7 @@ class SmaSpineEnv(gym.Env):
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
     ):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
-            )
-        self.config = EnvConfig(
+        config = EnvConfig(
             v_max=v_max,
             control_period=control_period,
             physics_dt=physics_dt,
@@ -251,12 +249,20 @@ class SmaSpineEnv(gym.Env):
             params=params,
             solver=solver,
         )
+        self._setup(render_mode, config)
+
+    def _setup(self, render_mode: str | None, config) -> None:
+        """Spaces and the batch of one (every env id of spine_gym: ``BATCH`` is its batch class)."""
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
+        self.config = config
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.config.control_period}
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        low, high = self.config.observation_bounds()
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        self._core = SpineBatch(self.config, 1, parallel=False)
+        self._core = self.BATCH(self.config, 1, parallel=False)
+        self.action_space = spaces.Box(-1.0, 1.0, (config.n_wires,), np.float32)
+        self.observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
         self._rows = np.zeros(1, dtype=np.int64)
         self._renderer = None
         self._needs_reset = True
@@ -291,7 +297,16 @@ class SmaSpineEnv(gym.Env):
     @property
     def observation_names(self) -> tuple[str, ...]:
         """Names of the observation entries (units in the class docstring)."""
-        return OBS_NAMES
+        return self._core.obs_names
+
+    @property
+    def table(self):
+        """The env's declarative observation/info table (:class:`spine_gym.envs.table.Table`)."""
+        return self._core.table
+
+    def obs_index(self, key: str) -> slice:
+        """Observation indices of the table entry ``key`` (e.g. ``"temperature"``), a slice."""
+        return self._core.table.obs_index(key)
 
     @property
     def target_profile(self):
@@ -332,7 +347,7 @@ class SmaSpineEnv(gym.Env):
         """One control period; returns ``(obs, reward, terminated, truncated, info)``."""
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
-        a = validate_actions(action, (2,))
+        a = validate_actions(action, self.action_space.shape)
         if self._done:
             gym.logger.warn(
                 "step() called after the episode ended (terminated or truncated); call reset(). "
@@ -382,9 +397,7 @@ class SmaSpineEnv(gym.Env):
         if self._core.episodes[0] is None:
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
-            from .render import SpineRenderer
-
-            self._renderer = SpineRenderer(self.config.temperature_limit)
+            self._renderer = make_renderer(self.config)
         return self._renderer.draw(self._core.state_summary(0))
 
     def close(self):

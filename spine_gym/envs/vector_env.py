@@ -1,7 +1,7 @@
 """Native vector env of ``SmaSpine-v0``: N spines stepped by one parallel numba loop.
 
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
-:class:`~spine_gym.envs.core.SpineBatch` as the single env with B = N: random draws (targets, loads,
+:class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
 ``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the parallel kernel
 :func:`spine_gym.physics.env_kernels.step_many` per step. Row i therefore equals
@@ -21,15 +21,15 @@ from gymnasium.vector.utils import batch_space
 
 from .core import (
     EPISODE_ATTRS,
-    OBS_NAMES,
     RESET_OPTION_KEYS,
     EnvConfig,
-    SpineBatch,
     SpineSnapshot,
     config_fields,
+    make_renderer,
     status_texts,
     validate_actions,
 )
+from .planar import PlanarBatch
 
 __all__ = ["SmaSpineVectorEnv"]
 
@@ -74,6 +74,8 @@ class SmaSpineVectorEnv(VectorEnv):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10, "autoreset_mode": AutoresetMode.NEXT_STEP}
+    CONFIG = EnvConfig  # the configuration class (its fields are the keyword arguments)
+    BATCH = PlanarBatch  # the batch class
 
     def __init__(
         self,
@@ -88,7 +90,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._renderer = None  # first: gymnasium < 1.3 closes an env whose __init__ raised
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        unknown = set(env_kwargs) - set(config_fields())
+        unknown = set(env_kwargs) - set(config_fields(self.CONFIG))
         if unknown:
             raise TypeError(f"SmaSpineVectorEnv got unexpected keyword argument(s) {sorted(unknown)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -101,15 +103,16 @@ class SmaSpineVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
-        self.config = cfg = EnvConfig(**env_kwargs)
+        self.config = cfg = self.CONFIG(**env_kwargs)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": 1.0 / cfg.control_period}
-        self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.parallel = self.num_envs > 1 if parallel is None else bool(parallel)
+        self._core = self.BATCH(cfg, self.num_envs, parallel=self.parallel)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (cfg.n_wires,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        low, high = cfg.observation_bounds()
-        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.single_observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.max_steps = cfg.n_steps
         if max_episode_steps is not None:
@@ -122,12 +125,10 @@ class SmaSpineVectorEnv(VectorEnv):
                     f"max_episode_steps must be None or an integer >= 1, got {max_episode_steps!r}"
                 )
             self.max_steps = min(self.max_steps, int(max_episode_steps))
-        self.parallel = self.num_envs > 1 if parallel is None else bool(parallel)
-        self._core = SpineBatch(cfg, self.num_envs, parallel=self.parallel)
         self._core.max_steps = self.max_steps
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._sub_seeds: list[int | None] = [None] * self.num_envs
-        self._obs = np.zeros((self.num_envs, len(OBS_NAMES)), dtype=np.float32)
+        self._obs = np.zeros((self.num_envs, len(self._core.obs_names)), dtype=np.float32)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
 
@@ -155,7 +156,16 @@ class SmaSpineVectorEnv(VectorEnv):
     @property
     def observation_names(self) -> tuple[str, ...]:
         """Names of the observation entries."""
-        return OBS_NAMES
+        return self._core.obs_names
+
+    @property
+    def table(self):
+        """The env's declarative observation/info table (:class:`spine_gym.envs.table.Table`)."""
+        return self._core.table
+
+    def obs_index(self, key: str) -> slice:
+        """Observation indices of the table entry ``key`` (e.g. ``"temperature"``), a slice."""
+        return self._core.table.obs_index(key)
 
     @property
     def np_randoms(self) -> list[np.random.Generator | None]:
@@ -254,7 +264,7 @@ class SmaSpineVectorEnv(VectorEnv):
         """Step every sub-env; see the class docstring for the autoreset convention."""
         if not self._ever_reset:
             raise RuntimeError("call reset() before step()")
-        a = validate_actions(actions, (self.num_envs, 2))
+        a = validate_actions(actions, self.action_space.shape)
         n = self.num_envs
         reward = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
@@ -358,9 +368,7 @@ class SmaSpineVectorEnv(VectorEnv):
         if not self._ever_reset:
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
-            from .render import SpineRenderer
-
-            self._renderer = SpineRenderer(self.config.temperature_limit)
+            self._renderer = make_renderer(self.config)
         return tuple(self._renderer.draw(self._core.state_summary(i)) for i in range(self.num_envs))
 
     def close_extras(self, **kwargs):

@@ -12,6 +12,11 @@ Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines
 ``prange``; ``step_many_serial`` is the serial twin used by the single env and by the vector env with
 ``parallel=False``. Both give bit-identical rows (tested), and each has its own on-disk cache entry
 (``_jit.pjit``), so the serial twin never runs the parallel machine code (tested).
+
+``step_many_spatial`` / ``step_many_spatial_serial`` are the same loop over spatial or chained
+spines (:func:`spatial_solver.advance` and :func:`spatial_solver.record`, SPATIAL.md), used by
+``SmaSpine3D-v0`` and ``SmaSpineChain-v0``; each spine carries its own layout tables (``kw``,
+``km``), which depend on the episode's (possibly randomised) parameters.
 """
 
 from __future__ import annotations
@@ -22,6 +27,9 @@ from ._jit import jit, pjit
 from .batch import record
 from .layout import OK
 from .solver import advance
+from .spatial_solver import advance as spatial_advance
+from .spatial_solver import make_work, sizes
+from .spatial_solver import record as spatial_record
 
 
 def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
@@ -70,3 +78,47 @@ def record_many(states, kps, rows, meas):
     for k in range(rows.shape[0]):
         i = rows[k]
         record(states[i], kps[i], meas[i])
+
+
+def _step_many_spatial(
+    states, backup, kps, ks, kws, kms, volts, loads, resolve, active, dt, n_sub, status, rec
+):
+    """:func:`_step_many` for spatial or chained spines (:func:`spatial_solver.advance`, SPATIAL.md).
+
+    Args as :func:`_step_many`, except: ``kws`` (B, W, KW_SIZE) and ``kms`` (B, K, KM_SIZE) the
+    layout tables of each spine (they depend on the episode's parameters); ``volts`` (B, W) [V];
+    ``loads`` (B, N, 3) global x/y/z vertex forces [N]; ``rec`` (B, record_size) out, the
+    :func:`spatial_solver.record` row of each active spine after the step.
+    """
+    b = states.shape[0]
+    s = states.shape[1]
+    for i in numba.prange(b):
+        if not active[i]:
+            continue
+        status[i] = OK
+        for q in range(s):
+            backup[i, q] = states[i, q]
+        for j in range(n_sub):
+            st, _, _ = spatial_advance(
+                states[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], dt, resolve[i] and j == 0
+            )
+            if st != OK:
+                status[i] = st
+                for q in range(s):
+                    states[i, q] = backup[i, q]
+                break
+        nw, nm, ns = sizes(kws[i], kms[i])
+        spatial_record(states[i], kps[i], kws[i], kms[i], make_work(nw, nm, ns), rec[i])
+
+
+step_many_spatial = pjit(_step_many_spatial)
+step_many_spatial_serial = jit(_step_many_spatial)
+
+
+@jit
+def record_many_spatial(states, kps, kws, kms, rows, rec):
+    """:func:`spatial_solver.record` of the spatial spines ``rows`` into ``rec[rows]``."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        nw, nm, ns = sizes(kws[i], kms[i])
+        spatial_record(states[i], kps[i], kws[i], kms[i], make_work(nw, nm, ns), rec[i])

@@ -1,0 +1,528 @@
+"""Configuration, tables and batch of the spatial envs ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
+
+The physics is the wire- and module-generic core of ``spine_gym.physics.spatial_solver``
+(SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_many_spatial`; the bookkeeping
+is the table-driven writer every env shares (:class:`.table_batch.TableBatch`). The env classes
+(their docstrings are the documentation pages) are in :mod:`.spatial_env`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..layout import MAX_MODULES, SpineLayout
+from ..params import ModelParams
+from ..physics import env_kernels
+from ..physics import spatial_layout as SL
+from ..physics.spatial_solver import init_state, record_size
+from ..uncertainty import ParameterUncertainty
+from . import _bookkeeping as bk
+from .core import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
+from .table import Entry, Table
+from .table_batch import TableBatch
+from .task import ANGLE_LIMIT
+from .task_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
+
+__all__ = [
+    "SpatialConfig",
+    "Spine3DConfig",
+    "ChainConfig",
+    "SpatialBatch",
+    "Spine3DBatch",
+    "ChainBatch",
+    "workspace_radius_mm",
+    "workspace_low_mm",
+]
+
+BEND_OBS_LIMIT = 180.0  # [deg] bound of the bending entries
+POSITION_RATE_LIMIT = 5000.0  # [mm/s] bound of the tip-velocity entries
+
+
+# ---------------------------------------------------------------- configuration
+@dataclass(frozen=True)
+class SpatialConfig(BaseEnvConfig):
+    """Arguments the spatial envs share (layout-derived facts as properties)."""
+
+    target_kinds: tuple[str, ...] = BEND_KINDS
+    target_period_range: tuple[float, float] = (20.0, 60.0)
+
+    def _check_task(self) -> None:
+        s = object.__setattr__
+        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
+        if not kinds or any(k not in BEND_KINDS for k in kinds):
+            raise ValueError(
+                f"target_kinds must be a non-empty subset of {BEND_KINDS}, got {self.target_kinds!r}"
+            )
+        s(self, "target_kinds", kinds)
+        s(
+            self,
+            "target_period_range",
+            _pair("target_period_range", self.target_period_range, 2.0 * self.control_period, 1e6),
+        )
+        s(self, "_layout", self.layout_for(self.params))
+
+    # ------------------------------------------------------------------ layout
+    def layout_for(self, params: ModelParams) -> SpineLayout:
+        """The spine of an episode with parameters ``params`` (``SpineLayout.chain``; one module is
+        the seed's)."""
+        return SpineLayout.chain(self.n_modules, params)
+
+    @property
+    def layout(self) -> SpineLayout:
+        """The nominal layout."""
+        return self._layout
+
+    @property
+    def n_modules(self) -> int:
+        return 1
+
+    @property
+    def n_wires(self) -> int:
+        return self._layout.n_wires
+
+    @property
+    def n_seg(self) -> int:
+        return self._layout.n_seg
+
+    @property
+    def force_dim(self) -> int:
+        return 3
+
+    @property
+    def volt_coef(self) -> np.ndarray:
+        """(W,) volts per unit of (action + 1): ½ v_max × the wire's voltage scale (SPATIAL.md §6)."""
+        return 0.5 * self.v_max * self._layout.voltage_scale
+
+    @property
+    def wire_names(self) -> list[str]:
+        """Suffixes of the per-wire observation names: ``"m<k>_<ψ>"`` (``"<ψ>"`` for one module)."""
+        out = []
+        for k, m in enumerate(self._layout.modules):
+            for w in m.wires:
+                out.append(f"{w.psi_deg:g}" if self.n_modules == 1 else f"m{k}_{w.psi_deg:g}")
+        return out
+
+    @property
+    def energy_reference(self) -> float:
+        """Largest electrical energy of one control period [J]: every wire at its full voltage,
+        lowest nominal resistivity (the normaliser of the energy term)."""
+        p = self.params
+        lam = min(p.lam_A, p.lam_M)
+        _, kw, _ = self._layout.to_kernel()
+        v = self.v_max * self._layout.voltage_scale
+        r = lam * kw[:, SL.W_L0] / p.wire_area
+        return float(np.sum(kw[:, SL.W_NW] * v**2 / r) * self.control_period)
+
+    def resistance_bound(self) -> float:
+        """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
+        nominal and randomised parameters, plus 10 standard deviations of resistance noise."""
+        cands = [self.params]
+        if isinstance(self.domain_randomization, ParameterUncertainty):
+            cands += self.domain_randomization.extremes(self.params)
+        else:
+            for name, lo, hi in self.domain_randomization:
+                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        l0 = max(m.L0 for m in self._layout.modules) / self.params.L0  # wire length / the params' L0
+        r = max(max(p.lam_A, p.lam_M) * p.L0 * l0 / p.wire_area for p in cands)
+        return float(2.0 * r + 10.0 * self.noise_sigma["resistance"])
+
+    def _wire_entries(self) -> tuple[Entry, Entry, Entry]:
+        """(temperature, previous action, resistance) entries, one component per wire group."""
+        names = self.wire_names
+        return (
+            Entry(
+                "temperature",
+                "temperature",
+                "K",
+                "wire temperature",
+                tuple(f"temperature_{n}" for n in names),
+                (0.0, TEMP_OBS_HIGH),
+                noise="temperature",
+            ),
+            Entry(
+                "previous_action",
+                "action",
+                "-",
+                "previous action (after clipping)",
+                tuple(f"previous_action_{n}" for n in names),
+                (-1.0, 1.0),
+                info=False,
+            ),
+            Entry(
+                "resistance",
+                "resistance",
+                "Ohm",
+                "wire resistance (one wire of the group)",
+                tuple(f"resistance_{n}" for n in names),
+                (0.0, self.resistance_bound()),
+                noise="resistance",
+            ),
+        )
+
+    def _step_entries(self, unit: str, error_doc: str) -> tuple[Entry, ...]:
+        """The info-only entries every spatial env has (voltages, energy, reward terms, ...)."""
+        names = self.wire_names
+        return (
+            Entry("voltage", "voltage", "V", "applied voltage", tuple(f"voltage_{n}" for n in names)),
+            Entry(
+                "power_W",
+                "power",
+                "W",
+                "mean electrical power of the wire group",
+                tuple(f"power_{n}" for n in names),
+            ),
+            Entry(
+                f"tracking_error_{unit}",
+                "error",
+                unit,
+                error_doc,
+                tuple(f"error_{c}" for c in "xyz"[: self._task_dim]),
+            ),
+            Entry("energy_J", "energy", "J", "electrical energy of the step (all wires)", ("energy",)),
+            Entry("cost", "cost", "K", "Σ over wires of max(0, T − temperature_limit)", ("cost",)),
+            Entry("time", "time", "s", "time at the end of the step", ("time",)),
+            Entry(
+                "tip_force",
+                "force",
+                "N",
+                "force on the top disk (events + payload weight), global x/y/z",
+                ("fx", "fy", "fz"),
+            ),
+            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
+            Entry("reward_tracking", "reward_tracking", "-", "−|e| / error_scale", ("reward_tracking",)),
+            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+        )
+
+    _task_dim = 2
+
+    def table(self) -> Table:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Spine3DConfig(SpatialConfig):
+    """Validated arguments of ``SmaSpine3D-v0`` (see :class:`spine_gym.envs.SmaSpine3DEnv`)."""
+
+    target_range: tuple[float, float] = (0.0, 45.0)
+
+    def _check_task(self) -> None:
+        super()._check_task()
+        object.__setattr__(self, "target_range", _pair("target_range", self.target_range, 0.0, TARGET_REACH))
+
+    def table(self) -> Table:
+        """The declarative observation/info table of ``SmaSpine3D-v0`` (one place per entry)."""
+        temp, prev, res = self._wire_entries()
+        lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
+        entries = (
+            Entry(
+                "tip_bending_deg",
+                "tip_bending",
+                "deg",
+                "tip bending vector (Θ cos β, Θ sin β)",
+                ("bending_x", "bending_y"),
+                (-BEND_OBS_LIMIT, BEND_OBS_LIMIT),
+                noise="angle",
+            ),
+            Entry(
+                "target_deg", "target", "deg", "target bending vector b*(t)", ("target_x", "target_y"), lim
+            ),
+            temp,
+            Entry(
+                "bending_rate",
+                "rate",
+                "deg/s",
+                "rate of the measured bending vector",
+                ("bending_rate_x", "bending_rate_y"),
+                (-RATE_OBS_LIMIT, RATE_OBS_LIMIT),
+                info=False,
+            ),
+            Entry(
+                "target_preview_deg",
+                "preview",
+                "deg",
+                "target b*(t + target_preview)",
+                ("preview_x", "preview_y"),
+                lim,
+                info=False,
+            ),
+            prev,
+            res,
+            Entry(
+                "tip_position_mm",
+                "tip_position",
+                "mm",
+                "tip position, global x/y/z",
+                ("tip_x", "tip_y", "tip_z"),
+            ),
+            *self._step_entries("deg", "target − tip bending vector"),
+        )
+        return Table(entries, "tip_bending_deg", self.noise_sigma)
+
+
+@dataclass(frozen=True)
+class ChainConfig(SpatialConfig):
+    """Validated arguments of ``SmaSpineChain-v0`` (see :class:`spine_gym.envs.SmaSpineChainEnv`)."""
+
+    NOISE_KEYS = ("angle", "temperature", "resistance", "position")  # position: tip [mm]
+
+    n_modules: int = 2
+    module_bend_limit: float = 20.0
+    error_scale: float = 20.0  # [mm]
+
+    _task_dim = 3
+
+    def _check_task(self) -> None:
+        object.__setattr__(self, "n_modules", _int("n_modules", self.n_modules, 1, MAX_MODULES))
+        super()._check_task()
+        limit = TARGET_REACH / self.n_modules
+        object.__setattr__(
+            self, "module_bend_limit", _real("module_bend_limit", self.module_bend_limit, 0.0, limit)
+        )
+
+    @property
+    def length_mm(self) -> float:
+        return 1000.0 * self._layout.length
+
+    def table(self) -> Table:
+        """The declarative observation/info table of ``SmaSpineChain-v0`` (one place per entry)."""
+        temp, prev, res = self._wire_entries()
+        lp = (-self.length_mm, self.length_mm)
+        xyz = ("x", "y", "z")
+        mod = tuple(f"module{k}_bending_{c}" for k in range(self.n_modules) for c in ("x", "y"))
+        entries = (
+            Entry(
+                "tip_position_mm",
+                "tip_position",
+                "mm",
+                "tip position, global x/y/z",
+                tuple(f"tip_{c}" for c in xyz),
+                lp,
+                noise="position",
+            ),
+            Entry(
+                "target_mm",
+                "target",
+                "mm",
+                "target tip position p*(t)",
+                tuple(f"target_{c}" for c in xyz),
+                lp,
+            ),
+            Entry(
+                "module_bending_deg",
+                "module_bending",
+                "deg",
+                "bending vector of each module in its base frame (bottom module first)",
+                mod,
+                (-BEND_OBS_LIMIT, BEND_OBS_LIMIT),
+                noise="angle",
+            ),
+            temp,
+            Entry(
+                "tip_velocity",
+                "rate",
+                "mm/s",
+                "rate of the measured tip position",
+                tuple(f"tip_velocity_{c}" for c in xyz),
+                (-POSITION_RATE_LIMIT, POSITION_RATE_LIMIT),
+                info=False,
+            ),
+            Entry(
+                "target_preview_mm",
+                "preview",
+                "mm",
+                "target p*(t + target_preview)",
+                tuple(f"preview_{c}" for c in xyz),
+                lp,
+                info=False,
+            ),
+            prev,
+            res,
+            Entry(
+                "tip_bending_deg",
+                "tip_bending",
+                "deg",
+                "tip bending vector (tip tangent, base frame)",
+                ("bending_x", "bending_y"),
+                noise="angle",
+            ),
+            *self._step_entries("mm", "target − tip position"),
+        )
+        return Table(entries, "tip_position_mm", self.noise_sigma)
+
+
+# ---------------------------------------------------------------- the batch of spatial spines
+class SpatialBatch(TableBatch):
+    """:class:`TableBatch` over the spatial core (per-spine layout tables, for randomised parameters)."""
+
+    PLANT_ARRAYS = ("kws", "kms")
+
+    def _alloc_plant(self, b: int) -> None:
+        lay = self.cfg.layout
+        kp, kw, km = lay.to_kernel()
+        self.nominal_kp = kp
+        self._nominal = (kw, km)
+        self.states = np.zeros((b, lay.state_size()))
+        self.kps = np.tile(kp, (b, 1))
+        self.kws = np.tile(kw, (b, 1, 1))
+        self.kms = np.tile(km, (b, 1, 1))
+        nw, nm, ns = lay.n_wires, lay.n_modules, lay.n_seg
+        head = SL.sens_offset(nw, nm, ns)
+        cols = np.zeros(bk.N_R, dtype=np.int64)
+        cols[bk.R_MODB] = head
+        cols[bk.R_TIPB] = head + 2 * nm
+        cols[bk.R_TIPP] = head + 2 * nm + 2
+        cols[bk.R_RHO] = head + 2 * nm + 2 + 3 + 9
+        cols[bk.R_TEMP] = SL.wire_offset(SL.F_T, nw)
+        cols[bk.R_QJ] = SL.wire_offset(SL.F_QJ, nw)
+        self.record_cols = cols
+        self._record_size = record_size(nw, nm, ns)
+
+    def record_size(self) -> int:
+        return self._record_size
+
+    def _set_episode(self, i: int, params: ModelParams, kp: np.ndarray | None) -> None:
+        if kp is None:
+            try:
+                lay = self.cfg.layout_for(params)
+            except ValueError as e:
+                raise ValueError(f"the episode's parameters give an invalid spine: {e}") from None
+            if lay.state_size() != self.states.shape[1]:
+                raise ValueError(
+                    f"options['params'] must keep the layout (n_seg = {self.cfg.params.n_seg}), got "
+                    f"n_seg = {params.n_seg}"
+                )
+            kp, kw, km = lay.to_kernel()
+        else:
+            kw, km = self._nominal
+        self.kps[i] = kp
+        self.kws[i] = kw
+        self.kms[i] = km
+        area = params.wire_area
+        self.ohm[i] = kw[:, SL.W_L0] / area
+        self.wvol[i] = kw[:, SL.W_NW] * area * kw[:, SL.W_L0]
+
+    def _init_state(self, i: int, vforce: np.ndarray) -> int:
+        return init_state(self.states[i], self.kps[i], self.ks, self.kws[i], self.kms[i], vforce)
+
+    def _advance(self, active: np.ndarray, resolve: np.ndarray) -> None:
+        kernel = env_kernels.step_many_spatial if self.parallel else env_kernels.step_many_spatial_serial
+        cfg = self.cfg
+        kernel(
+            self.states,
+            self.backup,
+            self.kps,
+            self.ks,
+            self.kws,
+            self.kms,
+            self.volts,
+            self.loads,
+            resolve,
+            active,
+            cfg.physics_dt,
+            cfg.n_sub,
+            self.status,
+            self.meas,
+        )
+
+    def _record(self, rows: np.ndarray) -> None:
+        env_kernels.record_many_spatial(self.states, self.kps, self.kws, self.kms, rows, self.meas)
+
+    def _probe(self, rows: np.ndarray) -> None:
+        bk.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)
+
+    # ------------------------------------------------------------------ rendering
+    def state_summary(self, i: int) -> dict:
+        """What the renderer needs for environment ``i``."""
+        cfg = self.cfg
+        target, loads, params = self.episodes[i]
+        k = int(self.mem.k[i])
+        nw, nm, ns = cfg.n_wires, cfg.n_modules, cfg.n_seg
+        oo = SL.omega_offset(nw, nm)
+        return {
+            "omega": self.states[i, oo : oo + 2 * ns].reshape(ns, 2).copy(),
+            "kw": self.kws[i].copy(),
+            "km": self.kms[i].copy(),
+            "temperature": self.probe[
+                i, self.probe_cols[bk.PB_TEMP] : self.probe_cols[bk.PB_TEMP] + nw
+            ].copy(),
+            "ambient": float(params.T_E),
+            "target": self.targets[i, min(k, self.targets.shape[1] - 1)].copy(),
+            "task": self.table.task.key,
+            "tip_force": self.forces[i, min(k, cfg.n_steps - 1)].copy(),
+            "time": k * cfg.control_period,
+            "voltage": self.volts[i].copy() if k else np.zeros(nw),
+            "length": cfg.layout.length,
+        }
+
+
+class Spine3DBatch(SpatialBatch):
+    """The batch of ``SmaSpine3D-v0``: targets are :class:`BendTarget` s."""
+
+    def _parse_target(self, target) -> BendTarget:
+        if isinstance(target, BendTarget):
+            return target
+        b = np.asarray(target, dtype=float) if not isinstance(target, str) else None
+        if b is None or b.shape != (2,) or not np.isfinite(b).all():
+            raise ValueError(
+                f"options['target'] must be a BendTarget or a bending vector (b1, b2) [deg], got {target!r}"
+            )
+        return BendTarget.constant(float(b[0]), float(b[1]))
+
+    def _sample_target(self, rng: np.random.Generator) -> BendTarget:
+        cfg = self.cfg
+        return BendTarget.sample(
+            rng, cfg.episode_duration, cfg.target_range, cfg.target_kinds, cfg.target_period_range
+        )
+
+    def _target_grid(self, i: int, target: BendTarget) -> np.ndarray:
+        return target(self.time_grid)
+
+
+class ChainBatch(SpatialBatch):
+    """The batch of ``SmaSpineChain-v0``: targets are :class:`ChainTarget` s (tip positions [mm])."""
+
+    def _parse_target(self, target) -> ChainTarget:
+        k = self.cfg.n_modules
+        if not isinstance(target, ChainTarget):
+            b = np.asarray(target, dtype=float) if not isinstance(target, str) else None
+            if b is None or b.shape != (k, 2) or not np.isfinite(b).all():
+                raise ValueError(
+                    f"options['target'] must be a ChainTarget or ({k}, 2) module bending vectors [deg], "
+                    f"got {target!r}"
+                )
+            target = ChainTarget.constant(b)
+        if target.n_modules != k:
+            raise ValueError(f"options['target'] must have n_modules = {k} modules, got {target.n_modules}")
+        return target
+
+    def _sample_target(self, rng: np.random.Generator) -> ChainTarget:
+        cfg = self.cfg
+        return ChainTarget.sample(
+            rng,
+            cfg.episode_duration,
+            cfg.n_modules,
+            cfg.module_bend_limit,
+            cfg.target_kinds,
+            cfg.target_period_range,
+        )
+
+    def _target_grid(self, i: int, target: ChainTarget) -> np.ndarray:
+        return target.position(self.time_grid, self.kms[i])
+
+
+def workspace_radius_mm(cfg: ChainConfig) -> float:
+    """Largest horizontal tip distance of the workspace [mm]: every module bent by
+    ``module_bend_limit`` in the same direction (the arcs add up)."""
+    _, _, km = cfg.layout.to_kernel()
+    bends = np.tile([cfg.module_bend_limit, 0.0], (cfg.n_modules, 1))
+    return float(math.hypot(*arc_tip_position(bends, km)[:2]))
+
+
+def workspace_low_mm(cfg: ChainConfig) -> float:
+    """Lowest tip height of the workspace [mm]: every module bent by ``module_bend_limit`` the same way."""
+    _, _, km = cfg.layout.to_kernel()
+    bends = np.tile([cfg.module_bend_limit, 0.0], (cfg.n_modules, 1))
+    return float(arc_tip_position(bends, km)[2])

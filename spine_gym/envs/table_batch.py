@@ -1,0 +1,370 @@
+"""B spines of one env driven by its declarative table: the batch behind the single and the vector env.
+
+:class:`TableBatch` holds the per-environment arrays (model state, episode data, the writer's
+memory), resets one environment with its own generator and steps all active ones at once: one
+jitted call of the plant's step kernel, one of its probe (the physics readings in the common
+probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
+observation, reward, info, from the env's :class:`~.table.Table`). Subclasses are the plants
+(:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the physics arrays, draw the
+episode's target and solve, advance, record and probe their spines. The single env is a batch of
+one, so single and vector env run the same code and give the same numbers (tested bit for bit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..params import ModelParams
+from ..physics import layout as L
+from ..uncertainty import ParameterUncertainty
+from . import _bookkeeping as bk
+from .core import RESET_OPTION_KEYS, BaseEnvConfig, SpineSnapshot
+from .table import Table
+from .task import LoadSchedule
+
+__all__ = ["TableBatch"]
+
+# per-environment arrays of every batch (the plant adds its own through PLANT_ARRAYS)
+COMMON_ARRAYS = (
+    "states",  # model state vector
+    "kps",  # the episode's (possibly randomised) constants
+    "loads",  # vertex forces of the last step
+    "meas",  # the plant's record row of the last step
+    "probe",  # the probe row of the last step
+    "status",
+    "targets",
+    "forces",
+    "resolve_plan",
+    "volts",
+    "ohm",  # [1/m] L0/A_w of each wire group
+    "wvol",  # [m^3] wire volume of each wire group
+    "last_row",  # the table row of the last step or reset (true values)
+    *bk.Memory._fields,
+)
+
+
+class TableBatch:
+    """B spines with their episode data (see the module docstring).
+
+    Args:
+        cfg: validated configuration (a :class:`~.core.BaseEnvConfig` subclass with ``table()``,
+            ``n_wires``, ``n_seg``, ``force_dim``, ``volt_coef``, ``energy_reference``).
+        num_envs: B.
+        parallel: step with the ``prange`` kernel (else its serial twin).
+    """
+
+    PLANT_ARRAYS: tuple[str, ...] = ()
+    RECORD_SIZE: int = 0
+
+    def __init__(self, cfg: BaseEnvConfig, num_envs: int, parallel: bool):
+        self.cfg = cfg
+        self.num_envs = b = int(num_envs)
+        self.parallel = bool(parallel)
+        self.table: Table = cfg.table()
+        self.obs_names = self.table.obs_names
+        self.obs_low, self.obs_high = self.table.low, self.table.high
+        nw, n, f, d = cfg.n_wires, cfg.n_seg, cfg.force_dim, self.table.task_dim
+        self.ks = cfg.solver.to_kernel()
+        self._alloc_plant(b)
+        self.backup = np.zeros_like(self.states)
+        self.loads = np.zeros((b, n, f))
+        self.meas = np.zeros((b, self.record_size()))
+        self.probe_cols = bk.probe_cols(nw, cfg.n_modules)
+        self.probe = np.zeros((b, self.probe_cols[-1]))
+        self.status = np.zeros(b, dtype=np.int64)
+        n_grid = cfg.n_steps + 1 + cfg.preview_steps
+        self.time_grid = np.arange(n_grid) * cfg.control_period  # [s] t_k = k Δt
+        self.targets = np.zeros((b, n_grid, d))
+        self.forces = np.zeros((b, cfg.n_steps, f))  # [N] tip force + payload weight over step k
+        self.resolve_plan = np.zeros((b, cfg.n_steps), dtype=np.bool_)
+        self.volts = np.zeros((b, nw))  # [V] applied over the last step
+        self.ohm = np.zeros((b, nw))
+        self.wvol = np.zeros((b, nw))
+        self.last_row = np.zeros((b, self.table.width))
+        self.mem = bk.Memory(
+            k=np.zeros(b, dtype=np.int64),
+            joule=np.zeros((b, nw)),
+            hist=np.zeros((b, cfg.sensor_delay + 1, self.table.n_channels)),
+            prev_task=np.zeros((b, d)),
+            prev_action=np.full((b, nw), -1.0),
+        )
+        maps = self.table.spec_arrays({pb: int(self.probe_cols[pb]) for pb in range(bk.N_PB)})
+        self.noise_sigma = maps["sigma"]
+        self.noisy = bool(self.noise_sigma.any())
+        settings = np.zeros(bk.N_SETTINGS)
+        settings[bk.S_PERIOD] = cfg.control_period
+        settings[bk.S_ERROR_SCALE] = cfg.error_scale
+        settings[bk.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
+        settings[bk.S_COST_WEIGHT] = cfg.cost_weight
+        settings[bk.S_T_LIMIT] = cfg.temperature_limit
+        counts = np.zeros(bk.N_COUNTS, dtype=np.int64)
+        counts[bk.C_PREVIEW] = cfg.preview_steps
+        counts[bk.C_MAX_STEPS] = cfg.n_steps
+        self.spec = bk.Spec(
+            qcol=maps["qcol"],
+            probe_cols=self.probe_cols,
+            chan_src=maps["chan_src"],
+            chan_dst=maps["chan_dst"],
+            obs_cols=maps["obs_cols"],
+            task=maps["task"],
+            low=self.table.low.astype(np.float64),
+            high=self.table.high.astype(np.float64),
+            settings=settings,
+            counts=counts,
+        )
+        self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
+        self._reward_col = self.table.cols["reward"].start
+        self._all = np.ones(b, dtype=np.bool_)
+        self._row_ids = np.arange(b)
+        self._fresh_actions = np.full((b, nw), -1.0)
+
+    # ------------------------------------------------------------------ plant hooks
+    def _alloc_plant(self, b: int) -> None:
+        """Allocate ``states``, ``kps`` and the plant's arrays (PLANT_ARRAYS)."""
+        raise NotImplementedError
+
+    def record_size(self) -> int:
+        raise NotImplementedError
+
+    def _parse_target(self, target) -> Any:
+        """A pinned target of ``reset(options={"target": ...})`` as the plant's target object."""
+        raise NotImplementedError
+
+    def _sample_target(self, rng: np.random.Generator) -> Any:
+        raise NotImplementedError
+
+    def _target_grid(self, i: int, target) -> np.ndarray:
+        """(n_grid, d) target of the tracked entry at the control instants."""
+        raise NotImplementedError
+
+    def _set_episode(self, i: int, params: ModelParams, kp: np.ndarray | None) -> None:
+        """Per-episode constants of spine ``i`` (kps[i], ohm[i], wvol[i] and plant tables)."""
+        raise NotImplementedError
+
+    def _init_state(self, i: int, vforce: np.ndarray) -> int:
+        raise NotImplementedError
+
+    def _advance(self, active: np.ndarray, resolve: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _record(self, rows: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _probe(self, rows: np.ndarray) -> None:
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ facts
+    @property
+    def max_steps(self) -> int:
+        """Truncation step count (the vector env may lower it to ``max_episode_steps``)."""
+        return int(self.spec.counts[bk.C_MAX_STEPS])
+
+    @max_steps.setter
+    def max_steps(self, value: int) -> None:
+        self.spec.counts[bk.C_MAX_STEPS] = int(value)
+
+    @property
+    def snapshot_arrays(self) -> tuple[str, ...]:
+        return (*COMMON_ARRAYS, *self.PLANT_ARRAYS)
+
+    def _array(self, name: str) -> np.ndarray:
+        return getattr(self.mem, name) if name in bk.Memory._fields else getattr(self, name)
+
+    # ------------------------------------------------------------------ reset
+    def _draw_params(self, rng: np.random.Generator, opts: dict) -> tuple[ModelParams, np.ndarray | None]:
+        cfg = self.cfg
+        params = opts.get("params")
+        if params is not None:
+            return params, None
+        dr = cfg.domain_randomization
+        if isinstance(dr, ParameterUncertainty):
+            return dr.draw(rng, cfg.params), None
+        if dr:
+            draws = {name: float(rng.uniform(lo, hi)) for name, lo, hi in dr}
+            try:
+                return cfg.params.replace(**draws), None
+            except ValueError as e:
+                raise ValueError(f"domain_randomization drew an invalid parameter set {draws}: {e}") from None
+        return cfg.params, self.nominal_kp
+
+    def reset_env(self, i: int, rng: np.random.Generator, options=None) -> np.ndarray:
+        """Start a new episode in environment ``i`` and return its first observation (float32).
+
+        The draws come from ``rng`` in this order: target, load schedule, randomised parameters
+        (each only if not pinned by ``options``), then the sensor noise.
+        """
+        cfg = self.cfg
+        opts = self.parse_options(options)
+        target = opts.get("target")
+        if target is None:
+            target = self._sample_target(rng)
+        loads = opts.get("loads")
+        if loads is None:
+            loads = LoadSchedule.sample(
+                rng,
+                cfg.episode_duration,
+                cfg.tip_force_range,
+                cfg.tip_force_count,
+                cfg.tip_force_duration,
+                cfg.payload_range,
+                dim=cfg.force_dim,
+            )
+        params, kp = self._draw_params(rng, opts)
+        self._set_episode(i, params, kp)
+        self.episodes[i] = (target, loads, params)
+        self.targets[i] = self._target_grid(i, target)
+        weight = loads.payload_force(params.g)
+        self.forces[i] = loads.tip_force(self.time_grid[: cfg.n_steps]) + weight
+        plan = self.resolve_plan[i]
+        plan[0] = np.any(self.forces[i, 0] != weight)  # the initial state is solved under the payload only
+        plan[1:] = np.any(self.forces[i, 1:] != self.forces[i, :-1], axis=1)
+        self.loads[i] = 0.0
+        self.loads[i, 0] = weight
+        st = self._init_state(i, self.loads[i])
+        if st != L.OK:
+            raise ValueError(
+                f"the initial state cannot be solved under a payload of {loads.payload:g} kg "
+                f"({L.STATUS_TEXT.get(st, st)}); use a lighter payload"
+            )
+        self.status[i] = L.OK
+        rows = np.array([i], dtype=np.int64)
+        self._record(rows)
+        self._probe(rows)
+        c = self.table.n_channels
+        noise = (rng.normal(size=c) * self.noise_sigma if self.noisy else np.zeros(c))[None, :]
+        obs = self._finish(rows, self._fresh_actions, noise, fresh=True)[0]
+        return obs[0]
+
+    def parse_options(self, options) -> dict[str, Any]:
+        """Validate ``reset(options=...)``: keys among ``target``, ``loads``, ``params``."""
+        return _parse_options(options, RESET_OPTION_KEYS, self._parse_target, self.cfg)
+
+    def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """Info arrays of freshly reset environments ``rows`` (zero voltage, energy, reward terms)."""
+        info = self.table.info_dict(self.last_row[rows])
+        info["status"] = np.zeros(rows.shape[0], dtype=np.int64)
+        return info
+
+    # ------------------------------------------------------------------ step
+    def _finish(self, rows, actions, noise, fresh: bool):
+        n = rows.shape[0]
+        out = bk.Out(
+            obs=np.empty((n, self.table.obs_dim), dtype=np.float32),
+            row=np.empty((n, self.table.width)),
+            terminated=np.empty(n, dtype=np.bool_),
+            truncated=np.empty(n, dtype=np.bool_),
+        )
+        step = bk.Step(
+            rows=rows,
+            probe=self.probe,
+            status=self.status,
+            actions=actions,
+            volts=self.volts,
+            loads=self.loads,
+            targets=self.targets,
+            noise=noise,
+        )
+        bk.finish_rows(step, self.mem, self.spec, out, fresh)
+        self.last_row[rows] = out.row
+        return out.obs, out
+
+    def step(
+        self, actions: np.ndarray, rngs: Sequence[np.random.Generator], active: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Advance the active environments by one control period.
+
+        Args:
+            actions: (B, W) finite float64 (validated by the caller), clipped here to [-1, 1].
+            rngs: per-environment generators (only used for sensor noise).
+            active: (B,) bool, environments to step (default all).
+
+        Returns:
+            ``(obs, reward, terminated, truncated, info)`` for the active rows only, in row order;
+            ``info`` is a dict of arrays with one row per active environment.
+        """
+        cfg = self.cfg
+        if active is None:
+            active = self._all
+            rows = self._row_ids
+        else:
+            rows = np.flatnonzero(active)
+        n = rows.shape[0]
+        a = np.clip(actions, -1.0, 1.0)
+        np.multiply(a + 1.0, cfg.volt_coef, out=self.volts)
+        k0 = self.mem.k[rows]
+        kk = np.minimum(k0, cfg.n_steps - 1)
+        self.loads[rows, 0, :] = self.forces[rows, kk]
+        resolve = np.zeros(self.num_envs, dtype=np.bool_)
+        resolve[rows] = self.resolve_plan[rows, kk] & (k0 < cfg.n_steps)
+        self._advance(active, resolve)
+        self._probe(rows)
+        c = self.table.n_channels
+        noise = np.zeros((n, c))
+        if self.noisy:  # drawn per environment from its own generator, after the physics
+            for j, i in enumerate(rows):
+                noise[j] = rngs[i].normal(size=c) * self.noise_sigma
+        obs, out = self._finish(rows, a, noise, fresh=False)
+        info = self.table.info_dict(out.row)
+        info["status"] = self.status[rows]
+        return obs, out.row[:, self._reward_col], out.terminated, out.truncated, info
+
+    # ------------------------------------------------------------------ snapshot / restore
+    def snapshot(self, i: int) -> SpineSnapshot:
+        """Copy of environment ``i``'s full state (without its generator; the envs add that)."""
+        if self.episodes[i] is None:
+            raise RuntimeError("call reset() before snapshot()")
+        arrays = {}
+        for name in self.snapshot_arrays:
+            row = np.array(self._array(name)[i], copy=True)
+            row.setflags(write=False)
+            arrays[name] = row
+        return SpineSnapshot(arrays=arrays, episode=self.episodes[i])
+
+    def restore(self, i: int, snap: SpineSnapshot) -> None:
+        """Put a :meth:`snapshot` back into environment ``i``; ValueError if it does not fit."""
+        if not isinstance(snap, SpineSnapshot):
+            raise ValueError(f"snapshot must be a SpineSnapshot, got {type(snap).__name__}")
+        names = self.snapshot_arrays
+        missing = set(names) - set(snap.arrays)
+        if missing:
+            raise ValueError(f"snapshot lacks {sorted(missing)} (is it from another env?)")
+        for name in names:
+            dest = self._array(name)
+            src = np.asarray(snap.arrays[name])
+            if src.shape != dest.shape[1:]:
+                raise ValueError(
+                    f"snapshot does not fit this env: {name} has shape {src.shape}, the env's "
+                    f"{dest.shape[1:]} (different layout, episode length, preview or sensor delay)"
+                )
+        for name in names:
+            self._array(name)[i] = snap.arrays[name]
+        self.episodes[i] = snap.episode
+
+
+def _parse_options(options, keys, parse_target, cfg) -> dict[str, Any]:
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(f"options must be a dict with keys among {keys}, got {options!r}")
+    unknown = set(options) - set(keys)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {sorted(unknown)}; valid keys: {keys}")
+    out = {}
+    if options.get("target") is not None:
+        out["target"] = parse_target(options["target"])
+    loads = options.get("loads")
+    if loads is not None:
+        if not isinstance(loads, LoadSchedule) or loads.dim != cfg.force_dim:
+            raise ValueError(
+                f"options['loads'] must be a LoadSchedule with dim = {cfg.force_dim}, got {loads!r}"
+            )
+        out["loads"] = loads
+    params = options.get("params")
+    if params is not None:
+        if not isinstance(params, ModelParams):
+            raise ValueError(f"options['params'] must be a ModelParams, got {params!r}")
+        out["params"] = params
+    return out
