@@ -115,7 +115,7 @@ def main(argv=None) -> int:
             res[env_id][f"{key}_over_planar"] = res[env_id][key] / res["SmaSpine-v0"][key]
         print(env_id, {k: round(v, 3) for k, v in res[env_id].items()})
     out = {
-        "settings": vars(args) | {"out": str(args.out)},
+        "settings": {k: v for k, v in vars(args).items() if k != "out"},
         "load_average_start": load_start,
         "load_average_end": os.getloadavg(),
         "results": res,

@@ -101,6 +101,49 @@ def test_adding_an_observation_entry_is_one_edit():
         Entry("x", "nonsense", "-", "doc", ("x",))
 
 
+@pytest.mark.parametrize("env_id", IDS)
+def test_rewards_infos_and_observations_follow_the_documented_formulas(env_id):
+    # NumPy reference of the writer, from the docstrings' formulas and the model parameters
+    env = gym.make(env_id, episode_duration=6.0, cost_weight=0.01, temperature_limit=330.0).unwrapped
+    cfg, p = env.config, env.config.params
+    obs, info = env.reset(seed=4)
+    lay = cfg.layout
+    l0 = np.array([m.L0 for m in lay.modules for _ in m.wires])
+    assert np.allclose(info["resistance"], p.lam_M * l0 / p.wire_area, rtol=1e-12)  # martensite at reset
+    scale = lay.voltage_scale
+    e_ref = np.sum(p.n_w * (cfg.v_max * scale) ** 2 / (min(p.lam_A, p.lam_M) * l0 / p.wire_area)) * 0.1
+    task, d = env.table.task.key, env.table.task_dim
+    tgt_key = "target_deg" if d == 2 else "target_mm"
+    target = env.target_profile
+    km = env._core.kms[0]
+    grid = (lambda t: target(t)) if d == 2 else (lambda t: target.position(t, km))
+    rng = np.random.default_rng(0)
+    prev = info[task]
+    for k in range(1, 41):
+        a = rng.uniform(-1.3, 1.3, env.action_space.shape)
+        obs, r, te, tr, info = env.step(a)
+        ac = np.clip(a, -1.0, 1.0)
+        assert np.allclose(info["voltage"], (ac + 1.0) / 2.0 * cfg.v_max * scale, rtol=1e-12)
+        assert info["energy_J"] == pytest.approx(info["power_W"].sum() * 0.1, rel=1e-12)
+        err = grid(0.1 * k) - info[task]
+        assert np.allclose(info[tgt_key], grid(0.1 * k), atol=1e-9)
+        assert info["reward_tracking"] == pytest.approx(-np.linalg.norm(err) / cfg.error_scale, rel=1e-12)
+        assert info["reward_energy"] == pytest.approx(-0.5 * info["energy_J"] / e_ref, rel=1e-9)
+        cost = np.maximum(info["temperature"] - 330.0, 0.0).sum()
+        assert info["cost"] == pytest.approx(cost, rel=1e-12, abs=1e-12)
+        assert r == pytest.approx(info["reward_tracking"] + info["reward_energy"] - 0.01 * cost, rel=1e-12)
+        # observation: the table's entries (no noise, no delay: measured = true)
+        assert np.allclose(obs[env.obs_index(task)], info[task], rtol=1e-6, atol=1e-4)
+        assert np.allclose(obs[env.obs_index("temperature")], info["temperature"], rtol=1e-6)
+        assert np.allclose(obs[env.obs_index("previous_action")], ac, atol=1e-7)
+        rate_key = "bending_rate" if d == 2 else "tip_velocity"
+        assert np.allclose(obs[env.obs_index(rate_key)], (info[task] - prev) / 0.1, rtol=1e-5, atol=1e-3)
+        pv = "target_preview_deg" if d == 2 else "target_preview_mm"
+        assert np.allclose(obs[env.obs_index(pv)], grid(min(0.1 * k + 1.0, 6.0)), rtol=1e-6, atol=1e-4)
+        prev = info[task]
+    assert info["cost"] > 0.0  # the limit was crossed: the cost term was exercised
+
+
 # ---------------------------------------------------------------- vector ≡ single, seeds, snapshots
 @pytest.mark.parametrize("env_id", IDS)
 def test_vector_row_i_equals_single_env_seeded_seed_plus_i(env_id):
@@ -278,9 +321,12 @@ def test_chain_targets_lie_in_the_documented_workspace_which_the_model_reaches()
     # the model holds every module at the bend limit (the reach row at 20°), and its tip is where
     # the arc kinematics of its own module bends puts it (gravity bends the arcs: 3.4 mm)
     lay = SpineLayout.chain(cfg.n_modules)
-    row = next(r for r in REACH_CHAIN if r.direction == "diagonal" and abs(r.theta - 20.0) < 0.5)
-    theta, _ = hold(lay, "diagonal", row.voltage)
-    assert theta >= cfg.module_bend_limit
+    rows = [r for r in REACH_CHAIN if abs(r.theta - cfg.module_bend_limit) < 0.5]
+    assert {r.direction for r in rows} == {"axis", "diagonal"}
+    for row in rows:  # toward a wire and between two
+        theta, _ = hold(lay, row.direction, row.voltage)
+        assert theta >= cfg.module_bend_limit
+    row = next(r for r in rows if r.direction == "diagonal")
     res = simulate_spatial(60.0, np.tile([row.voltage, row.voltage, 0, 0], 2) * 0.5, layout=lay)
     arc = arc_tip_position(res.module_bending_deg[-1], km)
     assert np.linalg.norm(arc - 1000.0 * res.tip_position[-1]) < 5.0

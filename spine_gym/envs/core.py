@@ -414,7 +414,7 @@ class EnvConfig(BaseEnvConfig):
                 ("fx", "fy"),
             ),
             Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−|e| / error_scale", ("reward_tracking",)),
+            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
             Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
         )
         return Table(entries, "angle_deg", self.noise_sigma)

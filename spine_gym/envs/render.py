@@ -189,9 +189,14 @@ class SpatialRenderer:
         dpi = 100
         self._fig = fig = Figure(figsize=(self.size[0] / dpi, self.size[1] / dpi), dpi=dpi)
         FigureCanvasAgg(fig)
-        self._axes = [fig.add_axes((0.01 + 0.49 * c, 0.0, 0.48, 0.86)) for c in range(2)]
+        self._axes = [fig.add_axes((0.01 + 0.42 * c, 0.0, 0.41, 0.86)) for c in range(2)]
         self._cmap = matplotlib.colormaps[CMAP]
         self._text = fig.text(0.02, 0.985, "", va="top", ha="left", family="monospace", fontsize=7)
+        cax = fig.add_axes((0.85, 0.25, 0.03, 0.5))
+        self._scale = ScalarMappable(Normalize(0.0, 1.0), self._cmap)
+        bar = fig.colorbar(self._scale, cax=cax)
+        bar.ax.tick_params(labelsize=6)
+        bar.set_label("wire temperature [K]", fontsize=7)
 
     def draw(self, s: dict) -> np.ndarray:
         """Frame (H, W, 3) uint8 of a :meth:`SpatialBatch.state_summary` dict."""
@@ -206,6 +211,7 @@ class SpatialRenderer:
         positions(chords, pos)
         length = s["length"]
         t_lo, t_hi = s["ambient"], max(self.temperature_limit, s["ambient"] + 1.0)
+        self._scale.set_clim(t_lo, t_hi)
         target = np.asarray(s["target"])
         if s["task"] == "tip_bending_deg":
             arc = arc_positions(target[None, :], km[:1] if km.shape[0] == 1 else km) / 1000.0

@@ -162,7 +162,7 @@ class SpatialConfig(BaseEnvConfig):
             ),
         )
 
-    def _step_entries(self, unit: str, error_doc: str) -> tuple[Entry, ...]:
+    def _step_entries(self, unit: str, error_doc: str, dim: int) -> tuple[Entry, ...]:
         """The info-only entries every spatial env has (voltages, energy, reward terms, ...)."""
         names = self.wire_names
         return (
@@ -179,7 +179,7 @@ class SpatialConfig(BaseEnvConfig):
                 "error",
                 unit,
                 error_doc,
-                tuple(f"error_{c}" for c in "xyz"[: self._task_dim]),
+                tuple(f"error_{c}" for c in "xyz"[:dim]),
             ),
             Entry("energy_J", "energy", "J", "electrical energy of the step (all wires)", ("energy",)),
             Entry("cost", "cost", "K", "Σ over wires of max(0, T − temperature_limit)", ("cost",)),
@@ -192,11 +192,9 @@ class SpatialConfig(BaseEnvConfig):
                 ("fx", "fy", "fz"),
             ),
             Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−|e| / error_scale", ("reward_tracking",)),
+            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
             Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
         )
-
-    _task_dim = 2
 
     def table(self) -> Table:
         raise NotImplementedError
@@ -257,7 +255,7 @@ class Spine3DConfig(SpatialConfig):
                 "tip position, global x/y/z",
                 ("tip_x", "tip_y", "tip_z"),
             ),
-            *self._step_entries("deg", "target − tip bending vector"),
+            *self._step_entries("deg", "target − tip bending vector", 2),
         )
         return Table(entries, "tip_bending_deg", self.noise_sigma)
 
@@ -271,8 +269,6 @@ class ChainConfig(SpatialConfig):
     n_modules: int = 2
     module_bend_limit: float = 20.0
     error_scale: float = 20.0  # [mm]
-
-    _task_dim = 3
 
     def _check_task(self) -> None:
         object.__setattr__(self, "n_modules", _int("n_modules", self.n_modules, 1, MAX_MODULES))
@@ -348,12 +344,22 @@ class ChainConfig(SpatialConfig):
                 ("bending_x", "bending_y"),
                 noise="angle",
             ),
-            *self._step_entries("mm", "target − tip position"),
+            *self._step_entries("mm", "target − tip position", 3),
         )
         return Table(entries, "tip_position_mm", self.noise_sigma)
 
 
 # ---------------------------------------------------------------- the batch of spatial spines
+def _numbers(value) -> np.ndarray | None:
+    """``value`` as a float array, or None if it is not numeric."""
+    if isinstance(value, str | bytes):
+        return None
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
 class SpatialBatch(TableBatch):
     """:class:`TableBatch` over the spatial core (per-spine layout tables, for randomised parameters)."""
 
@@ -464,7 +470,7 @@ class Spine3DBatch(SpatialBatch):
     def _parse_target(self, target) -> BendTarget:
         if isinstance(target, BendTarget):
             return target
-        b = np.asarray(target, dtype=float) if not isinstance(target, str) else None
+        b = _numbers(target)
         if b is None or b.shape != (2,) or not np.isfinite(b).all():
             raise ValueError(
                 f"options['target'] must be a BendTarget or a bending vector (b1, b2) [deg], got {target!r}"
@@ -487,7 +493,7 @@ class ChainBatch(SpatialBatch):
     def _parse_target(self, target) -> ChainTarget:
         k = self.cfg.n_modules
         if not isinstance(target, ChainTarget):
-            b = np.asarray(target, dtype=float) if not isinstance(target, str) else None
+            b = _numbers(target)
             if b is None or b.shape != (k, 2) or not np.isfinite(b).all():
                 raise ValueError(
                     f"options['target'] must be a ChainTarget or ({k}, 2) module bending vectors [deg], "

@@ -217,8 +217,9 @@ class SmaSpineChainEnv(SmaSpineEnv):
     its material frame) are anchored at its two disks and bend only that module. With two modules
     the chain can bend into an S and put the tip at positions one module cannot. The default
     chain stands with margin: its straight column's load factor is 0.38 (< 1 stands, SPATIAL.md §6;
-    3 modules 0.41, 4 modules 0.44, all tested by the layout). The task: track a target tip
-    position p*(t) [mm] (global frame, z up, x toward wire 0 of the bottom module).
+    3 modules 0.41, 4 modules 0.44; ``SpineLayout`` rejects a chain that does not stand). The
+    task: track a target tip position p*(t) [mm] (global frame, z up, x toward wire 0 of the
+    bottom module).
 
     Joule heating goes as V²/(ρ L0²): a module's shorter wires heat like the seed's at a lower
     voltage, so the voltage on module k's wires is the action's voltage times L0_k / L0 (= 1 /
@@ -235,7 +236,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
 
     {obs_table}
 
-    L = the chain's length in mm (455). Sensor readings: tip position ("position" noise [mm]),
+    Position bounds are ± the chain's length (455 mm). Sensor readings: tip position ("position" noise [mm]),
     module bending vectors ("angle" [deg]; each module's top tangent in the module's base frame),
     temperatures and resistances; the tip velocity differentiates the measured tip position.
 
@@ -246,9 +247,11 @@ class SmaSpineChainEnv(SmaSpineEnv):
     core's kinematics with every module a circular arc (:func:`arc_tip_position`). So the
     workspace is the set of tip positions of chains whose modules are arcs bent by up to
     ``module_bend_limit`` in any direction; with the defaults it spans a horizontal radius of up to
-    {radius:.0f} mm (both modules bent the same way) at a height of {z_low:.0f} to 455 mm. The model
-    reaches every such configuration (tested; gravity bends the arcs a little: 3.4 mm at the tip
-    with both modules at the limit between two wires). Steady states (:mod:`spine_gym.envs.reach`;
+    {radius:.0f} mm (both modules bent the same way) at a height of {z_low:.0f} to 455 mm. Each module of
+    the model reaches the limit toward a wire and between two (tested with both modules bent the
+    same way; a module's wires act on that module only), and the arc map of the model's own module
+    bends puts the tip within 3.4 mm of the model's tip (gravity bends the arcs a little; tested
+    at the limit, between two wires). Steady states (:mod:`spine_gym.envs.reach`;
     constant voltage from cold, 60 s, no load, both modules bent the same way):
 
     {reach_table}
@@ -362,6 +365,8 @@ def _indent(text: str) -> str:
 
 def _document() -> None:
     """Fill the generated tables into the class docstrings (from the tables and reach.py's rows)."""
+    if SmaSpine3DEnv.__doc__ is None:  # python -OO strips docstrings
+        return
     cfg3, cfgc = Spine3DConfig(), ChainConfig()
     t3, tc = cfg3.table(), cfgc.table()
     SmaSpine3DEnv.__doc__ = SmaSpine3DEnv.__doc__.format(
