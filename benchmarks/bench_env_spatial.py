@@ -85,7 +85,7 @@ def plot(res: dict, path: Path) -> None:
     ax.set_xticks(x, IDS)
     ax.set_yscale("log")
     ax.set_ylabel("environment steps / s (best of repeats)")
-    ax.set_title("env speed: spatial ids vs SmaSpine-v0 (same run; loaded machine = upper bound of cost)")
+    ax.set_title("spatial ids vs SmaSpine-v0, one run (loaded machine)", fontsize=10)
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=120)

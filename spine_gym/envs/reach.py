@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from tqdm import tqdm
 
 from ..layout import SpineLayout
 from ..simulate_spatial import simulate_spatial
@@ -82,16 +83,19 @@ def voltage_for(
     return best
 
 
+def _rows(layout: SpineLayout, thetas, label: str) -> list[ReachRow]:
+    cases = [(t, d) for t in thetas for d in DIRECTIONS]
+    return [voltage_for(layout, d, t) for t, d in tqdm(cases, desc=label, unit="row")]
+
+
 def reach_3d(thetas=(20.0, 30.0, 40.0, 45.0)) -> list[ReachRow]:
     """Rows of ``SmaSpine3D-v0`` (the seed's four-wire module)."""
-    lay = SpineLayout.seed()
-    return [voltage_for(lay, d, t) for t in thetas for d in DIRECTIONS]
+    return _rows(SpineLayout.seed(), thetas, "SmaSpine3D-v0")
 
 
 def reach_chain(n_modules: int = 2, thetas=(10.0, 15.0, 20.0, 25.0)) -> list[ReachRow]:
     """Rows of ``SmaSpineChain-v0``: every module bent by Θ the same way."""
-    lay = SpineLayout.chain(n_modules)
-    return [voltage_for(lay, d, t) for t in thetas for d in DIRECTIONS]
+    return _rows(SpineLayout.chain(n_modules), thetas, "SmaSpineChain-v0")
 
 
 def markdown(rows, theta_label: str = "Θ [deg]") -> str:

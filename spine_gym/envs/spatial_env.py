@@ -44,9 +44,10 @@ class SmaSpine3DEnv(SmaSpineEnv):
     in any 3-D direction and a payload disturb the spine.
 
     What makes it hard, besides the slow hysteretic wires of ``SmaSpine-v0``: a direction between
-    two wires needs both heated in the right ratio; the wire opposite a bend is stretched and does
-    not pull back, and a wire 90° off the bend plane is bent sideways and loses pre-strain, so
-    turning the bend (circles) keeps three or four wires busy.
+    two wires needs both heated in the right ratio; the wire opposite a bend is stretched
+    (detwinned) and does not pull back by itself, while the two wires 90° off the bend plane sit on
+    its neutral axis and keep their length; so turning the bend (circles, figure-eights) hands the
+    work from wire to wire, each of which must first cool or be stretched back.
 
     ## Action space
 
@@ -61,8 +62,8 @@ class SmaSpine3DEnv(SmaSpineEnv):
 
     {obs_table}
 
-    R_max = 2 × the largest one-wire resistance over the nominal and randomised parameters (plus 10
-    standard deviations of resistance noise). Bending, temperatures and resistances are sensor
+    The resistance bound is 2 × the largest one-wire resistance over the nominal and randomised
+    parameters (plus 10 standard deviations of resistance noise); the table shows the defaults. Bending, temperatures and resistances are sensor
     readings (``sensor_delay`` control periods old, Gaussian ``sensor_noise`` "angle" [deg],
     "temperature" [K], "resistance" [Ohm]); the rate differentiates the measured bending vector;
     targets and previous actions are exact. The indices follow from the env's table

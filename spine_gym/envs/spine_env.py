@@ -61,25 +61,18 @@ class SmaSpineEnv(gym.Env):
 
     ``Box(low, high, (10,), float32)``; entries outside the bounds are clipped to them.
 
-    | index | observation                                  | unit  | low   | high     |
-    |-------|----------------------------------------------|-------|-------|----------|
-    | 0     | bending angle θ (sum of segment angles)      | deg   | -180  | 180      |
-    | 1     | current target θ*(t)                         | deg   | -90   | 90       |
-    | 2     | right wire temperature                       | K     | 0     | 2000     |
-    | 3     | left wire temperature                        | K     | 0     | 2000     |
-    | 4     | angle rate (difference of measured angles)   | deg/s | -1000 | 1000     |
-    | 5     | target preview θ*(t + ``target_preview``)    | deg   | -90   | 90       |
-    | 6     | previous action, right (after clipping)      | -     | -1    | 1        |
-    | 7     | previous action, left                        | -     | -1    | 1        |
-    | 8     | right wire resistance (one wire)             | Ohm   | 0     | R_max    |
-    | 9     | left wire resistance                         | Ohm   | 0     | R_max    |
+    {obs_table}
 
-    R_max = 2 × the largest one-wire resistance over the nominal and randomised parameters (4.7 Ohm
-    at the baseline, whose wire has 1.87 Ohm in martensite, 2.34 Ohm in austenite; plus 10 standard
-    deviations of resistance noise). Entries 0, 2, 3, 8, 9 are sensor readings: they see
-    ``sensor_delay`` control periods into the past and carry Gaussian ``sensor_noise`` if enabled;
-    entry 4 differentiates the measured angle. Entries 1, 5, 6, 7 are exact. Time t is the end of
-    the step just taken (``info["time"]``).
+    The resistance bound is 2 × the largest one-wire resistance over the nominal and randomised
+    parameters (the table shows the baseline's, whose wire has 1.87 Ohm in martensite, 2.34 Ohm in
+    austenite), plus 10 standard deviations of resistance noise. The angle, the temperatures and
+    the resistances are sensor readings: they see ``sensor_delay`` control periods into the past
+    and carry Gaussian ``sensor_noise`` if enabled; the angle rate differentiates the measured
+    angle. Target, preview and previous actions are exact. Time t is the end of the step just
+    taken (``info["time"]``). The table is generated from the env's declarative table
+    (:meth:`spine_gym.envs.core.EnvConfig.table`); ``env.unwrapped.obs_index(key)`` gives the
+    indices of an entry. The first four entries (angle, target, right and left temperature) are
+    the env contract.
 
     ## Rewards
 
@@ -410,3 +403,9 @@ class SmaSpineEnv(gym.Env):
         d = self.__dict__.copy()
         d["_renderer"] = None  # matplotlib figures are not pickled
         return d
+
+
+if SmaSpineEnv.__doc__ is not None:  # the observation table, from the env's table (python -OO strips docs)
+    SmaSpineEnv.__doc__ = SmaSpineEnv.__doc__.replace(
+        "{obs_table}", EnvConfig().table().markdown_observation().replace("\n", "\n    ")
+    )

@@ -21,11 +21,13 @@ spines (:func:`spatial_solver.advance` and :func:`spatial_solver.record`, SPATIA
 
 from __future__ import annotations
 
+import math
+
 import numba
 
 from ._jit import jit, pjit
 from .batch import record
-from .layout import OK
+from .layout import ERR_NONFINITE, OK
 from .solver import advance
 from .spatial_solver import advance as spatial_advance
 from .spatial_solver import make_work, sizes
@@ -80,6 +82,14 @@ def record_many(states, kps, rows, meas):
         record(states[i], kps[i], meas[i])
 
 
+@jit
+def _all_finite(x):
+    for q in range(x.shape[0]):
+        if not math.isfinite(x[q]):
+            return False
+    return True
+
+
 def _step_many_spatial(
     states, backup, kps, ks, kws, kms, volts, loads, resolve, active, dt, n_sub, status, rec
 ):
@@ -89,6 +99,10 @@ def _step_many_spatial(
     layout tables of each spine (they depend on the episode's parameters); ``volts`` (B, W) [V];
     ``loads`` (B, N, 3) global x/y/z vertex forces [N]; ``rec`` (B, record_size) out, the
     :func:`spatial_solver.record` row of each active spine after the step.
+
+    A physics step that reports OK but leaves a non-finite state counts as failed (ERR_NONFINITE,
+    rolled back): the spatial core can let a NaN through in rare steps of extreme drive under load
+    (found by the env's fuzz test), and the env must never hand one out.
     """
     b = states.shape[0]
     s = states.shape[1]
@@ -102,6 +116,8 @@ def _step_many_spatial(
             st, _, _ = spatial_advance(
                 states[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], dt, resolve[i] and j == 0
             )
+            if st == OK and not _all_finite(states[i]):
+                st = ERR_NONFINITE
             if st != OK:
                 status[i] = st
                 for q in range(s):
