@@ -26,7 +26,20 @@ ENV_IDS = (ENV_ID, SPATIAL_ENV_ID, CHAIN_ENV_ID)
 ALGOS = ("ppo", "sac")
 
 # keys of a hyperparameter entry that are not constructor arguments of the algorithm
-SPECIAL_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_kwargs", "vec_env", "residual", "residual_scale")
+SPECIAL_KEYS = (
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "normalize",
+    "env_kwargs",
+    "vec_env",
+    "residual",
+    "residual_scale",
+    "energy_budget",
+    "lagrangian_init",
+    "lagrangian_lr",
+    "budget_episodes",
+)
 
 
 def parse_value(text: str) -> Any:
@@ -110,6 +123,10 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("env_kwargs", {})
     special.setdefault("residual", None)
     special.setdefault("residual_scale", 1.0)
+    special.setdefault("energy_budget", None)  # "pid" or a number [J]: Lagrangian energy budget
+    special.setdefault("lagrangian_init", 0.5)
+    special.setdefault("lagrangian_lr", 0.5)
+    special.setdefault("budget_episodes", 16)
     if special["residual"] in (None, "none", "None", False):
         special["residual"] = None
     return hp, special

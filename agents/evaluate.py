@@ -37,7 +37,14 @@ from tqdm import tqdm
 from .common import CHAIN_ENV_ID, ENV_ID, ENV_IDS, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY, baselines_for, registry_for
-from .runtime import build_controller, env_temperature_limit, load_policy, make_env, run_episode
+from .runtime import (
+    build_controller,
+    env_temperature_limit,
+    evaluation_env_kwargs,
+    load_policy,
+    make_env,
+    run_episode,
+)
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
 
@@ -342,7 +349,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         for name, path in models.items():
             pol = load_policy(path, name=name)
             controllers[name] = pol
-            env_kwargs[name] = {k: v for k, v in pol.env_kwargs.items() if k != "episode_duration"}
+            env_kwargs[name] = evaluation_env_kwargs(pol.env_kwargs)
     probe.close()
     if not controllers:
         raise SystemExit("nothing to evaluate: no baselines and no models")

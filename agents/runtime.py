@@ -7,7 +7,8 @@
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
   :class:`agents.residual.ResidualPolicy`), so the evaluation treats it like any controller.
-* :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`.
+* :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`;
+  :func:`validation_scores` — mean RMSE and energy over the validation episodes.
 
 :mod:`agents.evaluate`, :mod:`agents.tune`, :mod:`agents.train` and :mod:`agents.select` import
 from here; this module imports no CLI.
@@ -44,6 +45,11 @@ __all__ = [
     "vecnormalize_candidates",
     "load_tuned",
     "GUARD_MARGIN_K",
+    "OBSERVATION_KWARGS",
+    "TASK_KWARGS",
+    "evaluation_env_kwargs",
+    "VALIDATION_SEED_BASE",
+    "validation_scores",
 ]
 
 
@@ -102,6 +108,45 @@ def run_episode(
         if terminated or truncated:
             break
     return Trajectory.from_infos(infos, actions, rewards, keys=tracking_keys(env))
+
+
+# env kwargs that change what a controller observes, not the task: a reference PID runs without them
+OBSERVATION_KWARGS = ("target_preview",)
+# env kwargs that only shape the training distribution of episodes; the evaluation suite sets the
+# episode itself (targets, loads, plant), so a policy is evaluated without them
+TASK_KWARGS = (
+    "episode_duration",
+    "target_range",
+    "target_kinds",
+    "sine_period_range",
+    "tip_force_range",
+    "tip_force_count",
+    "tip_force_duration",
+    "payload_range",
+    "domain_randomization",
+)
+
+
+def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
+    """A policy's training env kwargs without :data:`TASK_KWARGS` (what the suite's env keeps)."""
+    return {k: v for k, v in policy_env_kwargs.items() if k not in TASK_KWARGS}
+
+
+VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
+
+
+def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
+    """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
+    if n_episodes < 1:
+        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+    env = make_env(env_kwargs or {})
+    rmse, energy = [], []
+    for i in range(n_episodes):
+        tr = run_episode(env, policy, seed=VALIDATION_SEED_BASE + i)
+        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
+        energy.append(np.sum(tr.energy_J))
+    env.close()
+    return float(np.mean(rmse)), float(np.mean(energy))
 
 
 def env_temperature_limit(env) -> float:

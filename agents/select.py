@@ -11,6 +11,11 @@ the training seeds, the tuning seeds and the evaluation suite's seeds. The tuned
 episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg] and mean
 energy [J] per model, and the ratio of both to the PID's.
 
+``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
+model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
+default observation (``agents.runtime.OBSERVATION_KWARGS`` such as ``target_preview`` are the
+policy's, not the reference's).
+
 Selecting the shipped policies this way keeps the evaluation suite a test set: the suite's numbers
 are not what the models were picked by.
 """
@@ -21,26 +26,18 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
-
+from .common import StoreDict
 from .evaluate import write_csv
-from .runtime import build_controller, load_policy, make_env, run_episode
+from .runtime import (
+    OBSERVATION_KWARGS,
+    VALIDATION_SEED_BASE,
+    build_controller,
+    load_policy,
+    make_env,
+    validation_scores,
+)
 
-VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
-
-
-def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
-    """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
-    if n_episodes < 1:
-        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
-    env = make_env(env_kwargs or {})
-    rmse, energy = [], []
-    for i in range(n_episodes):
-        tr = run_episode(env, policy, seed=VALIDATION_SEED_BASE + i)
-        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
-        energy.append(np.sum(tr.energy_J))
-    env.close()
-    return float(np.mean(rmse)), float(np.mean(energy))
+__all__ = ["VALIDATION_SEED_BASE", "validation_scores", "main"]
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -49,19 +46,30 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--episodes", type=int, default=20, help="validation episodes (default: %(default)s)")
     p.add_argument("--best", action="store_true", help="also score each run's best_model.zip")
     p.add_argument("--out", default=None, help="CSV file for the scores")
+    p.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=StoreDict,
+        default=None,
+        help="score every model and the PID on this distribution (key:value; default: each model's own)",
+    )
     args = p.parse_args(argv)
     import torch
 
     torch.set_num_threads(1)
-    probe = make_env()
-    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes)
+    # the PID reference sees the env's default observation (preview), as in the evaluation suite
+    pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
+    probe = make_env(pid_kwargs)
+    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes, pid_kwargs)
     probe.close()
     rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
         for t in targets:
             pol = load_policy(t)
-            kw = {k: v for k, v in getattr(pol, "env_kwargs", {}).items() if k != "episode_duration"}
+            kw = args.env_kwargs
+            if kw is None:
+                kw = {k: v for k, v in getattr(pol, "env_kwargs", {}).items() if k != "episode_duration"}
             r, e = validation_scores(pol, args.episodes, kw)
             rows.append(
                 {

@@ -23,6 +23,13 @@ normalisation statistics and step counter) in a new run folder.
 ``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
 top of the tuned PID (:mod:`agents.residual`; ``residual_scale`` sets the authority of the
 correction, default 1); the baseline's settings go into ``meta.json`` with the model.
+
+``energy_budget: pid`` (or a number of joules) replaces the reward's fixed energy weight by a
+Lagrange multiplier that dual ascent adjusts after every rollout so that the mean episode energy
+meets the budget (:mod:`agents.lagrangian`); ``pid`` is the tuned PID's mean energy on
+``budget_episodes`` validation episodes of the training distribution (with the env's default
+observation: a longer ``target_preview`` of the policy is not given to the PID). ``lagrangian_init`` and
+``lagrangian_lr`` set the initial multiplier and its step; the budget goes into ``meta.json``.
 """
 
 from __future__ import annotations
@@ -39,8 +46,16 @@ import yaml
 
 from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
+from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .residual import ResidualVecEnv, base_spec
-from .runtime import env_temperature_limit, make_env, vecnormalize_candidates
+from .runtime import (
+    OBSERVATION_KWARGS,
+    build_controller,
+    env_temperature_limit,
+    make_env,
+    validation_scores,
+    vecnormalize_candidates,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -183,6 +198,18 @@ def train(argv: list[str] | None = None) -> Path:
         env = ResidualVecEnv(env, spec)
         if eval_env is not None:
             eval_env = ResidualVecEnv(eval_env, spec)
+    budget_env = None
+    if special["energy_budget"] is not None:
+        budget = energy_budget(special["energy_budget"], env_kwargs, int(special["budget_episodes"]))
+        probe = make_env(env_kwargs)
+        budget_env = EnergyBudgetVecEnv(
+            env, budget, probe.config.energy_reference, lam0=float(special["lagrangian_init"])
+        )
+        probe.close()
+        env = budget_env
+        meta["energy_budget_J"] = budget
+        if args.verbose:
+            print(f"energy budget {budget:.1f} J per episode", flush=True)
     if norm is not None:
         if args.trained_agent:
             stats = _checkpoint_vecnormalize(Path(args.trained_agent))
@@ -219,6 +246,9 @@ def train(argv: list[str] | None = None) -> Path:
         )
 
     callbacks = []
+    if budget_env is not None:
+        eta = float(special["lagrangian_lr"])
+        callbacks.append(LagrangianCallback(budget_env, eta=eta, verbose=args.verbose))
     if args.save_freq > 0:
         callbacks.append(
             CheckpointCallback(
@@ -267,6 +297,8 @@ def train(argv: list[str] | None = None) -> Path:
     if norm is not None:
         env.save(str(run / "vecnormalize.pkl"))
     meta.update({"train_wall_time_s": round(wall, 1), "total_timesteps": int(model.num_timesteps)})
+    if budget_env is not None:
+        meta["lagrangian_final"] = budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     if args.verbose:
         print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")
@@ -274,6 +306,24 @@ def train(argv: list[str] | None = None) -> Path:
     if eval_env is not None:
         eval_env.close()
     return run
+
+
+def energy_budget(spec, env_kwargs: dict, n_episodes: int) -> float:
+    """The energy budget per episode [J]: a number as given, or ``"pid"``: the tuned PID's mean
+    energy on ``n_episodes`` validation episodes of the training distribution ``env_kwargs``."""
+    if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
+        kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
+        probe = make_env(kw)
+        pid = build_controller("pid", probe)
+        probe.close()
+        return validation_scores(pid, n_episodes, kw)[1]
+    try:
+        value = float(spec)
+    except (TypeError, ValueError):
+        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}") from None
+    if not value > 0.0:
+        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}")
+    return value
 
 
 def _checkpoint_vecnormalize(ckpt: Path) -> Path:

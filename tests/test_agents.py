@@ -359,3 +359,19 @@ def test_relative_rows_are_ratios_to_the_reference_in_the_same_group():
     assert rel[("mpc_estimated", "hard")]["rmse_ratio"] == 1.0
     with pytest.raises(ValueError, match="reference"):
         ev.relative_rows(summary, "ppo")
+
+
+def test_a_policy_is_evaluated_without_the_kwargs_of_its_training_distribution():
+    """The shipped ppo_lag was trained on randomised plants and heavier loads with a 3-s preview;
+    the suite's nominal scenarios must run it on the nominal plant, with its own preview."""
+    from agents.runtime import TASK_KWARGS, evaluation_env_kwargs
+
+    train_kw = {"domain_randomization": True, "payload_range": (0.0, 0.09), "target_preview": 3.0,
+                "energy_weight": 0.6, "episode_duration": 10.0}  # fmt: skip
+    assert evaluation_env_kwargs(train_kw) == {"target_preview": 3.0, "energy_weight": 0.6}
+    assert "target_preview" not in TASK_KWARGS
+    pol = load_policy(POLICIES_DIR / "ppo_lag")
+    assert pol.env_kwargs["domain_randomization"] is True
+    env = ev.make_env({**evaluation_env_kwargs(pol.env_kwargs), "episode_duration": 2.0})
+    env.reset(seed=EVAL_SEED_BASE)
+    assert env.model_params == env.config.params and env.config.target_preview == 3.0

@@ -19,6 +19,13 @@ the tube. :class:`PhaseEstimator` keeps a full model state and, each control per
      under its tensile stress does, MODEL.md §3.3);
    * then the tube shape is solved again for the corrected fractions (the composite solve).
 
+With ``identify=True`` (the default) the first observation of an episode also identifies two
+parameters of a randomised plant, before anything is predicted: the env starts a spine at ambient
+temperature with both wires in martensite (x_A = 0, MODEL.md §3.10), so the mean of the two
+measured temperatures is the ambient temperature T_E and the mean resistance gives the martensite
+resistivity λ_M = R A_w / L0 (clipped to the ranges ``ModelParams`` accepts). The other
+randomised parameters (convection, tube modulus, λ_A) stay nominal.
+
 The angle is not forced onto the state (the fractions are already pinned by the resistance); the
 difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used by MPC as
 an output disturbance (it carries the unobserved payload and tip forces). How well it recovers the
@@ -57,13 +64,16 @@ class PhaseEstimator:
 
     Args:
         config: the env's :class:`~spine_gym.envs.EnvConfig` (nominal parameters, solver, periods,
-            ``v_max``). Randomised parameters, loads and sensor noise of an episode are not known.
+            ``v_max``). Loads and sensor noise of an episode are not known.
+        identify: identify T_E and λ_M from each episode's first observation (module docstring).
     """
 
-    def __init__(self, config: EnvConfig):
+    def __init__(self, config: EnvConfig, identify: bool = True):
         if not isinstance(config, EnvConfig):
             raise ValueError(f"config must be an EnvConfig, got {type(config).__name__}")
         self.config = config
+        self.identify = bool(identify)
+        self.nominal = config.params
         self.params = config.params
         self.kp = self.params.to_kernel()
         self.ks = config.solver.to_kernel()
@@ -76,12 +86,28 @@ class PhaseEstimator:
         self._started = False
 
     def reset(self) -> None:
-        """The env's starting state (MODEL.md §3.10, straight at ambient) under the assumed loads."""
+        """The env's starting state (MODEL.md §3.10, straight at ambient) under the assumed loads,
+        with the nominal parameters until the first observation identifies them."""
+        self._set_params(self.nominal)
+        self.angle_offset = 0.0
+        self._started = False
+
+    def _set_params(self, params) -> None:
+        self.params = params
+        self.kp = params.to_kernel()
         st = init_state(self.state, self.kp, self.ks, self.loads)
         if st != L.OK:  # pragma: no cover - the nominal unloaded start always solves
             raise RuntimeError(L.STATUS_TEXT.get(st, str(st)))
-        self.angle_offset = 0.0
-        self._started = False
+
+    def _identify(self, obs: np.ndarray) -> None:
+        """T_E and λ_M from the first observation of an episode (see the module docstring)."""
+        lo_t, hi_t = self.nominal._RANGES["T_E"]
+        lo_m, hi_m = self.nominal._RANGES["lam_M"]
+        t_e = float(np.clip(0.5 * (obs[OBS_TEMP_R] + obs[OBS_TEMP_L]), lo_t, hi_t))
+        r0 = 0.5 * (obs[OBS_RES_R] + obs[OBS_RES_L])
+        lam_m = float(np.clip(r0 * self.nominal.wire_area / self.nominal.L0, lo_m, hi_m))
+        lam_m = min(lam_m, self.nominal.lam_A * (1.0 - 1e-6))  # keep λ_A > λ_M (the x_A inversion)
+        self._set_params(self.nominal.replace(T_E=t_e, lam_M=lam_m))
 
     @property
     def angle_deg(self) -> float:
@@ -102,6 +128,8 @@ class PhaseEstimator:
             raise ValueError(f"obs must be one SmaSpine-v0 observation of shape (10,), got {obs.shape}")
         if self._started:
             self._predict(obs)
+        elif self.identify:
+            self._identify(obs)
         self._started = True
         self._correct(obs)
         self.angle_offset = float(obs[OBS_ANGLE]) - self.angle_deg

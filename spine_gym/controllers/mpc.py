@@ -22,11 +22,12 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     episode's future targets and loads (tip-force pulses, payload). No real controller has this;
     it is the upper bound of what the plant allows with this planner.
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
-    infers the state (phase fractions from the resistances), the parameters are nominal, the loads
-    are unknown (none assumed) and the targets over the horizon come from the observed target and
-    its 1-s preview (linear in between, then continued at the preview's rate of change). The
-    observed angle minus the estimated one is an output disturbance held over the horizon
-    (offset-free MPC).
+    infers the state (phase fractions from the resistances) and identifies the ambient
+    temperature and the martensite resistivity from the episode's first observation; the other
+    parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon
+    come from the observed target and its 1-s preview (linear in between, then continued at the
+    preview's rate of change). The observed angle minus the estimated one is an output
+    disturbance held over the horizon (offset-free MPC).
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
 SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
@@ -42,6 +43,7 @@ import numpy as np
 
 from ..envs.core import EnvConfig, planar_obs_index
 from ..envs.task import ANGLE_LIMIT
+from ..params import SolverOptions
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
@@ -84,6 +86,16 @@ class MPPIConfig:
         temp_margin: T_lim = env temperature limit − margin [K], in [0, 100].
         plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
             rollouts then reproduce the env exactly); a whole fraction of the control period.
+        plan_step_c: adaptive sub-step criterion c of the rollouts (MODEL.md §6.1 b: rate × h <= c),
+            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``, 0.01). The default 0.03 takes
+            a third of the sub-steps where the wires transform, which brought the 95th percentile
+            of the plan time under the control period at an unchanged RMSE
+            (benchmarks/bench_mpc.py).
+        plan_h_min: smallest adaptive sub-step of the rollouts [s], in (0, plan_physics_dt];
+            ``None``: the env's (``SolverOptions.h_min``). It caps the sub-steps a rollout takes
+            per physics step at ``plan_physics_dt / plan_h_min`` — and so the plan time when every
+            rollout crosses a phase transformation, where the rate criterion alone asks for
+            hundreds (the phase update is implicit, so coarse sub-steps stay stable).
         iterations: MPPI updates per control step, in [1, 100].
         parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
             shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
@@ -101,6 +113,8 @@ class MPPIConfig:
     w_temp: float = 10.0
     temp_margin: float = 5.0
     plan_physics_dt: float | None = 0.1
+    plan_step_c: float | None = 0.03
+    plan_h_min: float | None = None
     iterations: int = 1
     parallel: bool = False
     seed: int = 0
@@ -127,6 +141,20 @@ class MPPIConfig:
         _check_range("temp_margin", self.temp_margin, 0.0, 100.0)
         if self.plan_physics_dt is not None:
             _check_range("plan_physics_dt", self.plan_physics_dt, 0.0, 10.0, lo_open=True)
+        if self.plan_step_c is not None:
+            _check_range("plan_step_c", self.plan_step_c, 0.0, 1.0, lo_open=True)
+        if self.plan_h_min is not None:
+            hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
+            _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
+
+    def plan_solver(self, solver: SolverOptions) -> SolverOptions:
+        """The env's solver options with the rollouts' sub-step settings applied."""
+        changes = {}
+        if self.plan_step_c is not None:
+            changes["step_c"] = float(self.plan_step_c)
+        if self.plan_h_min is not None:
+            changes["h_min"] = float(self.plan_h_min)
+        return solver.replace(**changes) if changes else solver
 
 
 def _whole(name: str, value: float, unit: float) -> int:
@@ -187,7 +215,12 @@ class MPPIController(BaseController):
         self._kernel = rollout_many if s.parallel else rollout_many_serial
         p = config.params
         self._side_volume = p.wire_volume * p.n_w
-        self._ks = config.solver.to_kernel()
+        if s.plan_h_min is not None and s.plan_h_min > self.plan_dt:
+            raise ValueError(
+                f"plan_h_min must be in (0, {self.plan_dt:g}] s (the rollouts' physics step), "
+                f"got {s.plan_h_min!r}"
+            )
+        self._ks = s.plan_solver(config.solver).to_kernel()
         self._t_lim = config.temperature_limit - s.temp_margin
         self.estimator = PhaseEstimator(config) if mode == "estimated" else None
         self.env = None

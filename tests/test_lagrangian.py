@@ -1,0 +1,86 @@
+"""agents.lagrangian: the energy-budget reward, the dual step, and a training run that uses them."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from test_agents import TINY, run_cli
+
+from agents.envs import make_vec_env
+from agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
+from agents.runtime import make_env
+from agents.train import energy_budget
+
+torch.set_num_threads(1)
+KW = {"episode_duration": 2.0}
+
+
+def _budget_env(lam0: float) -> tuple[EnergyBudgetVecEnv, float]:
+    e_ref = make_env(KW).config.energy_reference
+    return EnergyBudgetVecEnv(make_vec_env(n_envs=2, seed=7, env_kwargs=KW), 100.0, e_ref, lam0=lam0), e_ref
+
+
+def test_budget_reward_is_the_env_reward_with_lambda_as_energy_weight():
+    """SmaSpineEnv docstring: r = −|e| / 10° − w · E / E_ref; with λ = w = 0.5 (the env's default)
+    the wrapper's reward is the env's, with λ = 2 the energy term is four times larger. The
+    episode energies it records are the sums of info["energy_J"] over each 20-step episode."""
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (20, 2, 2)).astype(np.float32)
+    runs = {}
+    for lam in (0.5, 2.0):
+        env, e_ref = _budget_env(lam)
+        env.reset()
+        rec, total = [], np.zeros(2)
+        for a in actions:
+            env.step_async(a)
+            _, r, dones, infos = env.step_wait()
+            e = np.array([i["energy_J"] for i in infos])
+            err = np.array([i["tracking_error_deg"] for i in infos])
+            total += e
+            np.testing.assert_allclose(r, -np.abs(err) / 10.0 - lam * e / e_ref, rtol=1e-5, atol=1e-6)
+            rec.append((r, e))
+        assert dones.all() and list(env.finished) == pytest.approx(list(total), rel=1e-12)
+        assert env.energy_ratio() == pytest.approx(total.mean() / 100.0)
+        runs[lam] = rec
+        env.close()
+    for (r05, e), (r2, _) in zip(runs[0.5], runs[2.0], strict=True):  # same seeds, same actions
+        np.testing.assert_allclose(r2 - r05, -1.5 * e / e_ref, rtol=1e-5, atol=1e-6)
+    assert sum(float(e.sum()) for _, e in runs[0.5]) > 0.0
+
+
+def test_dual_step_raises_lambda_over_budget_lowers_it_under_and_clips():
+    assert dual_step(1.0, 1.2, 0.5, (0.02, 20.0)) == pytest.approx(np.exp(0.1))
+    assert dual_step(1.0, 0.8, 0.5, (0.02, 20.0)) == pytest.approx(np.exp(-0.1))
+    assert dual_step(1.0, 1.0, 0.5, (0.02, 20.0)) == 1.0
+    assert dual_step(19.0, 3.0, 0.5, (0.02, 20.0)) == 20.0
+    assert dual_step(0.03, 0.0, 0.5, (0.02, 20.0)) == 0.02
+
+
+def test_budget_arguments_are_validated():
+    env, e_ref = _budget_env(0.5)
+    with pytest.raises(ValueError, match="energy_budget must be a finite number > 0 J"):
+        EnergyBudgetVecEnv(env.venv, 0.0, e_ref)
+    with pytest.raises(ValueError, match=r"lagrangian_init must be in \[0, 100\]"):
+        EnergyBudgetVecEnv(env.venv, 100.0, e_ref, lam0=-1.0)
+    with pytest.raises(ValueError, match=r"lagrangian_lr must be in \(0, 10\]"):
+        LagrangianCallback(env, eta=0.0)
+    with pytest.raises(ValueError, match="energy_budget must be 'pid' or a number"):
+        energy_budget("lots", KW, 1)
+    env.close()
+
+
+def test_pid_budget_is_the_pids_validation_energy_and_a_training_run_records_it(tmp_path):
+    budget = energy_budget("pid", {"episode_duration": 3.0}, 2)
+    assert budget > 0.0
+    run_cli(
+        "-m", "agents.train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "-f", str(tmp_path),
+        "--eval-freq", "0", "--save-freq", "0", *TINY,
+        "-params", "n_steps:64", "batch_size:64", "n_epochs:1", "energy_budget:pid", "budget_episodes:2",
+        "residual:pid", "residual_scale:0.5",
+    )  # fmt: skip
+    meta = json.loads((tmp_path / "ppo" / "SmaSpine-v0_1" / "meta.json").read_text())
+    assert meta["energy_budget_J"] == pytest.approx(budget, rel=1e-12)
+    assert 0.02 <= meta["lagrangian_final"] <= 20.0 and meta["residual"]["kind"] == "pid"
