@@ -340,10 +340,19 @@ class SolverOptions:
             moment with one shape pass per iteration, falling back to the bracketed Illinois
             solve), ``"illinois"`` (bracketed regula falsi with full shape solves) or ``"bisect"``
             (the seed's bisection, MODEL.md §5.2).
-        step_c: adaptive criterion c of §6.1 b (rate × sub-step <= c). ``inf`` disables it.
+        scheme: time step of the phase kinetics. ``"coupled"`` (default): linearly implicit Euler
+            of the coupled phase–stress–temperature system (the rates at the end-of-step stress
+            and temperature, through the composite solve's sensitivity), sub-steps chosen by a
+            local error estimate against ``tol_x``. ``"frozen"``: MODEL.md §6.1 as written,
+            implicit Euler with the rates frozen at the start of the sub-step and the step-size
+            rule rate × h <= ``step_c``. MODEL.md §6.5. The spatial core (SPATIAL.md) implements
+            only the frozen scheme and runs it whatever this says (issue 11: its port is open).
+        tol_x: local error tolerance of the coupled scheme on the phase fractions [-].
+        step_c: adaptive criterion c of §6.1 b (rate × sub-step <= c) of the frozen scheme.
+            ``inf`` disables it.
         h_min: smallest adaptive sub-step [s].
-        h_max: largest sub-step [s] (``inf``: the output step). ``step_c=inf, h_max=1e-4`` is the
-            fixed-step reference of §6.2.
+        h_max: largest sub-step [s] (``inf``: the output step). ``scheme="frozen", step_c=inf,
+            h_max=1e-4`` is the fixed-step reference of §6.2 (:data:`FINE_REFERENCE`).
         tol_moment: composite-solve tolerance on the wire moment [N m].
         tol_theta: shape-iteration tolerance on max |ΔΔθ_n| [rad].
         max_shape_iter: cap on passes of one shape solve.
@@ -352,6 +361,8 @@ class SolverOptions:
     """
 
     method: str = "newton"
+    scheme: str = "coupled"
+    tol_x: float = 1e-4
     step_c: float = 0.01
     h_min: float = 1e-5
     h_max: float = _INF
@@ -364,6 +375,9 @@ class SolverOptions:
     def __post_init__(self):
         if self.method not in L.METHODS:
             raise ValueError(f"method must be one of {sorted(L.METHODS)}, got {self.method!r}")
+        if self.scheme not in L.SCHEMES:
+            raise ValueError(f"scheme must be one of {sorted(L.SCHEMES)}, got {self.scheme!r}")
+        _check("tol_x", self.tol_x, 0.0, 0.1, lo_open=True)
         _check("step_c", self.step_c, 0.0, _INF, lo_open=True)
         _check("h_min", self.h_min, 0.0, 1.0, lo_open=True)
         _check("h_max", self.h_max, 0.0, _INF, lo_open=True)
@@ -385,8 +399,14 @@ class SolverOptions:
         ks[L.S_MAXROOT] = self.max_root_iter
         ks[L.S_METHOD] = L.METHODS[self.method]
         ks[L.S_MAXSUB] = self.max_substeps
+        ks[L.S_SCHEME] = L.SCHEMES[self.scheme]
+        ks[L.S_TOLX] = self.tol_x
         return ks
 
     def replace(self, **changes) -> SolverOptions:
         """A validated copy with ``changes`` applied."""
         return dataclasses.replace(self, **changes)
+
+
+FINE_REFERENCE = SolverOptions(scheme="frozen", step_c=_INF, h_max=1e-4)
+"""The fine-step reference of MODEL.md §6.2: frozen-rate implicit Euler at fixed 0.1-ms sub-steps."""

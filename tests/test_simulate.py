@@ -7,6 +7,7 @@ import pytest
 
 from spine_gym import ModelParams, SimulationError, SolverOptions, simulate
 from spine_gym.capacity import CapacityProtocol, capacity_metrics, metrics_from_result, run_protocol
+from spine_gym.params import FINE_REFERENCE
 
 HYST_V = lambda t: 3.2 if t < 20.0 - 1e-9 else 0.0  # noqa: E731  §10.2
 ALT_VR = HYST_V
@@ -149,27 +150,51 @@ def test_heating_before_transformation_follows_first_order_lag():
     assert np.max(np.abs(r.angle_deg)) < 1e-9
 
 
-def test_converges_to_fine_step_reference_as_step_shrinks():
-    ref = simulate(12.0, 3.2, 0.0, solver=SolverOptions(step_c=math.inf, h_max=1e-4))
+@pytest.fixture(scope="module")
+def fine_reference_12s():
+    ref = simulate(12.0, 3.2, 0.0, solver=FINE_REFERENCE)
     assert ref.angle_deg[ref.at(10)] == pytest.approx(17.76, abs=0.05)  # §6.2 reference value
+    return ref
+
+
+def test_frozen_scheme_converges_to_fine_step_reference_as_step_shrinks(fine_reference_12s):
+    ref = fine_reference_12s
     errs = []
     for c in (0.03, 0.01, 0.001):
-        r = simulate(12.0, 3.2, 0.0, solver=SolverOptions(step_c=c))
+        r = simulate(12.0, 3.2, 0.0, solver=SolverOptions(scheme="frozen", step_c=c))
         errs.append(np.max(np.abs(r.angle_deg - ref.angle_deg)))
-    assert errs[1] < 0.5  # the default is within the 0.5° gate of the fine-step reference
+    assert errs[1] < 0.5  # the §6.1 scheme at c = 0.01 is within the 0.5° gate of the reference
     assert errs[2] < errs[0] and errs[2] < 0.1
 
 
+def test_coupled_scheme_converges_to_fine_step_reference_as_tolerance_tightens(fine_reference_12s):
+    # the default step: within the 0.5° gate, and its error falls towards 0 as tol_x tightens
+    # (and as the sub-steps are capped: first order in h), while the number of sub-steps grows
+    ref = fine_reference_12s
+    errs, subs = [], []
+    for tol in (1e-4, 1e-7, 1e-8):
+        r = simulate(12.0, 3.2, 0.0, solver=SolverOptions(tol_x=tol))
+        errs.append(np.max(np.abs(r.angle_deg - ref.angle_deg)))
+        subs.append(r.substeps)
+    assert SolverOptions().tol_x == 1e-4 and SolverOptions().scheme == "coupled"
+    assert errs[0] < 0.1
+    assert errs[2] < errs[1] < errs[0] and errs[2] < 0.3 * errs[0]
+    assert subs[0] < subs[1] < subs[2]
+    capped = [simulate(12.0, 3.2, 0.0, solver=SolverOptions(h_max=h)) for h in (1e-3, 1e-4)]
+    e_cap = [np.max(np.abs(r.angle_deg - ref.angle_deg)) for r in capped]
+    assert e_cap[1] < 0.2 * e_cap[0] < 0.2 * errs[0]
+
+
 def test_fixed_10ms_steps_are_wrong_as_model_md_warns():
-    # §6.2: fixed h = 10 ms with τ = 0.01 s gives 36.1° at 10 s instead of 17.76°
-    r = simulate(10.0, 3.2, 0.0, solver=SolverOptions(step_c=math.inf, h_max=0.01))
+    # §6.2: fixed h = 10 ms with τ = 0.01 s gives 36.1° at 10 s instead of 17.76° (frozen rates)
+    r = simulate(10.0, 3.2, 0.0, solver=SolverOptions(scheme="frozen", step_c=math.inf, h_max=0.01))
     assert r.angle_deg[-1] > 30.0
 
 
 def test_composite_solvers_give_the_same_trajectory():
     # the seed's bisection and the default coupled Newton agree to within the time-discretisation
     # error (both converge to the same fine-step limit; MODEL.md §5.2)
-    opts = dict(step_c=0.003)
+    opts = dict(scheme="frozen", step_c=0.003)
     runs = {
         m: simulate(25.0, HYST_V, 0.0, solver=SolverOptions(method=m, **opts))
         for m in ("newton", "illinois", "bisect")

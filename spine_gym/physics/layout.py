@@ -57,13 +57,19 @@ from __future__ import annotations
     S_MAXROOT,  # [-] cap on outer iterations of the composite solve
     S_METHOD,  # [-] 0 bisection (seed), 1 Illinois (bracketed), 2 coupled Newton (default)
     S_MAXSUB,  # [-] cap on sub-steps per output step
+    S_SCHEME,  # [-] time step: 0 frozen rates with r·h <= c (MODEL.md §6.1), 1 coupled (default)
+    S_TOLX,  # [-] local error tolerance of the coupled step on the phase fractions
     KS_SIZE,
-) = range(10)
+) = range(12)
 
 METHOD_BISECT = 0
 METHOD_ILLINOIS = 1
 METHOD_NEWTON = 2
 METHODS = {"bisect": METHOD_BISECT, "illinois": METHOD_ILLINOIS, "newton": METHOD_NEWTON}
+
+SCHEME_FROZEN = 0
+SCHEME_COUPLED = 1
+SCHEMES = {"frozen": SCHEME_FROZEN, "coupled": SCHEME_COUPLED}
 
 # ---------------------------------------------------------------- state vector
 (
@@ -85,8 +91,12 @@ METHODS = {"bisect": METHOD_BISECT, "illinois": METHOD_ILLINOIS, "newton": METHO
     X_QCL,  # [J/m^3] accumulated convective loss, left
     X_QLR,  # [J/m^3] accumulated latent heat released into the wire, right
     X_QLL,  # [J/m^3] accumulated latent heat released into the wire, left
-    X_HEAD,  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
-) = range(19)
+    X_HNEXT,  # [s] sub-step the coupled scheme's error control proposes next (0: none yet)
+    X_RCACHE,  # start of RCACHE_SIZE floats: (σ_R, T_R, σ_L, T_L) and the rates and slopes there
+) = range(20)
+RCACHE_SIZE = 4 + 9 + 24  # the coupled scheme's rates at the end of its last sub-step, keyed by
+# (σ_R, T_R, σ_L, T_L) and the 9 constants they depend on (solver.RATE_KP)
+X_HEAD = X_RCACHE + RCACHE_SIZE  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
 
 
 def state_size(n_seg: int) -> int:

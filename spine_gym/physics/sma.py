@@ -25,6 +25,7 @@ from .layout import (
 )
 
 EXP_CLAMP = 700.0  # MODEL.md §6.3.1: exp(-min(λΔG, 700)); never exp of a huge argument
+SLOPE_DT = 1e-3  # [K] temperature step of the finite difference ∂ΔG/∂T in rates_and_slopes
 
 
 @jit
@@ -74,11 +75,14 @@ def helmholtz(eps, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta):
 
 
 @jit
-def barriers(sigma, T, kp):
-    """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3).
+def barriers_and_slopes(sigma, T, kp):
+    """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3) and their σ-slopes.
+
+    At every stationary point ε_i (interior, where ψ'(ε_i) = σ, or clamped, where ε_i does not move
+    with σ) dG_i/dσ = −ε_i, so dΔG₊A/dσ = ε₅ − ε₄ and so on; a barrier clamped at 0 has slope 0.
 
     Returns:
-        (ΔG₊A, ΔG_A₊, ΔG₋A, ΔG_A₋) [J/m^3], all >= 0.
+        (ΔG₊A, ΔG_A₊, ΔG₋A, ΔG_A₋) [J/m^3], all >= 0, then their derivatives d/dσ [m^3/m^3 = -].
     """
     E_A = kp[K_EA]
     E_M = kp[K_EM]
@@ -97,7 +101,34 @@ def barriers(sigma, T, kp):
     g4 = helmholtz(e4, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e4
     g5 = helmholtz(e5, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta) - sigma * e5
     # roundoff must never make a barrier negative (MODEL.md §6.3.1)
-    return max(g4 - g5, 0.0), max(g4 - g3, 0.0), max(g2 - g1, 0.0), max(g2 - g3, 0.0)
+    d_pa, d_ap, d_ma, d_am = g4 - g5, g4 - g3, g2 - g1, g2 - g3
+    return (
+        max(d_pa, 0.0),
+        max(d_ap, 0.0),
+        max(d_ma, 0.0),
+        max(d_am, 0.0),
+        e5 - e4 if d_pa > 0.0 else 0.0,
+        e3 - e4 if d_ap > 0.0 else 0.0,
+        e1 - e2 if d_ma > 0.0 else 0.0,
+        e3 - e2 if d_am > 0.0 else 0.0,
+    )
+
+
+@jit
+def barriers(sigma, T, kp):
+    """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3).
+
+    Returns:
+        (ΔG₊A, ΔG_A₊, ΔG₋A, ΔG_A₋) [J/m^3], all >= 0.
+    """
+    b = barriers_and_slopes(sigma, T, kp)
+    return b[0], b[1], b[2], b[3]
+
+
+@jit
+def _rate(lam, dg, inv_tau):
+    """τ⁻¹ exp(−min(λ ΔG, 700)) (MODEL.md §3.4, §6.3.1)."""
+    return inv_tau * math.exp(-min(lam * dg, EXP_CLAMP))
 
 
 @jit
@@ -111,11 +142,31 @@ def rates(sigma, T, kp):
     lam = kp[K_VLKB] / T
     inv_tau = kp[K_INVTAU]
     return (
-        inv_tau * math.exp(-min(lam * dGpA, EXP_CLAMP)),
-        inv_tau * math.exp(-min(lam * dGAp, EXP_CLAMP)),
-        inv_tau * math.exp(-min(lam * dGmA, EXP_CLAMP)),
-        inv_tau * math.exp(-min(lam * dGAm, EXP_CLAMP)),
+        _rate(lam, dGpA, inv_tau),
+        _rate(lam, dGAp, inv_tau),
+        _rate(lam, dGmA, inv_tau),
+        _rate(lam, dGAm, inv_tau),
     )
+
+
+@jit
+def rates_and_slopes(sigma, T, kp, out):
+    """The four rates of :func:`rates` and their partial derivatives, written into ``out`` (12,).
+
+    out[0:4] = (p₊A, p_A₊, p₋A, p_A₋) [1/s]; out[4:8] = ∂p/∂σ [1/(s Pa)]; out[8:12] = ∂p/∂T [1/(s K)].
+    With p = τ⁻¹ exp(−λΔG), λ = V_L/(k_B T): ∂p/∂σ = −λ p ∂ΔG/∂σ and ∂p/∂T = −λ p (∂ΔG/∂T − ΔG/T);
+    ∂ΔG/∂T is a forward difference over ``SLOPE_DT`` (only the linearly implicit step uses these
+    slopes, as a Jacobian: its accuracy is checked by the step's error estimate, not assumed).
+    """
+    b = barriers_and_slopes(sigma, T, kp)
+    bt = barriers(sigma, T + SLOPE_DT, kp)
+    lam = kp[K_VLKB] / T
+    inv_tau = kp[K_INVTAU]
+    for k in range(4):
+        p = _rate(lam, b[k], inv_tau)
+        out[k] = p
+        out[4 + k] = -lam * p * b[4 + k]
+        out[8 + k] = -lam * p * ((bt[k] - b[k]) / SLOPE_DT - b[k] / T)
 
 
 @jit
@@ -161,12 +212,16 @@ def phase_step(xp, xm, h, ppA, pAp, pmA, pAm):
     b1 = xp + h * pAp
     b2 = xm + h * pAm
     det = a11 * a22 - a12 * a21
-    xp_new = (b1 * a22 - a12 * b2) / det
-    xm_new = (a11 * b2 - a21 * b1) / det
-    xp_new = min(max(xp_new, 0.0), 1.0)
-    xm_new = min(max(xm_new, 0.0), 1.0)
-    s = xp_new + xm_new
-    if s > 1.0:  # roundoff: x_A would be a tiny negative
-        xp_new /= s
-        xm_new /= s
-    return xp_new, xm_new
+    return clip_fractions((b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det)
+
+
+@jit
+def clip_fractions(xp, xm):
+    """Fractions back into the simplex x₊, x₋ ∈ [0, 1], x₊ + x₋ <= 1 after roundoff (MODEL.md §6.3.5)."""
+    xp = min(max(xp, 0.0), 1.0)
+    xm = min(max(xm, 0.0), 1.0)
+    s = xp + xm
+    if s > 1.0:  # x_A would be a tiny negative
+        xp /= s
+        xm /= s
+    return xp, xm

@@ -31,9 +31,16 @@ from .layout import (
     K_A,
     K_ASV,
     K_AW,
+    K_DETA,
+    K_DSIG,
+    K_DU,
+    K_EA,
     K_EI,
+    K_EM,
     K_EPS0,
     K_EPST,
+    K_INVTAU,
+    K_KE,
     K_L0,
     K_LREF,
     K_LS,
@@ -41,6 +48,7 @@ from .layout import (
     K_RHOC,
     K_TE,
     K_TMAX,
+    K_VLKB,
     METHOD_BISECT,
     METHOD_NEWTON,
     OK,
@@ -51,11 +59,15 @@ from .layout import (
     S_MAXSHAPE,
     S_MAXSUB,
     S_METHOD,
+    S_SCHEME,
     S_TOLM,
     S_TOLTH,
+    S_TOLX,
+    SCHEME_COUPLED,
     X_EL,
     X_ER,
     X_HEAD,
+    X_HNEXT,
     X_ML,
     X_MR,
     X_MW,
@@ -67,13 +79,23 @@ from .layout import (
     X_QJR,
     X_QLL,
     X_QLR,
+    X_RCACHE,
     X_SL,
     X_SR,
     X_TIME,
     X_TL,
     X_TR,
 )
-from .sma import compliance, latent_heats, phase_step, rates, resistivity, stress
+from .sma import (
+    clip_fractions,
+    compliance,
+    latent_heats,
+    phase_step,
+    rates,
+    rates_and_slopes,
+    resistivity,
+    stress,
+)
 from .stability import solve_in_place, unstable_modes
 from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, wire_lengths
 
@@ -82,6 +104,12 @@ SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensiti
 BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
 NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
 SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
+STEP_GROW = 4.0  # largest factor by which the coupled scheme's error control lengthens a sub-step
+STEP_SHRINK = 0.2  # smallest factor by which it shortens one
+QUIET_RH = 1e-9  # fastest active transition × sub-step below which the coupled step is the frozen one
+# [K] temperature error that counts as much as an error of 1 in a fraction: 1 K moves the
+# instability stresses by ≈ 7 MPa (§3.1), as much as ≈ 0.3 % of transformation of a clamped wire
+T_PER_FRACTION = 370.0
 
 
 @jit
@@ -101,25 +129,75 @@ def wire_mechanics(dth, xpr, xmr, xpl, xml, kp):
 
 
 @jit
-def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
-    """dG/dM = Σ_n ∂G/∂Δθ_n s_n ≤ 0: how the wire moment answers a change of the applied moment.
+def length_per_moment(dth, s, kp):
+    """dL_R/dM and dL_L/dM [m/(N m)] of the shape response s = dΔθ/dM (MODEL.md §4.8).
 
     ∂L_R/∂Δθ_n = c'_n − a cos(Δθ_n/2), ∂L_L/∂Δθ_n = c'_n + a cos(Δθ_n/2), with the small-angle
-    forms c' ≈ −ls Δθ/12 and cos ≈ 1 − Δθ²/8 (a Newton step only needs the slope to ~1 %).
-    A slack wire (σ = 0) has zero tangent stiffness.
+    forms c' ≈ −ls Δθ/12 and cos ≈ 1 − Δθ²/8 (a Newton step or a Jacobian only needs ~1 %).
     """
     a = kp[K_A]
     ls = kp[K_LS]
-    er_stiff = 1.0 / compliance(xpr, xmr, kp) if sr > 0.0 else 0.0
-    el_stiff = 1.0 / compliance(xpl, xml, kp) if sl > 0.0 else 0.0
     sum_c = 0.0
     sum_k = 0.0
     for i in range(dth.shape[0]):
         x = dth[i]
         sum_c += (-ls * x / 12.0) * s[i]
         sum_k += a * (1.0 - x * x / 8.0) * s[i]
-    pref = kp[K_NW] * kp[K_AW] * a / kp[K_LREF]
-    return pref * (er_stiff * (sum_c - sum_k) - el_stiff * (sum_c + sum_k))
+    return sum_c - sum_k, sum_c + sum_k
+
+
+@jit
+def _taut_stiffness(sigma, xp, xm, kp):
+    """Tangent modulus dσ/dε [Pa] of a wire for the Newton slopes: 1/compliance, 0 when slack."""
+    return 1.0 / compliance(xp, xm, kp) if sigma > 0.0 else 0.0
+
+
+@jit
+def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
+    """dG/dM = Σ_n ∂G/∂Δθ_n s_n ≤ 0: how the wire moment answers a change of the applied moment.
+
+    G = n_w A_w a (σ_R − σ_L) with dσ_w = E*_w dL_w / L_ref (see :func:`length_per_moment`); a
+    slack wire (σ = 0) has zero tangent stiffness.
+    """
+    dl_r, dl_l = length_per_moment(dth, s, kp)
+    k_r = _taut_stiffness(sr, xpr, xmr, kp)
+    k_l = _taut_stiffness(sl, xpl, xml, kp)
+    pref = kp[K_NW] * kp[K_AW] * kp[K_A] / kp[K_LREF]
+    return pref * (k_r * dl_r - k_l * dl_l)
+
+
+@jit
+def stress_sensitivity(dth, s, sr, sl, xpr, xmr, xpl, xml, kp, out):
+    """dσ_w/dx of the composite equilibrium (§5) under fixed loads, written into ``out`` (2, 4).
+
+    Rows: σ_R, σ_L; columns: x₊R, x₋R, x₊L, x₋L. At fixed strain the constitutive law §3.6 gives
+    ∂σ/∂x₊ = −E* (ε_T + σ k_E) and ∂σ/∂x₋ = E* (ε_T − σ k_E) (E* = 1/compliance, 0 when slack);
+    the moment then moves by dM = n_w A_w a (dσ_R − dσ_L)|_ε / (1 − dG/dM) and each strain by
+    (dε_w/dM) dM (:func:`length_per_moment`). Used as the Jacobian of the coupled time step.
+    """
+    dl_r, dl_l = length_per_moment(dth, s, kp)
+    e_r = dl_r / kp[K_LREF]
+    e_l = dl_l / kp[K_LREF]
+    k_r = _taut_stiffness(sr, xpr, xmr, kp)
+    k_l = _taut_stiffness(sl, xpl, xml, kp)
+    eps_t = kp[K_EPST]
+    k_e = kp[K_KE]
+    ar_p = -k_r * (eps_t + sr * k_e)
+    ar_m = k_r * (eps_t - sr * k_e)
+    al_p = -k_l * (eps_t + sl * k_e)
+    al_m = k_l * (eps_t - sl * k_e)
+    kg = kp[K_NW] * kp[K_AW] * kp[K_A]
+    f = kg / (1.0 - kg * (k_r * e_r - k_l * e_l))
+    cr = k_r * e_r * f
+    cl = k_l * e_l * f
+    out[0, 0] = ar_p * (1.0 + cr)
+    out[0, 1] = ar_m * (1.0 + cr)
+    out[0, 2] = -cr * al_p
+    out[0, 3] = -cr * al_m
+    out[1, 0] = cl * ar_p
+    out[1, 1] = cl * ar_m
+    out[1, 2] = al_p * (1.0 - cl)
+    out[1, 3] = al_m * (1.0 - cl)
 
 
 @jit
@@ -472,6 +550,393 @@ def _step_rate(xp, xm, ppA, pAp, pmA, pAm):
 
 
 @jit
+def _heat(t, xp, xm, xp2, xm2, sigma, j_num, h, kp):
+    """Heat balance of one wire over a sub-step (MODEL.md §6.1 d–f).
+
+    Joule heating with the new resistivity, latent heat of the discrete Δx (exact energy
+    bookkeeping), implicit convection: ρc(T' − T) = h j − h αS_V (T' − T_E) + q.
+
+    Returns:
+        (T' [K], Joule heat, convective loss, latent heat) [J/m^3] of the sub-step.
+    """
+    rhoc = kp[K_RHOC]
+    asv = kp[K_ASV]
+    t_e = kp[K_TE]
+    j = j_num / resistivity(xp2, xm2, kp)
+    lp, lm = latent_heats(sigma, kp)
+    q = lp * (xp2 - xp) + lm * (xm2 - xm)
+    t2 = (t + (h * j + h * asv * t_e + q) / rhoc) / (1.0 + h * asv / rhoc)
+    return t2, h * j, h * asv * (t2 - t_e), q
+
+
+@jit
+def _apply_heat(state, xs, h, jr_num, jl_num, kp):
+    """Advance both wires' temperatures and energy accumulators from the fractions in the state
+    to ``xs`` (x₊R, x₋R, x₊L, x₋L) over h; returns OK, ERR_NONFINITE or ERR_TEMPERATURE."""
+    tr2, qj, qc, ql = _heat(state[X_TR], state[X_PR], state[X_MR], xs[0], xs[1], state[X_SR], jr_num, h, kp)
+    state[X_QJR] += qj
+    state[X_QCR] += qc
+    state[X_QLR] += ql
+    tl2, qj, qc, ql = _heat(state[X_TL], state[X_PL], state[X_ML], xs[2], xs[3], state[X_SL], jl_num, h, kp)
+    state[X_QJL] += qj
+    state[X_QCL] += qc
+    state[X_QLL] += ql
+    state[X_TR] = tr2
+    state[X_TL] = tl2
+    if not (math.isfinite(tr2) and math.isfinite(tl2)):
+        return ERR_NONFINITE
+    if tr2 > kp[K_TMAX] or tl2 > kp[K_TMAX] or tr2 <= 0.0 or tl2 <= 0.0:
+        return ERR_TEMPERATURE
+    return OK
+
+
+@jit
+def _mechanics_update(state, xs, vforce, kp, ks, work, saved):
+    """Store the new fractions ``xs`` and re-solve the composite module if any moved (§6.1 g).
+
+    The stresses depend on x and the shape only, so an unchanged x needs no solve. With the
+    coupled Newton the secant sensitivity s = dΔθ/dM is refreshed from the two converged shapes
+    (same loads). Unchecked: a failure is still classified; the step's end is checked by the caller.
+
+    Returns:
+        (status, shape passes, whether a solve ran); ``saved`` holds the starting shape.
+    """
+    if xs[0] == state[X_PR] and xs[1] == state[X_MR] and xs[2] == state[X_PL] and xs[3] == state[X_ML]:
+        return OK, 0, False
+    state[X_PR] = xs[0]
+    state[X_MR] = xs[1]
+    state[X_PL] = xs[2]
+    state[X_ML] = xs[3]
+    m_old = state[X_MW]
+    st, p = composite(state, vforce, kp, ks, work, saved, False)  # saved ← starting shape
+    if st != OK or int(ks[S_METHOD]) != METHOD_NEWTON:
+        return st, p, True
+    n = work.shape[0]
+    dm = state[X_MW] - m_old
+    if abs(dm) > SECANT_MIN_DM:
+        dth = state[X_HEAD : X_HEAD + n]
+        s = state[X_HEAD + n : X_HEAD + 2 * n]
+        for i in range(n):
+            s[i] = (dth[i] - saved[i]) / dm
+    return OK, p, True
+
+
+@jit
+def _last_h(rem, dt, h):
+    """Clip a proposed sub-step to what is left of the output step, without leaving a sliver."""
+    if h > rem or rem - h < 1e-9 * dt:
+        return rem
+    return h
+
+
+@jit
+def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, xs):
+    """One sub-step of MODEL.md §6.1 as written: rates frozen at its start, r·h <= c, implicit Euler.
+
+    Returns:
+        (status, h taken, shape passes, whether the mechanics were solved).
+    """
+    ppA_r, pAp_r, pmA_r, pAm_r = rates(state[X_SR], state[X_TR], kp)  # a. once per sub-step
+    ppA_l, pAp_l, pmA_l, pAm_l = rates(state[X_SL], state[X_TL], kp)
+    xpr = state[X_PR]
+    xmr = state[X_MR]
+    xpl = state[X_PL]
+    xml = state[X_ML]
+    r = max(
+        _step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), _step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l)
+    )
+    h = rem  # b. step size
+    if r * h > ks[S_C]:
+        h = min(max(ks[S_C] / r, ks[S_HMIN]), rem)
+    h = _last_h(rem, dt, min(h, ks[S_HMAX]))
+    xs[0], xs[1] = phase_step(xpr, xmr, h, ppA_r, pAp_r, pmA_r, pAm_r)  # c.
+    xs[2], xs[3] = phase_step(xpl, xml, h, ppA_l, pAp_l, pmA_l, pAm_l)
+    st = _apply_heat(state, xs, h, jr_num, jl_num, kp)  # d.–f.
+    if st != OK:
+        return st, h, 0, False
+    st, p, solved = _mechanics_update(state, xs, vforce, kp, ks, work, saved)  # g.
+    return st, h, p, solved
+
+
+@jit
+def _linear_system(xs, rt, sens, h, a_t, b_t, amat, rhs):
+    """Matrix and right-hand side of the linearly implicit Euler step of the four fractions.
+
+    With F the phase kinetics §3.5 of both wires, the implicit Euler step Δx = h F(x + Δx, σ', T')
+    is linearised at the start of the sub-step: σ' = σ + S Δx (S = ``sens``, the composite
+    equilibrium's dσ/dx) and T'_w = T_w + a_t[w] + b_t[w] · Δx_w (the discrete heat balance).
+    Then (I − h ∂F/∂x − h ∂F/∂σ S − h ∂F/∂T b_t) Δx = h (F + ∂F/∂T a_t), written into ``amat``
+    and ``rhs``; ``rt`` (2, 12) holds each wire's rates and slopes (:func:`sma.rates_and_slopes`).
+    """
+    for i in range(4):
+        for j in range(4):
+            amat[i, j] = 1.0 if i == j else 0.0
+    for w in range(2):
+        i = 2 * w
+        xp = xs[i]
+        xm = xs[i + 1]
+        xa = 1.0 - xp - xm
+        r = rt[w]
+        fs_p = -r[4] * xp + r[5] * xa  # ∂F/∂σ
+        fs_m = -r[6] * xm + r[7] * xa
+        ft_p = -r[8] * xp + r[9] * xa  # ∂F/∂T
+        ft_m = -r[10] * xm + r[11] * xa
+        amat[i, i] += h * (r[0] + r[1])
+        amat[i, i + 1] += h * r[1]
+        amat[i + 1, i] += h * r[3]
+        amat[i + 1, i + 1] += h * (r[2] + r[3])
+        for c in range(4):
+            amat[i, c] -= h * fs_p * sens[w, c]
+            amat[i + 1, c] -= h * fs_m * sens[w, c]
+        for c in range(2):
+            amat[i, i + c] -= h * ft_p * b_t[w, c]
+            amat[i + 1, i + c] -= h * ft_m * b_t[w, c]
+        rhs[i] = h * (-r[0] * xp + r[1] * xa + ft_p * a_t[w])
+        rhs[i + 1] = h * (-r[2] * xm + r[3] * xa + ft_m * a_t[w])
+
+
+@jit
+def _kinetics(xp, xm, r):
+    """dx₊/dt, dx₋/dt of MODEL.md §3.5 for the rates r[0:4] = (p₊A, p_A₊, p₋A, p_A₋)."""
+    xa = 1.0 - xp - xm
+    return -r[0] * xp + r[1] * xa, -r[2] * xm + r[3] * xa
+
+
+@jit
+def _quiet(x0, rt, h):
+    """True when no active phase of either wire transforms noticeably over h (rate · h <= QUIET_RH).
+
+    Then the rates, and their slopes with them (∂p/∂σ = −λ p ∂ΔG/∂σ), are so small that the
+    coupling terms of :func:`_linear_system` are below round-off: the frozen-rate implicit Euler
+    step of §6.1 c is the same step, at a fraction of the cost (no sensitivity, no 4 × 4 solve).
+    """
+    r = max(
+        _step_rate(x0[0], x0[1], rt[0, 0], rt[0, 1], rt[0, 2], rt[0, 3]),
+        _step_rate(x0[2], x0[3], rt[1, 0], rt[1, 1], rt[1, 2], rt[1, 3]),
+    )
+    return r * h <= QUIET_RH
+
+
+@jit
+def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
+    """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_AMAT] keeps its matrix
+    (the identity for a :func:`_quiet` step).
+
+    Returns False if the matrix is singular.
+    """
+    n = (state.shape[0] - X_HEAD) // 2
+    dth = state[X_HEAD : X_HEAD + n]
+    s = state[X_HEAD + n : X_HEAD + 2 * n]
+    x0 = cw[CW_X0]
+    x0[0] = state[X_PR]
+    x0[1] = state[X_MR]
+    x0[2] = state[X_PL]
+    x0[3] = state[X_ML]
+    if _quiet(x0, cw[CW_RT], h):
+        for w in range(2):
+            i = 2 * w
+            r = cw[CW_RT][w]
+            cw[CW_XS][i], cw[CW_XS][i + 1] = phase_step(x0[i], x0[i + 1], h, r[0], r[1], r[2], r[3])
+        for i in range(4):
+            for j in range(4):
+                cw[CW_AMAT][i, j] = 1.0 if i == j else 0.0
+        return True
+    stress_sensitivity(dth, s, state[X_SR], state[X_SL], x0[0], x0[1], x0[2], x0[3], kp, cw[CW_SENS])
+    inv = 1.0 / (kp[K_RHOC] + h * kp[K_ASV])
+    for w in range(2):
+        j_num = jr_num if w == 0 else jl_num
+        t = state[X_TR] if w == 0 else state[X_TL]
+        sig = state[X_SR] if w == 0 else state[X_SL]
+        j = j_num / resistivity(x0[2 * w], x0[2 * w + 1], kp)
+        cw[CW_A_T][w] = h * (j + kp[K_ASV] * (kp[K_TE] - t)) * inv
+        lp, lm = latent_heats(sig, kp)
+        cw[CW_B_T][w, 0] = lp * inv
+        cw[CW_B_T][w, 1] = lm * inv
+    _linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
+    cw[CW_LU][:, :] = cw[CW_AMAT]
+    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
+        return False
+    for w in range(2):
+        i = 2 * w
+        cw[CW_XS][i], cw[CW_XS][i + 1] = clip_fractions(x0[i] + cw[CW_VEC][i], x0[i + 1] + cw[CW_VEC][i + 1])
+    return True
+
+
+@jit
+def _heating_rate(t, xp, xm, fp, fm, sigma, j_num, kp):
+    """dT/dt of the heat balance §3.9 [K/s] for kinetics (fp, fm) = dx±/dt."""
+    lp, lm = latent_heats(sigma, kp)
+    j = j_num / resistivity(xp, xm, kp)
+    return (j - kp[K_ASV] * (t - kp[K_TE]) + lp * fp + lm * fm) / kp[K_RHOC]
+
+
+@jit
+def _coupled_error(state, h, jr_num, jl_num, kp, cw):
+    """Local error estimate of the coupled step, in units of the fractions (see :func:`_substep_coupled`).
+
+    The larger of (i) the Newton correction (I − hJ)⁻¹ (h F₁ − Δx) that the linearisation missed,
+    (ii) the implicit Euler truncation error ½ h |F₁ − F₀| of each fraction and (iii) that of each
+    temperature, ½ h |Ṫ₁ − Ṫ₀|, divided by ``T_PER_FRACTION``. cw[CW_X0]/cw[CW_RT] hold the start, the
+    state and cw[CW_XS]/cw[CW_RT_NEW] the end of the step.
+    """
+    trunc = 0.0
+    for w in range(2):
+        i = 2 * w
+        f0p, f0m = _kinetics(cw[CW_X0][i], cw[CW_X0][i + 1], cw[CW_RT][w])
+        f1p, f1m = _kinetics(cw[CW_XS][i], cw[CW_XS][i + 1], cw[CW_RT_NEW][w])
+        trunc = max(trunc, 0.5 * h * abs(f1p - f0p), 0.5 * h * abs(f1m - f0m))
+        j_num = jr_num if w == 0 else jl_num
+        t1 = state[X_TR] if w == 0 else state[X_TL]
+        sig1 = state[X_SR] if w == 0 else state[X_SL]
+        t0 = cw[CW_BACKUP][X_TR] if w == 0 else cw[CW_BACKUP][X_TL]
+        sig0 = cw[CW_BACKUP][X_SR] if w == 0 else cw[CW_BACKUP][X_SL]
+        d0 = _heating_rate(t0, cw[CW_X0][i], cw[CW_X0][i + 1], f0p, f0m, sig0, j_num, kp)
+        d1 = _heating_rate(t1, cw[CW_XS][i], cw[CW_XS][i + 1], f1p, f1m, sig1, j_num, kp)
+        trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
+        cw[CW_VEC][i] = h * f1p - (cw[CW_XS][i] - cw[CW_X0][i])
+        cw[CW_VEC][i + 1] = h * f1m - (cw[CW_XS][i + 1] - cw[CW_X0][i + 1])
+    cw[CW_LU][:, :] = cw[CW_AMAT]
+    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
+        return np.inf
+    e = 0.0
+    for i in range(4):
+        e = max(e, abs(cw[CW_VEC][i]))
+    return max(e, trunc)
+
+
+@jit
+def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw):
+    """One accepted sub-step of the coupled scheme (the default ``scheme``).
+
+    The step is the linearly implicit Euler step of :func:`_linear_system`: the rates are taken at
+    the end-of-step stress and temperature, predicted through the composite equilibrium's
+    sensitivity, so the stiff stress → rate feedback (transforming 0.1 % of a constrained wire
+    moves its stress by MPa, §6.2) is damped instead of resolved. The step size comes from a local
+    error estimate: the residual of the exact implicit Euler equations at the new state (what the
+    linearisation missed) plus the implicit Euler truncation error ½ h (F₁ − F₀), both filtered by
+    the step's own matrix (I − hJ)⁻¹ so that fast modes at their quasi-steady state do not count
+    (Shampine's filter). A step whose error exceeds ``tol_x`` is rejected and retried smaller
+    (down to ``h_min``); the next step is proposed as h · 0.9 (tol/err)^½ and kept in the state.
+    The rates at the end of an accepted step are the next step's (cw[CW_RT]), so they are computed
+    once per sub-step.
+
+    Returns:
+        (status, h taken, shape passes, whether the mechanics were solved).
+    """
+    n = work.shape[0]
+    dth = state[X_HEAD : X_HEAD + n]
+    tol = ks[S_TOLX]
+    h_min = ks[S_HMIN]
+    h = state[X_HNEXT]
+    if not h > 0.0:
+        h = rem
+    h = min(h, ks[S_HMAX])
+    for i in range(X_RCACHE):
+        cw[CW_BACKUP][i] = state[i]
+    passes = 0
+    while True:
+        hh = _last_h(rem, dt, h)
+        if not _predict_coupled(state, kp, hh, jr_num, jl_num, cw):
+            return ERR_NONFINITE, hh, passes, False
+        st = _apply_heat(state, cw[CW_XS], hh, jr_num, jl_num, kp)
+        solved = False
+        if st == OK:
+            st, p, solved = _mechanics_update(state, cw[CW_XS], vforce, kp, ks, work, saved)
+            passes += p
+        if st != OK:
+            return st, hh, passes, solved
+        rates_and_slopes(state[X_SR], state[X_TR], kp, cw[CW_RT_NEW][0])
+        rates_and_slopes(state[X_SL], state[X_TL], kp, cw[CW_RT_NEW][1])
+        err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
+        fac = min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
+        if err <= 1.0 or hh <= h_min:
+            cw[CW_RT][:, :] = cw[CW_RT_NEW]
+            h_next = hh * fac
+            if hh < h:  # truncated at the end of the output step: keep the larger proposal
+                h_next = max(h_next, h)
+            state[X_HNEXT] = h_next
+            return OK, hh, passes, solved
+        for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
+            state[i] = cw[CW_BACKUP][i]
+        if solved:
+            for i in range(n):
+                dth[i] = saved[i]
+        h = max(hh * min(fac, 0.5), h_min)
+
+
+# the coupled sub-step's scratch arrays: a tuple indexed by these (compile-time) constants
+CW_X0, CW_XS, CW_RT, CW_RT_NEW, CW_SENS, CW_A_T, CW_B_T, CW_AMAT, CW_LU, CW_VEC, CW_BACKUP = range(11)
+
+
+COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 16 + 16 + 4 + X_RCACHE  # floats of the CW_* scratch
+
+
+@jit
+def coupled_work(buf):
+    """Scratch arrays of the coupled sub-step (the CW_* fields) as views of one flat ``buf``:
+    fractions at the start and end (4), rates and slopes at the start and end (2, 12), dσ/dx (2, 4),
+    the temperature terms a_t (2) and b_t (2, 2), the step matrix and its copy (4, 4), a vector (4),
+    the state's head before the step (X_RCACHE)."""
+    v = buf[:COUPLED_WORK_SIZE]
+    return (
+        v[0:4],
+        v[4:8],
+        v[8:32].reshape((2, 12)),
+        v[32:56].reshape((2, 12)),
+        v[56:64].reshape((2, 4)),
+        v[64:66],
+        v[66:70].reshape((2, 2)),
+        v[70:86].reshape((4, 4)),
+        v[86:102].reshape((4, 4)),
+        v[102:106],
+        v[106:COUPLED_WORK_SIZE],
+    )
+
+
+# kp entries the rates depend on (§3.1–3.4): part of the cache key, so that a state advanced with
+# other constants (the MPC's nominal model on a copy of a randomised plant's state) recomputes them
+RATE_KP = (K_EA, K_EM, K_EPST, K_DSIG, K_KE, K_DETA, K_DU, K_VLKB, K_INVTAU)
+_KEY = 4 + len(RATE_KP)  # (σ_R, T_R, σ_L, T_L) and the RATE_KP constants
+
+
+@jit
+def _cached_rates(state, kp, rt):
+    """Rates and slopes (2, 12) at the state's stresses and temperatures into ``rt``: from the
+    state's cache if it was filled at exactly these (σ_R, T_R, σ_L, T_L) and constants, else computed."""
+    c = X_RCACHE
+    hit = (
+        state[c] == state[X_SR]
+        and state[c + 1] == state[X_TR]
+        and state[c + 2] == state[X_SL]
+        and state[c + 3] == state[X_TL]
+    )
+    for k in range(len(RATE_KP)):
+        hit = hit and state[c + 4 + k] == kp[RATE_KP[k]]
+    if hit:
+        for k in range(12):
+            rt[0, k] = state[c + _KEY + k]
+            rt[1, k] = state[c + _KEY + 12 + k]
+        return
+    rates_and_slopes(state[X_SR], state[X_TR], kp, rt[0])
+    rates_and_slopes(state[X_SL], state[X_TL], kp, rt[1])
+
+
+@jit
+def _cache_rates(state, kp, rt):
+    """Keep the rates ``rt`` at the state's (σ_R, T_R, σ_L, T_L) and constants for the next output step."""
+    c = X_RCACHE
+    state[c] = state[X_SR]
+    state[c + 1] = state[X_TR]
+    state[c + 2] = state[X_SL]
+    state[c + 3] = state[X_TL]
+    for k in range(len(RATE_KP)):
+        state[c + 4 + k] = kp[RATE_KP[k]]
+    for k in range(12):
+        state[c + _KEY + k] = rt[0, k]
+        state[c + _KEY + 12 + k] = rt[1, k]
+
+
+@jit
 def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     """Advance one spine by one output step ``dt`` with voltages and loads held (MODEL.md §6.1).
 
@@ -484,19 +949,20 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         resolve: solve the mechanics first (needed when the loads changed since the last call;
             callers that know the loads are unchanged pass False to save a solve).
 
-    Under loads that might buckle the spine (:func:`needs_stability_check`) the re-solve is
-    checked for stability and so is the shape the step ends on; a sub-step whose solve fails is
-    classified by :func:`composite`. An unstable equilibrium ends the step with ERR_BUCKLING.
+    The sub-steps are those of the option ``scheme``: :func:`_substep_coupled` (default) or
+    :func:`_substep_frozen`. Under loads that might buckle the spine (:func:`needs_stability_check`)
+    the re-solve is checked for stability and so is the shape the step ends on; a sub-step whose
+    solve fails is classified by :func:`composite`. An unstable equilibrium ends the step with
+    ERR_BUCKLING.
 
     Returns:
         (status, sub-steps, shape passes).
     """
-    n = state.shape[0] - X_HEAD
-    n = n // 2
-    work = np.empty(n)
-    saved = np.empty(n)
-    dth = state[X_HEAD : X_HEAD + n]
-    s = state[X_HEAD + n : X_HEAD + 2 * n]
+    n = (state.shape[0] - X_HEAD) // 2
+    buf = np.empty(2 * n + COUPLED_WORK_SIZE)  # one allocation per output step
+    work = buf[:n]
+    saved = buf[n : 2 * n]
+    cw = coupled_work(buf[2 * n :])
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
     passes = 0
     check = needs_stability_check(vforce, kp)
@@ -504,92 +970,36 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         st, passes = composite(state, vforce, kp, ks, work, saved, check)
         if st != OK:
             return st, 0, passes
-    c_crit = ks[S_C]
-    h_min = ks[S_HMIN]
-    h_max = ks[S_HMAX]
-    max_sub = int(ks[S_MAXSUB])
-    newton = int(ks[S_METHOD]) == METHOD_NEWTON
-    rhoc = kp[K_RHOC]
-    asv = kp[K_ASV]
-    t_e = kp[K_TE]
     l0sq = kp[K_L0] * kp[K_L0]
     jr_num = v_r * v_r / l0sq
     jl_num = v_l * v_l / l0sq
+    coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
+    max_sub = int(ks[S_MAXSUB])
     rem = dt
     nsub = 0
     solved = False
+    if coupled:
+        _cached_rates(state, kp, cw[CW_RT])
     while rem > 0.0:
-        xpr = state[X_PR]
-        xmr = state[X_MR]
-        xpl = state[X_PL]
-        xml = state[X_ML]
-        tr = state[X_TR]
-        tl = state[X_TL]
-        sr = state[X_SR]
-        sl = state[X_SL]
-        # a. rates once per sub-step, used for the step size and the update
-        ppA_r, pAp_r, pmA_r, pAm_r = rates(sr, tr, kp)
-        ppA_l, pAp_l, pmA_l, pAm_l = rates(sl, tl, kp)
-        # b. step size
-        r = max(
-            _step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), _step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l)
-        )
-        h = rem
-        if r * h > c_crit:
-            h = min(max(c_crit / r, h_min), rem)
-        if h > h_max:
-            h = h_max
-        if rem - h < 1e-9 * dt:  # do not leave a sliver
-            h = rem
-        # c. implicit phase update
-        xpr2, xmr2 = phase_step(xpr, xmr, h, ppA_r, pAp_r, pmA_r, pAm_r)
-        xpl2, xml2 = phase_step(xpl, xml, h, ppA_l, pAp_l, pmA_l, pAm_l)
-        # d. Joule heating with the new resistivity, e. latent heat of the discrete Δx
-        jr = jr_num / resistivity(xpr2, xmr2, kp)
-        jl = jl_num / resistivity(xpl2, xml2, kp)
-        lp_r, lm_r = latent_heats(sr, kp)
-        lp_l, lm_l = latent_heats(sl, kp)
-        qr = lp_r * (xpr2 - xpr) + lm_r * (xmr2 - xmr)
-        ql = lp_l * (xpl2 - xpl) + lm_l * (xml2 - xml)
-        # f. heat balance, convection implicit: ρc(T'−T) = h j − h αS_V (T'−T_E) + q
-        tr2 = (tr + (h * jr + h * asv * t_e + qr) / rhoc) / (1.0 + h * asv / rhoc)
-        tl2 = (tl + (h * jl + h * asv * t_e + ql) / rhoc) / (1.0 + h * asv / rhoc)
-        state[X_QJR] += h * jr
-        state[X_QJL] += h * jl
-        state[X_QCR] += h * asv * (tr2 - t_e)
-        state[X_QCL] += h * asv * (tl2 - t_e)
-        state[X_QLR] += qr
-        state[X_QLL] += ql
-        state[X_TR] = tr2
-        state[X_TL] = tl2
-        if not (math.isfinite(tr2) and math.isfinite(tl2)):
-            return ERR_NONFINITE, nsub, passes
-        if tr2 > kp[K_TMAX] or tl2 > kp[K_TMAX] or tr2 <= 0.0 or tl2 <= 0.0:
-            return ERR_TEMPERATURE, nsub, passes
-        # g. composite solve only when a fraction moved (stresses depend on x and shape only)
-        if xpr2 != xpr or xmr2 != xmr or xpl2 != xpl or xml2 != xml:
-            state[X_PR] = xpr2
-            state[X_MR] = xmr2
-            state[X_PL] = xpl2
-            state[X_ML] = xml2
-            m_old = state[X_MW]
-            # unchecked: a failure is still classified; the end of the step is checked below
-            st, p = composite(state, vforce, kp, ks, work, saved, False)  # saved ← starting shape
-            passes += p
-            solved = True
-            if st != OK:
-                return st, nsub, passes
-            if newton:  # refresh the secant sensitivity s = dΔθ/dM (same loads, converged shapes)
-                dm = state[X_MW] - m_old
-                if abs(dm) > SECANT_MIN_DM:
-                    for i in range(n):
-                        s[i] = (dth[i] - saved[i]) / dm
+        if coupled:
+            st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
+        else:
+            st, h, p, sol = _substep_frozen(
+                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw[CW_XS]
+            )
+        passes += p
+        solved = solved or sol
+        if st != OK:
+            return st, nsub, passes
         rem -= h
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    if coupled:
+        _cache_rates(state, kp, cw[CW_RT])
     # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
     # sub-step would triple the cost of a heavily loaded run)
+    dth = state[X_HEAD : X_HEAD + n]
     if check and solved and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp):
         return ERR_BUCKLING, nsub, passes
     state[X_TIME] += dt

@@ -17,13 +17,47 @@ from ._jit import jit
 from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
 from .stability import dunkerley_weight
 
+SERIES_MAX = 0.3  # [rad] below this |angle| the sines and cosines of small angles are Taylor series
+# Taylor coefficients (as multiplications: a division costs several times more, on the hot loop)
+_S3, _S5, _S7, _S9, _S11 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0
+_C2, _C4, _C6, _C8, _C10, _C12 = (
+    -0.5,
+    1.0 / 24.0,
+    -1.0 / 720.0,
+    1.0 / 40320.0,
+    -1.0 / 3628800.0,
+    1.0 / 479001600.0,
+)
+# 2 sin(x/2)/x = Σ_k (−1)^k x^{2k} / (4^k (2k+1)!)
+_K2, _K4, _K6, _K8, _K10 = -1.0 / 24.0, 1.0 / 1920.0, -1.0 / 322560.0, 1.0 / 92897280.0, -1.0 / 40874803200.0
+
+
+@jit
+def sincos_small(d):
+    """(sin d, cos d), by their Taylor series for |d| <= SERIES_MAX (truncation < 1e-16) else libm.
+
+    The segment angles and the angle steps between neighbouring segments are small; a polynomial
+    costs a few multiplications where a libm call costs tens of nanoseconds, on the hottest loop.
+    """
+    if abs(d) > SERIES_MAX:
+        return math.sin(d), math.cos(d)
+    d2 = d * d
+    sn = d + d * d2 * (_S3 + d2 * (_S5 + d2 * (_S7 + d2 * (_S9 + d2 * _S11))))
+    cs = 1.0 + d2 * (_C2 + d2 * (_C4 + d2 * (_C6 + d2 * (_C8 + d2 * (_C10 + d2 * _C12)))))
+    return sn, cs
+
 
 @jit
 def chord(dth, ls):
-    """Chord length of an arc of length ls bent by dth [rad] (MODEL.md §4.3)."""
-    if abs(dth) < 1e-8:
-        return ls * (1.0 - dth * dth / 24.0)
-    return 2.0 * ls / dth * math.sin(0.5 * dth)
+    """Chord length of an arc of length ls bent by dth [rad] (MODEL.md §4.3).
+
+    2 ls sin(Δθ/2)/Δθ, by its series ls (1 − Δθ²/24 + Δθ⁴/1920 − …) for small angles (which also
+    has no 0/0 at Δθ = 0).
+    """
+    if abs(dth) > 2.0 * SERIES_MAX:
+        return 2.0 * ls / dth * math.sin(0.5 * dth)
+    x2 = dth * dth
+    return ls + ls * x2 * (_K2 + x2 * (_K4 + x2 * (_K6 + x2 * (_K8 + x2 * _K10))))
 
 
 @jit
@@ -44,20 +78,25 @@ def shape_pass(dth, m_w, vforce, kp, out):
     # Inclination of segment n: φ_n = Σ_{k>n} Δθ_k + ½Δθ_n, the closed form of the bottom-up
     # recursion φ_N = ½Δθ_N, φ_n = φ_{n+1} + ½(Δθ_{n+1} + Δθ_n). Written top-down it lets one
     # loop build the chord vectors r_n = P_{n-1} − P_n and the moments without work arrays.
+    # φ_{i+1} = φ_i − ½(Δθ_i + Δθ_{i+1}): sin/cos of φ by rotations through small angles.
     below = 0.0
     for i in range(n):
         below += dth[i]
+    phi = below - 0.5 * dth[0]
+    sp = math.sin(phi)
+    cp = math.cos(phi)
     fx = 0.0
     fy = -kp[K_MTOP] * g
     m_prev = m_w
     err = 0.0
     k_ang = 0.5 * ls / ei
     for i in range(n):
-        below -= dth[i]
-        phi = below + 0.5 * dth[i]
+        if i > 0:
+            sd, cd = sincos_small(0.5 * (dth[i - 1] + dth[i]))
+            sp, cp = sp * cd - cp * sd, cp * cd + sp * sd
         c = chord(dth[i], ls)
-        rx = c * math.sin(phi)
-        ry = c * math.cos(phi)
+        rx = c * sp
+        ry = c * cp
         fx += vforce[i, 0]
         fy += vforce[i, 1]
         # §4.6: (P_{n-1}-P_n) ⊗ F + (Q_n-P_n) ⊗ W_n, r ⊗ F = r_y F_x − r_x F_y, W_n = (0, −m g)
@@ -110,8 +149,8 @@ def wire_lengths(dth, kp):
     ll = lr
     for i in range(n):
         x = dth[i]
-        sh = math.sin(0.5 * x)  # one sine serves the chord and the lever term
-        c = ls * (1.0 - x * x / 24.0) if abs(x) < 1e-8 else 2.0 * ls * sh / x
+        sh = sincos_small(0.5 * x)[0]
+        c = chord(x, ls)
         lr += c - 2.0 * a * sh
         ll += c + 2.0 * a * sh
     return lr, ll
@@ -142,12 +181,14 @@ def tip_position(dth, kp):
     ls = kp[K_LS]
     x = 0.0
     y = 0.0
-    phi = 0.0
+    sp, cp = sincos_small(0.5 * dth[n - 1])
     for i in range(n - 1, -1, -1):
-        phi = 0.5 * dth[i] if i == n - 1 else phi + 0.5 * (dth[i + 1] + dth[i])
+        if i < n - 1:  # φ_i = φ_{i+1} + ½(Δθ_{i+1} + Δθ_i): a rotation through a small angle
+            sd, cd = sincos_small(0.5 * (dth[i + 1] + dth[i]))
+            sp, cp = sp * cd + cp * sd, cp * cd - sp * sd
         c = chord(dth[i], ls)
-        x += c * math.sin(phi)
-        y += c * math.cos(phi)
+        x += c * sp
+        y += c * cp
     return x, y
 
 
