@@ -1,6 +1,6 @@
 """Training envs for Stable-Baselines3: the native vector env behind SB3's ``VecEnv`` interface.
 
-``kind="native"`` builds ``SmaSpineVectorEnv`` (all sub-envs stepped by one parallel numba call)
+``kind="native"`` builds the env's native vector env (all sub-envs stepped by one parallel numba call)
 through the adapter :class:`spine_gym.envs.sb3.SmaSpineSB3VecEnv`; ``kind="dummy"`` builds SB3's ``DummyVecEnv``
 of single ``SmaSpineEnv`` s (one Python step per sub-env; used for the evaluation callback).
 Both are wrapped in ``VecMonitor`` so episode returns and lengths reach the logger.
@@ -12,15 +12,15 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
 
-from .common import ENV_ID
+from .common import ENV_ID, ENV_IDS
 
 
 def _native(env_id: str, n_envs: int, seed: int, env_kwargs: dict) -> VecEnv:
     from spine_gym.envs.sb3 import SmaSpineSB3VecEnv
 
-    if env_id != ENV_ID:
-        raise ValueError(f"the native vector env is {ENV_ID!r}; use kind='dummy' for {env_id!r}")
-    return SmaSpineSB3VecEnv(n_envs, seed=seed, **env_kwargs)
+    if env_id not in ENV_IDS:
+        raise ValueError(f"the native vector envs are {ENV_IDS}; use kind='dummy' for {env_id!r}")
+    return SmaSpineSB3VecEnv(n_envs, seed=seed, env_id=env_id, **env_kwargs)
 
 
 def make_vec_env(

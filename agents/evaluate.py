@@ -3,6 +3,7 @@
 Example (the README's main command)::
 
     python -m agents.evaluate            # shipped PPO/SAC policies + step, bang-bang, PID
+    python -m agents.evaluate --env SmaSpine3D-v0      # the spatial spine's suite and policies
 
 Every controller (anything with SB3's ``predict``) runs every scenario of the suite in its own
 ``SmaSpine-v0`` env, reset with the scenario's seed, target profile and load schedule. The CLI
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import sys
 import time
@@ -32,9 +34,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .common import POLICIES_DIR
+from .common import CHAIN_ENV_ID, ENV_ID, ENV_IDS, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
-from .registry import BASELINES, REGISTRY
+from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
     build_controller,
     env_temperature_limit,
@@ -45,6 +47,9 @@ from .runtime import (
 )
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
+
+#: unit of the tracking error per env (the metric columns are named *_deg after the planar angle)
+ERROR_UNIT = {CHAIN_ENV_ID: "mm"}
 
 MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
@@ -74,12 +79,13 @@ def evaluate(
     for name, ctrl in controllers.items():
         t0 = time.perf_counter()
         kw = dict((env_kwargs or {}).get(name, {}))
-        envs: dict[float, object] = {}
+        envs: dict[tuple, object] = {}
         bar = tqdm(scenarios, desc=f"  {name}", unit="scenario", leave=False, disable=not progress)
         for sc in bar:
-            if sc.duration not in envs:
-                envs[sc.duration] = make_env({**kw, "episode_duration": sc.duration})
-            env = envs[sc.duration]
+            key = (sc.env_id, sc.duration)
+            if key not in envs:
+                envs[key] = make_env({**kw, "episode_duration": sc.duration}, env_id=sc.env_id)
+            env = envs[key]
             traj = run_episode(env, ctrl, sc)
             m = episode_metrics(
                 traj, temperature_limit=env_temperature_limit(env), dt=float(env.control_period)
@@ -149,10 +155,11 @@ def format_relative(rel: list[dict], reference: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def format_tables(summary: list[dict], use_rich: bool = True) -> str:
-    """One table per scenario group (rows: controllers), as text."""
+def format_tables(summary: list[dict], use_rich: bool = True, error_unit: str = "deg") -> str:
+    """One table per scenario group (rows: controllers), as text; ``error_unit`` labels the
+    tracking-error columns (``mm`` for the chain's tip position)."""
     groups = list(dict.fromkeys(s["group"] for s in summary))
-    heads = ["controller"] + [h for h, _ in METRIC_COLUMNS.values()]
+    heads = ["controller"] + [h.replace("[deg]", f"[{error_unit}]") for h, _ in METRIC_COLUMNS.values()]
     chunks = []
     for g in groups:
         sel = [s for s in summary if s["group"] == g]
@@ -221,16 +228,22 @@ def plot_controller(
     for j, sc in enumerate(scenarios):
         tr = trajs[(controller, sc.name)]
         ax = axes[0, j]
-        ax.plot(tr.time, tr.target_deg, "k--", lw=1, label="target")
-        ax.plot(tr.time, tr.angle_deg, "C0", lw=1.3, label="angle")
+        tracked, target = tr.angle_deg.reshape(len(tr.time), -1), tr.target_deg.reshape(len(tr.time), -1)
+        for c in range(tracked.shape[1]):
+            ax.plot(tr.time, target[:, c], "--", color=f"C{c}", lw=1, label="target" if c == 0 else None)
+            ax.plot(tr.time, tracked[:, c], color=f"C{c}", lw=1.3, label="tracked" if c == 0 else None)
         ax.set_title(sc.name, fontsize=9)
-        axes[1, j].plot(tr.time, tr.voltage[:, 0], "C3", lw=1, label="right")
-        axes[1, j].plot(tr.time, tr.voltage[:, 1], "C2", lw=1, label="left")
-        axes[2, j].plot(tr.time, tr.temperature[:, 0], "C3", lw=1, label="right")
-        axes[2, j].plot(tr.time, tr.temperature[:, 1], "C2", lw=1, label="left")
+        labels = (
+            ["right", "left"]
+            if tr.voltage.shape[1] == 2
+            else [f"wire {w}" for w in range(tr.voltage.shape[1])]
+        )
+        for w, lab in enumerate(labels):
+            axes[1, j].plot(tr.time, tr.voltage[:, w], lw=1, label=lab)
+            axes[2, j].plot(tr.time, tr.temperature[:, w], lw=1, label=lab)
         axes[2, j].axhline(temperature_limit, color="k", ls=":", lw=0.8)
         axes[2, j].set_xlabel("time [s]")
-    axes[0, 0].set_ylabel("angle [deg]")
+    axes[0, 0].set_ylabel("angle [deg]" if tracked.shape[1] == 1 else "components of the task")
     axes[1, 0].set_ylabel("voltage [V]")
     axes[2, 0].set_ylabel("temperature [K]")
     axes[0, 0].legend(fontsize=7)
@@ -245,11 +258,13 @@ def plot_controller(
 # --------------------------------------------------------------------------- CLI
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.evaluate", description=__doc__.split("\n")[0])
+    p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
     p.add_argument(
         "--baselines",
         nargs="*",
-        default=list(BASELINES),
-        help=f"registered controllers to run (default: {' '.join(BASELINES)}; all: {' '.join(REGISTRY)})",
+        default=None,
+        help=f"registered controllers to run (default for {ENV_ID}: {' '.join(BASELINES)}; "
+        f"all: {' '.join(REGISTRY)}; other envs: their registry)",
     )
     p.add_argument(
         "--mpc",
@@ -261,7 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="*",
         default=None,
         metavar="NAME=PATH",
-        help="saved models (run folder, shipped folder or .zip); default: every policy in agents/policies/",
+        help="saved models (run folder, shipped folder or .zip); default: every policy in agents/policies/ "
+        "trained on --env",
     )
     p.add_argument(
         "--suite", default="full", choices=sorted(SUITES), help="scenario suite (default: %(default)s)"
@@ -283,24 +299,36 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def shipped_policies() -> dict[str, Path]:
-    """Shipped policy folders ``agents/policies/<name>/`` that hold a ``model.zip``."""
-    return {p.name: p for p in sorted(POLICIES_DIR.glob("*")) if (p / "model.zip").exists()}
+def policy_env_id(folder: Path) -> str:
+    """The env id a policy folder was trained on (its ``meta.json``; ``SmaSpine-v0`` without one)."""
+    meta = folder / "meta.json"
+    return json.loads(meta.read_text()).get("env_id", ENV_ID) if meta.exists() else ENV_ID
+
+
+def shipped_policies(env_id: str = ENV_ID) -> dict[str, Path]:
+    """Shipped policy folders ``agents/policies/<name>/`` that hold a ``model.zip`` trained on ``env_id``."""
+    return {
+        p.name: p
+        for p in sorted(POLICIES_DIR.glob("*"))
+        if (p / "model.zip").exists() and policy_env_id(p) == env_id
+    }
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
     """Run the CLI; returns the summary rows."""
     args = build_parser().parse_args(argv)
     t_start = time.perf_counter()
-    scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios)
-    baselines = list(dict.fromkeys(args.baselines + (list(MPC_CONTROLLERS) if args.mpc else [])))
-    unknown = set(baselines) - set(REGISTRY)
+    scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios, env_id=args.env)
+    chosen = list(baselines_for(args.env)) if args.baselines is None else args.baselines
+    baselines = list(dict.fromkeys(chosen + (list(MPC_CONTROLLERS) if args.mpc else [])))
+    table = registry_for(args.env)
+    unknown = set(baselines) - set(table)
     if unknown:
-        raise SystemExit(f"unknown controller(s) {sorted(unknown)}; choose from {list(REGISTRY)}")
+        raise SystemExit(f"unknown controller(s) {sorted(unknown)} for {args.env}; choose from {list(table)}")
     if args.video:
         require_ffmpeg()  # before the evaluation, not after it
     if args.models is None:
-        models = shipped_policies()
+        models = shipped_policies(args.env)
     else:
         models = {}
         for item in args.models:
@@ -310,7 +338,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             models[name] = Path(path)
     controllers: dict[str, object] = {}
     env_kwargs: dict[str, dict] = {}
-    probe = make_env()
+    probe = make_env(env_id=args.env)
     limit = env_temperature_limit(probe)
     for b in baselines:
         controllers[b] = build_controller(b, probe)
@@ -331,7 +359,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
     summary = summarize(rows)
     print()
-    print(format_tables(summary, use_rich=not args.plain))
+    print(format_tables(summary, use_rich=not args.plain, error_unit=ERROR_UNIT.get(args.env, "deg")))
     out = Path(args.out)
     if args.relative_to:
         rel = relative_rows(summary, args.relative_to)
@@ -350,7 +378,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.video:
         videos = write_videos(
             controllers, scenarios, out / "videos", env_kwargs,
-            make_env=make_env, run_episode=run_episode, speed=args.video_speed,
+            make_env=lambda kw: make_env(kw, env_id=args.env), run_episode=run_episode,
+            speed=args.video_speed,
         )  # fmt: skip
         print(f"wrote {len(videos)} videos to {out / 'videos'}")
     wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")

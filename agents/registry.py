@@ -2,8 +2,14 @@
 
 :mod:`agents.evaluate`, :mod:`agents.tune` and :mod:`agents.residual` choose controllers only
 through :data:`REGISTRY` (and :func:`agents.runtime.build_controller`, which builds an entry for an
-env). The tuned settings of the tuned entries live in ``agents/hyperparams/baselines.yml``
+env). The tuned settings of the tuned entries live in ``agents/hyperparams/baselines.yml`` (planar
+``SmaSpine-v0``) and ``agents/hyperparams/baselines_<env id>.yml`` (the spatial envs)
 (:func:`load_tuned`), written by :mod:`agents.tune` from each entry's :attr:`ControllerSpec.search_space`.
+
+Each env id has its own table (:data:`REGISTRIES`, :func:`registry_for`): :data:`REGISTRY` for
+``SmaSpine-v0``; ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` get the spatial baselines of
+:mod:`spine_gym.controllers.spatial` under the same names (``step``, ``bang_bang``, ``pid``),
+built from the env (``from_env``: its layout, observation table and per-wire voltages).
 
 Every entry except the open-loop step drive gets the temperature guard the tuning used: a wire
 whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` gets 0 V.
@@ -21,10 +27,13 @@ from spine_gym.controllers import (
     BangBangController,
     MPPIController,
     PIDController,
+    SpatialBangBangController,
+    SpatialPIDController,
+    SpatialStepController,
     StepVoltageController,
 )
 
-from .common import HYPERPARAMS_DIR
+from .common import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
 TUNED_FILE = HYPERPARAMS_DIR / "baselines.yml"
@@ -58,6 +67,10 @@ def _pid_space(trial, v_max: float) -> dict:
     }
 
 
+def _chain_pid_space(trial, v_max: float) -> dict:
+    return {**_pid_space(trial, v_max), "tip_ki": trial.suggest_float("tip_ki", 0.0, 1.0)}
+
+
 def _bang_bang_space(trial, v_max: float) -> dict:
     band = trial.suggest_float("band", 0.1, 5.0, log=True)
     return {
@@ -81,6 +94,8 @@ class ControllerSpec:
         kwargs: fixed constructor kwargs (e.g. the MPC state mode).
         plans_on_env: the constructor takes the env's ``EnvConfig`` first (and the oracle the env).
         in_default: run by ``agents.evaluate`` without being asked for.
+        from_env: built by ``cls.from_env(env, **kwargs)`` (the spatial controllers read the
+            env's layout and observation table).
     """
 
     cls: type
@@ -90,6 +105,7 @@ class ControllerSpec:
     kwargs: Mapping = field(default_factory=dict)
     plans_on_env: bool = False
     in_default: bool = True
+    from_env: bool = False
 
     @property
     def tuned(self) -> bool:
@@ -121,17 +137,76 @@ BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
 TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)
 
 
-def get_spec(name: str) -> ControllerSpec:
-    """The registry entry ``name``; ValueError listing the registered names otherwise."""
-    if name not in REGISTRY:
-        raise ValueError(f"unknown controller {name!r}; registered: {sorted(REGISTRY)}")
-    return REGISTRY[name]
+def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
+    return {
+        "step": ControllerSpec(
+            SpatialStepController,
+            "open-loop steady-state step voltage per bending axis",
+            guard=False,
+            from_env=True,
+        ),
+        "bang_bang": ControllerSpec(
+            SpatialBangBangController, "relay with hysteresis per wire", _bang_bang_space, from_env=True
+        ),
+        "pid": ControllerSpec(
+            SpatialPIDController,
+            "PID per module and bending axis, split over the antagonistic wires",
+            pid_space,
+            from_env=True,
+        ),  # fmt: skip
+    }
 
 
-def load_tuned(path: Path | None = None) -> dict:
-    """Tuned settings ``{name: {...}}`` of the tuned entries (defaults if not tuned yet)."""
-    path = Path(path) if path else TUNED_FILE
+REGISTRIES: dict[str, dict[str, ControllerSpec]] = {
+    ENV_ID: REGISTRY,
+    SPATIAL_ENV_ID: _spatial_registry(_pid_space),
+    CHAIN_ENV_ID: _spatial_registry(_chain_pid_space),  # + tip_ki: integral of the tip-position error
+}
+
+# the spatial PIDs start from the planar hand-set gains (tip_ki: the chain's tip integral, off)
+DEFAULT_TUNED_BY_ENV = {
+    ENV_ID: DEFAULT_TUNED,
+    SPATIAL_ENV_ID: DEFAULT_TUNED,
+    CHAIN_ENV_ID: {**DEFAULT_TUNED, "pid": {**DEFAULT_TUNED["pid"], "tip_ki": 0.0}},
+}
+
+
+def registry_for(env_id: str = ENV_ID) -> dict[str, ControllerSpec]:
+    """The controller table of ``env_id``; ValueError listing the env ids that have one."""
+    if env_id not in REGISTRIES:
+        raise ValueError(f"no controller registry for env {env_id!r}; env ids: {sorted(REGISTRIES)}")
+    return REGISTRIES[env_id]
+
+
+def baselines_for(env_id: str = ENV_ID) -> tuple[str, ...]:
+    """Names of the entries ``agents.evaluate`` runs by default on ``env_id``."""
+    return tuple(name for name, spec in registry_for(env_id).items() if spec.in_default)
+
+
+def tunable_for(env_id: str = ENV_ID) -> tuple[str, ...]:
+    """Names of the tuned entries of ``env_id``."""
+    return tuple(name for name, spec in registry_for(env_id).items() if spec.tuned)
+
+
+def get_spec(name: str, env_id: str = ENV_ID) -> ControllerSpec:
+    """The registry entry ``name`` of ``env_id``; ValueError listing the registered names otherwise."""
+    table = registry_for(env_id)
+    if name not in table:
+        raise ValueError(f"unknown controller {name!r} for {env_id}; registered: {sorted(table)}")
+    return table[name]
+
+
+def tuned_file(env_id: str = ENV_ID) -> Path:
+    """Where :mod:`agents.tune` writes the tuned settings of ``env_id``."""
+    registry_for(env_id)
+    return TUNED_FILE if env_id == ENV_ID else HYPERPARAMS_DIR / f"baselines_{env_id}.yml"
+
+
+def load_tuned(path: Path | None = None, env_id: str = ENV_ID) -> dict:
+    """Tuned settings ``{name: {...}}`` of the tuned entries of ``env_id`` (defaults if not tuned yet)."""
+    defaults = DEFAULT_TUNED_BY_ENV[env_id]
+    path = Path(path) if path else tuned_file(env_id)
     if not path.exists():
-        return {k: dict(v) for k, v in DEFAULT_TUNED.items()}
+        return {k: dict(v) for k, v in defaults.items()}
     data = yaml.safe_load(path.read_text())
-    return {k: dict(data[k]["params"]) if k in data else dict(v) for k, v in DEFAULT_TUNED.items()}
+    return {k: dict(data[k]["params"]) if k in data else dict(v) for k, v in defaults.items()}

@@ -6,7 +6,7 @@ The learned policy does not drive the wires alone: the applied action is
 
 where ``a_base`` is the action of a classical controller (the tuned PID of
 ``agents/hyperparams/baselines.yml``) and ``a_res`` the policy's output. The policy observes the
-env's observation with ``a_base`` appended (2 more entries, in [-1, 1]), so it knows what the
+env's observation with ``a_base`` appended (one more entry per wire, in [-1, 1]), so it knows what the
 baseline is about to do. The baseline keeps its integral action (precise holding, ramps); the
 policy learns what the PID cannot do from the error alone — anticipating target moves from the
 preview, pre-heating the wire that will be needed, shaping the heating pulse of a step.
@@ -24,10 +24,12 @@ preview, pre-heating the wire that will be needed, shaping the heating pulse of 
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .common import ENV_ID
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]
@@ -35,16 +37,29 @@ __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combi
 BASES = ("pid",)  # registry entries a residual may sit on (tuned, plain v_max/dt constructors)
 
 
-def base_spec(kind: str, *, v_max: float, dt: float, temperature_limit: float, scale: float) -> dict:
-    """JSON-able description of the baseline (tuned settings included) and the residual scale."""
+def base_spec(
+    kind: str,
+    *,
+    v_max: float,
+    dt: float,
+    temperature_limit: float,
+    scale: float,
+    env_id: str = ENV_ID,
+    env_kwargs: dict | None = None,
+) -> dict:
+    """JSON-able description of the baseline (tuned settings included) and the residual scale.
+
+    For a spatial env (``env_id`` other than ``SmaSpine-v0``) the spec also holds the env id and
+    kwargs: its controller is built from that env's layout and observation table."""
     if kind not in BASES:
         raise ValueError(f"residual base must be one of {BASES}, got {kind!r}")
     scale = float(scale)
     if not 0.0 < scale <= 2.0:
         raise ValueError(f"residual_scale must be in (0, 2], got {scale}")
-    return {
+    extra = {} if env_id == ENV_ID else {"env_id": env_id, "env_kwargs": dict(env_kwargs or {})}
+    return extra | {
         "kind": kind,
-        "params": load_tuned()[kind],
+        "params": load_tuned(env_id=env_id)[kind],
         "v_max": float(v_max),
         "dt": float(dt),
         "temperature_limit": float(temperature_limit) - GUARD_MARGIN_K,  # as the evaluated baseline
@@ -56,7 +71,14 @@ def build_base(spec: dict):
     """The baseline controller of ``spec`` (see :func:`base_spec`), built from the registry."""
     if spec.get("kind") not in BASES:
         raise ValueError(f"residual base must be one of {BASES}, got {spec.get('kind')!r}")
-    return get_spec(spec["kind"]).cls(
+    env_id = spec.get("env_id", ENV_ID)
+    cls = get_spec(spec["kind"], env_id).cls
+    if env_id != ENV_ID:  # a spatial controller reads the env's layout and observation table
+        env = gym.make(env_id, **spec["env_kwargs"]).unwrapped
+        ctrl = cls.from_env(env, **spec["params"], temperature_limit=spec["temperature_limit"])
+        env.close()
+        return ctrl
+    return cls(
         **spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"]
     )
 
@@ -79,15 +101,16 @@ class ResidualVecEnv(VecEnvWrapper):
         self.spec = dict(spec)
         self.scale = float(spec["scale"])
         self.base = build_base(spec)
-        low = np.concatenate([venv.observation_space.low, [-1.0, -1.0]]).astype(np.float32)
-        high = np.concatenate([venv.observation_space.high, [1.0, 1.0]]).astype(np.float32)
+        self.n_act = int(np.prod(venv.action_space.shape))
+        low = np.concatenate([venv.observation_space.low, -np.ones(self.n_act)]).astype(np.float32)
+        high = np.concatenate([venv.observation_space.high, np.ones(self.n_act)]).astype(np.float32)
         super().__init__(venv, observation_space=spaces.Box(low, high, dtype=np.float32))
         self._mem = None
-        self._base_action = np.zeros((self.num_envs, 2), dtype=np.float32)
+        self._base_action = np.zeros((self.num_envs, self.n_act), dtype=np.float32)
 
     def _augment(self, obs: np.ndarray, episode_start: np.ndarray) -> np.ndarray:
         a, self._mem = self.base.predict(obs, state=self._mem, episode_start=episode_start)
-        self._base_action = np.asarray(a, dtype=np.float32).reshape(self.num_envs, 2)
+        self._base_action = np.asarray(a, dtype=np.float32).reshape(self.num_envs, self.n_act)
         return np.concatenate([obs, self._base_action], axis=1).astype(np.float32)
 
     def reset(self) -> np.ndarray:
@@ -104,7 +127,9 @@ class ResidualVecEnv(VecEnvWrapper):
             term = infos[i].get("terminal_observation")
             if term is not None:  # the baseline's action on the last state, its memory continued
                 a, _ = self.base.predict(term[None, :], state=self._mem[i : i + 1].copy())
-                infos[i]["terminal_observation"] = np.concatenate([term, a.reshape(2)]).astype(np.float32)
+                infos[i]["terminal_observation"] = np.concatenate([term, a.reshape(self.n_act)]).astype(
+                    np.float32
+                )
         return self._augment(obs, np.asarray(dones, dtype=bool)), rewards, dones, infos
 
 
@@ -133,9 +158,9 @@ class ResidualPolicy:
         base_a, _ = self.base.predict(observation, episode_start=episode_start)
         single = np.ndim(observation) == 1
         obs2 = np.atleast_2d(np.asarray(observation, dtype=np.float32))
-        base_a = np.asarray(base_a, dtype=np.float32).reshape(obs2.shape[0], 2)
+        base_a = np.asarray(base_a, dtype=np.float32).reshape(obs2.shape[0], -1)
         res, _ = self.model.predict(np.concatenate([obs2, base_a], axis=1), None, None, deterministic)
-        action = combine(base_a, np.asarray(res).reshape(obs2.shape[0], 2), self.scale)
+        action = combine(base_a, np.asarray(res).reshape(base_a.shape), self.scale)
         return (action[0] if single else action), None
 
     def __repr__(self) -> str:

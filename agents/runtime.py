@@ -1,6 +1,7 @@
 """The shared runtime of the agents CLIs (no CLI here): envs, controllers, policies, episodes.
 
-* :func:`make_env` — a plain ``SmaSpine-v0`` env; :func:`env_temperature_limit`.
+* :func:`make_env` — a plain env (``SmaSpine-v0`` or a spatial id); :func:`env_temperature_limit`,
+  :func:`env_id_of`, :func:`tracking_keys`.
 * :func:`build_controller` — any :data:`agents.registry.REGISTRY` entry configured for an env
   (its v_max, control period, temperature guard, tuned settings from :func:`load_tuned`).
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
@@ -34,6 +35,8 @@ from .scenarios import Scenario
 
 __all__ = [
     "make_env",
+    "env_id_of",
+    "tracking_keys",
     "env_temperature_limit",
     "build_controller",
     "run_episode",
@@ -50,9 +53,23 @@ __all__ = [
 ]
 
 
-def make_env(env_kwargs: dict | None = None):
-    """A plain ``SmaSpine-v0`` env (no time-limit surprises: the episode length is the env's)."""
-    return gym.make(ENV_ID, **(env_kwargs or {})).unwrapped
+def make_env(env_kwargs: dict | None = None, env_id: str = ENV_ID):
+    """A plain ``env_id`` env (no time-limit surprises: the episode length is the env's)."""
+    return gym.make(env_id, **(env_kwargs or {})).unwrapped
+
+
+def env_id_of(env) -> str:
+    """The registered id of an env made by :func:`make_env` (``SmaSpine-v0`` if it has no spec)."""
+    spec = getattr(getattr(env, "unwrapped", env), "spec", None)
+    return spec.id if spec is not None else ENV_ID
+
+
+def tracking_keys(env) -> tuple[str, str]:
+    """The info keys (tracked quantity, its target) of an env: the task and target entries of its
+    declarative table (``angle_deg``, ``target_deg`` for ``SmaSpine-v0``)."""
+    table = getattr(env, "unwrapped", env).config.table()
+    target = [e.key for e in table.entries if e.source == "target"]
+    return table.task.key, target[0]
 
 
 def run_episode(
@@ -77,11 +94,12 @@ def run_episode(
     state = None
     start = np.ones((1,), dtype=bool)
     infos, actions, rewards = [], [], []
+    shape = env.action_space.shape
     while True:
         action, state = policy.predict(
             obs[None, :], state=state, episode_start=start, deterministic=deterministic
         )
-        action = np.asarray(action, dtype=np.float32).reshape(2)
+        action = np.asarray(action, dtype=np.float32).reshape(shape)
         start = np.zeros((1,), dtype=bool)
         obs, reward, terminated, truncated, info = env.step(action)
         infos.append(info)
@@ -89,7 +107,7 @@ def run_episode(
         rewards.append(reward)
         if terminated or truncated:
             break
-    return Trajectory.from_infos(infos, actions, rewards)
+    return Trajectory.from_infos(infos, actions, rewards, keys=tracking_keys(env))
 
 
 # env kwargs that change what a controller observes, not the task: a reference PID runs without them
@@ -112,6 +130,8 @@ TASK_KWARGS = (
 def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
     """A policy's training env kwargs without :data:`TASK_KWARGS` (what the suite's env keeps)."""
     return {k: v for k, v in policy_env_kwargs.items() if k not in TASK_KWARGS}
+
+
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
 
 
@@ -138,16 +158,20 @@ def env_temperature_limit(env) -> float:
 
 
 def build_controller(name: str, env, tuned: dict | None = None):
-    """Registered controller ``name`` (:data:`agents.registry.REGISTRY`) configured for ``env``.
+    """Registered controller ``name`` of the env's registry (:func:`agents.registry.registry_for`)
+    configured for ``env``.
 
     ``tuned`` overrides the tuned settings of :func:`load_tuned` (``{name: {...}}``).
     """
-    spec = get_spec(name)
+    env_id = env_id_of(env)
+    spec = get_spec(name, env_id)
     kwargs = dict(spec.kwargs)
     if spec.tuned:
-        kwargs.update((load_tuned() if tuned is None else tuned)[name])
+        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
     if spec.guard:
         kwargs["temperature_limit"] = env_temperature_limit(env) - GUARD_MARGIN_K
+    if spec.from_env:
+        return spec.cls.from_env(env, **kwargs)
     if spec.plans_on_env:
         return spec.cls(env.unwrapped.config, env=env, **kwargs)
     return spec.cls(v_max=float(env.v_max), dt=float(env.control_period), **kwargs)

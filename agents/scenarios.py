@@ -24,6 +24,17 @@ the training and tuning seeds (< ``EVAL_SEED_BASE``).
 ``full`` is the suite of the README (60-s episodes, all three groups); ``quick`` is a 3-profile,
 20-s cut of the nominal and disturbed groups for
 tests and the notebook.
+
+The spatial envs have their own suites (:data:`SUITES_BY_ENV`, :func:`get_suite` with ``env_id``),
+with ``nominal`` and ``disturbed`` groups (payload plus 3-D tip pushes tilted up to ±20° from the
+horizontal, in any azimuth):
+
+* ``SmaSpine3D-v0`` — target bending vectors (:class:`spine_gym.envs.task_spatial.BendTarget`): a
+  diagonal step, a tour of three steps around the azimuth, a 40° hold, a circle and a
+  figure-eight of the tip direction;
+* ``SmaSpineChain-v0`` — target tip positions (:class:`spine_gym.envs.task_spatial.ChainTarget`,
+  every module an arc within the env's 20° per-module bend limit, so inside its documented
+  workspace): a hold, a step sequence, a circle and a figure-eight.
 """
 
 from __future__ import annotations
@@ -31,10 +42,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
 from spine_gym.envs import default_randomization
 from spine_gym.envs.task import LoadSchedule, TargetProfile
+
+from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 
 EVAL_SEED_BASE = 900_000  # evaluation reset seeds: EVAL_SEED_BASE + k; training/tuning seeds stay below
 G = 9.81  # [m/s^2]
@@ -48,12 +62,16 @@ class Scenario:
         name: unique name (``<profile>`` + ``_dist`` in the disturbed group).
         group: ``"nominal"`` or ``"disturbed"``.
         kind: ``"step"``, ``"ramp"`` or ``"sine"`` (settling time is reported for steps).
-        target: ``(constructor, kwargs)`` of :class:`spine_gym.envs.task.TargetProfile`.
-        payload_kg: mass hung on the top disk [kg] (a constant (0, −m g) tip force).
-        tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y).
+        target: ``(constructor, kwargs)`` of the env's target class (:data:`TARGET_CLASSES`:
+            :class:`~spine_gym.envs.task.TargetProfile` for ``SmaSpine-v0``); constructor ``""``
+            calls the class itself.
+        payload_kg: mass hung on the top disk [kg] (a constant downward tip force m g).
+        tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y), or
+            ``(t_start, t_end, fx, fy, fz)`` for the spatial envs (global x/y/z, z up).
         params: ``(ModelParams field, value)`` pairs of a randomised plant (empty: nominal).
         duration: episode duration [s].
         seed: env reset seed.
+        env_id: the env the scenario is for.
     """
 
     name: str
@@ -61,24 +79,31 @@ class Scenario:
     kind: str
     target: tuple[str, dict]
     payload_kg: float = 0.0
-    tip_pulses: tuple[tuple[float, float, float, float], ...] = field(default_factory=tuple)
+    tip_pulses: tuple[tuple[float, ...], ...] = field(default_factory=tuple)
     params: tuple[tuple[str, float], ...] = field(default_factory=tuple)
     duration: float = 60.0
     seed: int = EVAL_SEED_BASE
+    env_id: str = ENV_ID
 
     def reset_options(self) -> dict:
-        """The env's ``reset`` options: ``{"target": TargetProfile, "loads": LoadSchedule}`` and, for
+        """The env's ``reset`` options: ``{"target": <target>, "loads": LoadSchedule}`` and, for
         a randomised plant, ``"params"``: the baseline ModelParams with :attr:`params` replaced."""
         ctor, kwargs = self.target
-        target = getattr(TargetProfile, ctor)(**kwargs)
+        cls = TARGET_CLASSES[self.env_id]
+        target = getattr(cls, ctor)(**kwargs) if ctor else cls(**kwargs)
         loads = LoadSchedule(
-            tip_force_events=tuple((t0, t1, (fx, fy)) for t0, t1, fx, fy in self.tip_pulses),
+            tip_force_events=tuple((p[0], p[1], tuple(p[2:])) for p in self.tip_pulses),
             payload=self.payload_kg,
+            dim=FORCE_DIM[self.env_id],
         )
         out = {"target": target, "loads": loads}
         if self.params:
             out["params"] = ModelParams().replace(**dict(self.params))
         return out
+
+
+TARGET_CLASSES = {ENV_ID: TargetProfile, SPATIAL_ENV_ID: BendTarget, CHAIN_ENV_ID: ChainTarget}
+FORCE_DIM = {ENV_ID: 2, SPATIAL_ENV_ID: 3, CHAIN_ENV_ID: 3}  # tip-force components of each env
 
 
 # target profiles shared by both groups: name -> (kind, constructor, kwargs); times in s, angles in deg
@@ -185,17 +210,152 @@ def build_suite(
 
 SUITES = {
     "full": lambda: build_suite(60.0),
-    "quick": lambda: build_suite(20.0, ["step_cross", "ramp_swing", "sine_fast"], groups=("nominal", "disturbed")),
+    "quick": lambda: build_suite(
+        20.0, ["step_cross", "ramp_swing", "sine_fast"], groups=("nominal", "disturbed")
+    ),
+}
+
+
+# ---------------------------------------------------------------- spatial envs (issue 9)
+def _polar(theta: float, azimuth: float) -> tuple[float, float]:
+    r = np.radians(azimuth)
+    return float(np.round(theta * np.cos(r), 6)), float(np.round(theta * np.sin(r), 6))
+
+
+def _profiles_3d(duration: float) -> dict[str, tuple[str, str, dict]]:
+    """Target bending vectors [deg] of ``SmaSpine3D-v0``: (kind, BendTarget constructor, kwargs)."""
+    d = duration
+    h = 5.0 * d / 60.0
+    q = (d - h) / 3.0
+    zero = (0.0, 0.0)
+    return {
+        "step_diag": ("step", "", {"kind": "steps", "times": (0.0, h), "values": (zero, _polar(30.0, 45.0))}),
+        "step_tour": (
+            "step",
+            "",
+            {
+                "kind": "steps",
+                "times": (0.0, h, h + q, h + 2 * q),
+                "values": (zero, _polar(25.0, 0.0), _polar(35.0, 120.0), _polar(20.0, 240.0)),
+            },
+        ),  # fmt: skip
+        "hold_40": ("step", "", {"kind": "steps", "times": (0.0, h), "values": (zero, _polar(40.0, 200.0))}),
+        "circle": ("circle", "", {"kind": "circle", "amplitude": 25.0, "period": d / 2.0}),
+        "figure8": (
+            "figure8",
+            "",
+            {"kind": "figure8", "amplitude": 30.0, "period": d / 2.0, "rotation_deg": 30.0},
+        ),
+    }
+
+
+def _profiles_chain(duration: float) -> dict[str, tuple[str, str, dict]]:
+    """Target tip positions of ``SmaSpineChain-v0`` as module arcs [deg] (ChainTarget kwargs)."""
+    d = duration
+    h = 5.0 * d / 60.0
+    q = (d - h) / 2.0
+    zero = (0.0, 0.0)
+    times = (0.0, h, h + q)
+
+    def steps(*values):
+        return BendTarget("steps", times, values)
+
+    def pattern(kind, amplitude, **kw):
+        return BendTarget(kind, amplitude=amplitude, period=d / 2.0, **kw)
+
+    return {
+        "hold": (
+            "step",
+            "",
+            {"modules": (steps(zero, (15.0, 5.0), (15.0, 5.0)), steps(zero, (10.0, 0.0), (10.0, 0.0)))},
+        ),
+        "steps": (
+            "step",
+            "",
+            {"modules": (steps(zero, (15.0, 0.0), (-5.0, 12.0)), steps(zero, (10.0, 5.0), (-10.0, 8.0)))},
+        ),  # fmt: skip
+        "circle": ("circle", "", {"modules": (pattern("circle", 15.0), pattern("circle", 10.0))}),
+        "figure8": (
+            "figure8",
+            "",
+            {
+                "modules": (
+                    pattern("figure8", 15.0, rotation_deg=60.0),
+                    pattern("figure8", 10.0, rotation_deg=60.0),
+                )
+            },
+        ),  # fmt: skip
+    }
+
+
+SPATIAL_SEED_OFFSET = {SPATIAL_ENV_ID: 10_000, CHAIN_ENV_ID: 20_000}  # reset seeds stay >= EVAL_SEED_BASE
+
+
+def _disturbance_3d(k: int, duration: float):
+    """Payload [kg] and two 3-D tip pushes (any azimuth, tilted ±20°) for scenario seed k."""
+    rng = np.random.default_rng(EVAL_SEED_BASE + k)
+    payload = float(np.round(rng.uniform(0.02, 0.05), 3))
+    pulses = []
+    for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
+        t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
+        t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
+        mag, az = rng.uniform(0.1, 0.3), rng.uniform(0.0, 2.0 * np.pi)
+        el = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
+        f = mag * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        pulses.append((t0, min(t1, duration), *(float(np.round(c, 3)) for c in f)))
+    return payload, tuple(pulses)
+
+
+def build_spatial_suite(
+    env_id: str, duration: float = 60.0, profiles: list[str] | None = None, groups=("nominal", "disturbed")
+) -> list[Scenario]:
+    """The scenarios of a spatial env (``SmaSpine3D-v0`` or ``SmaSpineChain-v0``)."""
+    table = (_profiles_3d if env_id == SPATIAL_ENV_ID else _profiles_chain)(duration)
+    out = []
+    for group in groups:
+        for i, name in enumerate(profiles or list(table)):
+            kind, ctor, kwargs = table[name]
+            k = i + GROUP_OFFSET[group] + SPATIAL_SEED_OFFSET[env_id]
+            payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
+            out.append(
+                Scenario(
+                    name=name + SUFFIX[group],
+                    group=group,
+                    kind=kind,
+                    target=(ctor, kwargs),
+                    payload_kg=payload,
+                    tip_pulses=pulses,
+                    duration=duration,
+                    seed=EVAL_SEED_BASE + k,
+                    env_id=env_id,
+                )  # fmt: skip
+            )
+    return out
+
+
+SUITES_BY_ENV = {
+    ENV_ID: SUITES,
+    SPATIAL_ENV_ID: {
+        "full": lambda: build_spatial_suite(SPATIAL_ENV_ID, 60.0),
+        "quick": lambda: build_spatial_suite(SPATIAL_ENV_ID, 20.0, ["step_diag", "circle"]),
+    },
+    CHAIN_ENV_ID: {
+        "full": lambda: build_spatial_suite(CHAIN_ENV_ID, 60.0),
+        "quick": lambda: build_spatial_suite(CHAIN_ENV_ID, 20.0, ["steps", "circle"]),
+    },
 }
 
 
 def get_suite(
-    name: str = "full", groups: list[str] | None = None, names: list[str] | None = None
+    name: str = "full", groups: list[str] | None = None, names: list[str] | None = None, env_id: str = ENV_ID
 ) -> list[Scenario]:
-    """The scenarios of suite ``name``, optionally only some groups / scenario names."""
-    if name not in SUITES:
-        raise ValueError(f"suite must be one of {sorted(SUITES)}, got {name!r}")
-    suite = SUITES[name]()
+    """The scenarios of suite ``name`` of ``env_id``, optionally only some groups / scenario names."""
+    if env_id not in SUITES_BY_ENV:
+        raise ValueError(f"env_id must be one of {sorted(SUITES_BY_ENV)}, got {env_id!r}")
+    suites = SUITES_BY_ENV[env_id]
+    if name not in suites:
+        raise ValueError(f"suite must be one of {sorted(suites)}, got {name!r}")
+    suite = suites[name]()
     if groups:
         bad = set(groups) - {s.group for s in suite}
         if bad:

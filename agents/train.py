@@ -1,4 +1,4 @@
-"""Train PPO or SAC on ``SmaSpine-v0`` (RL-Zoo-style command line).
+"""Train PPO or SAC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...; RL-Zoo-style CLI).
 
 Example::
 
@@ -183,13 +183,15 @@ def train(argv: list[str] | None = None) -> Path:
         eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
     if special["residual"]:
         # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
-        probe = make_env(env_kwargs)
+        probe = make_env(env_kwargs, env_id=args.env)
         spec = base_spec(
             special["residual"],
             v_max=probe.v_max,
             dt=probe.control_period,
             temperature_limit=env_temperature_limit(probe),
             scale=special["residual_scale"],
+            env_id=args.env,
+            env_kwargs=env_kwargs,
         )
         probe.close()
         meta["residual"] = spec

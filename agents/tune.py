@@ -3,8 +3,10 @@
 Example::
 
     python -m agents.tune --trials 60 --episodes 8 --seed 0      # writes hyperparams/baselines.yml
+    python -m agents.tune --env SmaSpine3D-v0 --controllers pid  # hyperparams/baselines_SmaSpine3D-v0.yml
 
-The objective is the mean tracking RMSE [deg] over ``--episodes`` episodes of ``SmaSpine-v0``
+The objective is the mean tracking RMSE [deg; mm for the chain's tip position] over ``--episodes``
+episodes of the env (``--env``, default ``SmaSpine-v0``)
 drawn by the env's own samplers (random targets and loads) with reset seeds
 ``TRAIN_SEED_BASE + i`` — the same distribution the RL agents train on, and disjoint from the
 evaluation suite's seeds (:data:`agents.scenarios.EVAL_SEED_BASE`). Optuna's TPE sampler is
@@ -23,8 +25,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .registry import DEFAULT_TUNED, GUARD_MARGIN_K, TUNABLE, TUNED_FILE, get_spec, load_tuned
-from .runtime import env_temperature_limit, run_episode
+from .common import ENV_ID, ENV_IDS, StoreDict
+from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
+from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
 
 __all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
@@ -37,7 +40,7 @@ def objective_value(env, ctrl, seeds: list[int]) -> float:
     rmse = []
     for s in seeds:
         tr = run_episode(env, ctrl, seed=s)
-        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
+        rmse.append(np.sqrt(np.mean(tr.error**2)))
     return float(np.mean(rmse))
 
 
@@ -50,6 +53,7 @@ def tune(
     env_kwargs: dict | None = None,
     make_env=None,
     verbose: bool = True,
+    env_id: str = ENV_ID,
 ) -> dict:
     """Tune one baseline (``"pid"`` or ``"bang_bang"``) with seeded TPE; returns the record.
 
@@ -59,36 +63,34 @@ def tune(
         n_episodes: training episodes per trial, in [1, 10000].
         seed: sampler seed (the episodes are always ``TRAIN_SEED_BASE + i``).
         env_kwargs: env kwargs (default: the env's defaults).
-        make_env: env factory (default :func:`agents.runtime.make_env`).
+        make_env: env factory ``(env_kwargs) -> env`` (default :func:`agents.runtime.make_env` of ``env_id``).
         verbose: print progress.
+        env_id: the env whose registry entry is tuned (``SmaSpine-v0`` or a spatial id).
 
     Returns:
         ``{"params": best settings, "train_rmse_deg": value, "n_trials", "n_episodes", "seed", ...}``.
     """
     import optuna
 
-    if kind not in TUNABLE:
-        raise ValueError(f"kind must be one of {sorted(TUNABLE)}, got {kind!r}")
+    if kind not in tunable_for(env_id):
+        raise ValueError(f"kind must be one of {sorted(tunable_for(env_id))}, got {kind!r}")
     if not 1 <= n_episodes <= 10_000:
         raise ValueError(f"n_episodes must be in [1, 10000], got {n_episodes}")
     if n_trials < 1:
         raise ValueError(f"n_trials must be >= 1, got {n_trials}")
-    env = (make_env or default_make_env)(env_kwargs or {})
-    spec = get_spec(kind)
-    common = {
-        "v_max": float(env.v_max),
-        "dt": float(env.control_period),
-        "temperature_limit": env_temperature_limit(env) - GUARD_MARGIN_K,  # as runtime.build_controller
-    }
-    cls = spec.cls
+    env = make_env(env_kwargs or {}) if make_env else default_make_env(env_kwargs or {}, env_id=env_id)
+    spec = get_spec(kind, env_id)
+    v_max = float(env.v_max)
     seeds = [TRAIN_SEED_BASE + i for i in range(n_episodes)]
 
     def objective(trial):
-        return objective_value(env, cls(**spec.search_space(trial, common["v_max"]), **common), seeds)
+        # built as runtime.build_controller builds it for the evaluation (same guard, same env)
+        ctrl = build_controller(kind, env, tuned={kind: spec.search_space(trial, v_max)})
+        return objective_value(env, ctrl, seeds)
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed))
-    study.enqueue_trial(DEFAULT_TUNED[kind])  # the hand-set start point is always tried
+    study.enqueue_trial(DEFAULT_TUNED_BY_ENV[env_id][kind])  # the hand-set start point is always tried
     t0 = time.perf_counter()
     for i in range(n_trials):
         study.optimize(objective, n_trials=1)
@@ -104,6 +106,7 @@ def tune(
         "n_episodes": n_episodes,
         "episode_seeds": f"{seeds[0]}..{seeds[-1]}",
         "sampler_seed": seed,
+        "env_id": env_id,
         "env_kwargs": dict(env_kwargs or {}),
         "wall_time_s": round(time.perf_counter() - t0, 1),
     }
@@ -111,17 +114,30 @@ def tune(
 
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="python -m agents.tune", description=__doc__.split("\n")[0])
-    p.add_argument("--controllers", nargs="+", default=list(TUNABLE), choices=sorted(TUNABLE))
+    p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
+    p.add_argument(
+        "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
+    )
     p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
     p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
     p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
-    p.add_argument("-o", "--out", default=str(TUNED_FILE), help="output YAML (default: %(default)s)")
+    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, help="env kwargs key:value")
+    p.add_argument("-o", "--out", default=None, help="output YAML (default: the env's tuned file)")
     args = p.parse_args(argv)
+    if args.controllers is None:
+        args.controllers = list(tunable_for(args.env))
+    bad = set(args.controllers) - set(tunable_for(args.env))
+    if bad:
+        p.error(f"--controllers {sorted(bad)}: choose from {list(tunable_for(args.env))} for {args.env}")
+    args.out = args.out or str(tuned_file(args.env))
     command = "python -m agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
     out = Path(args.out)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:
-        rec = tune(kind, n_trials=args.trials, n_episodes=args.episodes, seed=args.seed)
+        rec = tune(
+            kind, n_trials=args.trials, n_episodes=args.episodes, seed=args.seed, env_id=args.env,
+            env_kwargs=args.env_kwargs,
+        )  # fmt: skip
         rec["command"] = command
         record[kind] = rec
         print(f"{kind}: {rec['params']} (train RMSE {rec['train_rmse_deg']} deg)")

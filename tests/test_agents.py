@@ -189,7 +189,7 @@ def test_evaluate_cli_writes_tables_csv_and_plots(tmp_path):
 
 
 # --------------------------------------------------------------------------- shipped policies
-SHIPPED = sorted(p.name for p in POLICIES_DIR.glob("*") if (p / "model.zip").exists())
+SHIPPED = sorted(ev.shipped_policies())  # the SmaSpine-v0 policies (tests/test_agents_spatial.py: the others)
 
 
 def test_policies_are_shipped_small_and_documented():

@@ -55,7 +55,7 @@ def test_parse_sweep_spec_forms():
 
 
 def test_design_parameter_names_cover_model_and_voltage():
-    assert design_parameter_names() == field_names() + ["voltage"]
+    assert design_parameter_names() == field_names() + ["voltage", "n_modules"]
 
 
 @pytest.mark.parametrize(

@@ -1,9 +1,11 @@
-"""Controllers for ``SmaSpine-v0`` (no torch needed), all behind SB3's ``predict``.
+"""Controllers for ``SmaSpine-v0`` and the spatial envs (no torch needed), all behind SB3's ``predict``.
 
 * :mod:`.baselines` — the paper's step voltage, a bang-bang relay and a PID (the classical baselines).
 * :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
   true state (``oracle``, privileged) or an estimated one (``estimated``).
 * :mod:`.estimator` — the phase-fraction estimator behind the ``estimated`` mode.
+* :mod:`.spatial` — the three baselines for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (per
+  bending axis and module; the chain's references from the arc inverse kinematics).
 """
 
 from .baselines import (
@@ -19,6 +21,7 @@ from .baselines import (
 )
 from .estimator import PhaseEstimator, austenite_from_resistance
 from .mpc import MODES, MPPIConfig, MPPIController
+from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
 
 __all__ = [
     "SteadyStateMap",
@@ -35,4 +38,8 @@ __all__ = [
     "MODES",
     "PhaseEstimator",
     "austenite_from_resistance",
+    "SpatialSignals",
+    "SpatialStepController",
+    "SpatialBangBangController",
+    "SpatialPIDController",
 ]

@@ -242,12 +242,7 @@ class BaseController:
             es = es.astype(bool)
             if es.any():
                 mem[es] = self._initial_state(int(es.sum()))
-        volts = self._volts(obs, mem)
-        if self.temperature_limit is not None:
-            hot = obs[:, [OBS_TEMP_R, OBS_TEMP_L]] >= self.temperature_limit
-            volts = np.where(hot, 0.0, volts)
-        volts = np.clip(volts, 0.0, self.v_max)
-        action = volts_to_action(volts, self.v_max)
+        action = self._action(obs, self._volts(obs, mem))
         if internal:
             self._memory = mem
         return (action[0] if single else action), mem
@@ -261,6 +256,17 @@ class BaseController:
         return self.predict(observation)[0]
 
     # ---- helpers
+    def _temperatures(self, obs: np.ndarray) -> np.ndarray:
+        """(n, n_wires) observed wire temperatures [K] (the guard's input)."""
+        return obs[:, [OBS_TEMP_R, OBS_TEMP_L]]
+
+    def _action(self, obs: np.ndarray, volts: np.ndarray) -> np.ndarray:
+        """Temperature guard, clip to [0, v_max] and map to actions in [-1, 1]."""
+        if self.temperature_limit is not None:
+            volts = np.where(self._temperatures(obs) >= self.temperature_limit, 0.0, volts)
+        volts = np.clip(volts, 0.0, self.v_max)
+        return volts_to_action(volts, self.v_max)
+
     def _check_obs(self, observation) -> tuple[np.ndarray, bool]:
         try:
             obs = np.asarray(observation, dtype=np.float64)

@@ -4,6 +4,7 @@ Examples (user guide: ``docs/design.md``)::
 
     python -m spine_gym.design params
     python -m spine_gym.design sweep --param a=6e-3:14e-3:9 --param n_w=1,2,3 --n-workers 2
+    python -m spine_gym.design sweep --param n_modules=1,2,3 --param a=6e-3:12e-3:4   # chained layouts
     python -m spine_gym.design optimize --space a=6e-3:14e-3 --space n_w=1,2,3 \\
         --maximize stable_angle --constraint "ability>=0.15" --constraint "responding_time<=36" \\
         --n-trials 60 --n-workers 2 --storage runs/design/study.journal --study-name spine
@@ -24,6 +25,7 @@ from pathlib import Path
 from ..capacity import CapacityProtocol
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
+    LAYOUT_PARAMS,
     METRICS,
     PROTOCOL_PARAMS,
     design_parameter_names,
@@ -130,7 +132,12 @@ def _cmd_params(args) -> int:
     print(f"{'name':<14} {'value (' + args.preset + ')':>22} {'allowed range':>26}")
     for name in design_parameter_names():
         lo, hi = parameter_range(name)
-        val = CapacityProtocol().voltage if name in PROTOCOL_PARAMS else getattr(base, name)
+        if name in LAYOUT_PARAMS:
+            val = "planar"  # unset: the planar spine; set: SpineLayout.chain(n_modules, params)
+        elif name in PROTOCOL_PARAMS:
+            val = CapacityProtocol().voltage
+        else:
+            val = getattr(base, name)
         print(f"{name:<14} {val!r:>22} {f'[{lo:g}, {hi:g}]':>26}")
     print("metrics:", ", ".join(METRICS))
     return 0
@@ -265,6 +272,9 @@ def _cmd_best(args, parser) -> int:
             if getattr(p, f.name) != getattr(ModelParams(), f.name)
         }
         print("ModelParams differing from the baseline:", changed)
+        model = res.best_design()
+        if model is not p:
+            print(f"layout: SpineLayout.chain({model.n_modules}, params)")
     return 0
 
 
@@ -290,7 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         required=True,
         metavar="NAME=SPEC",
-        help="sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2",
+        help="sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2, "
+        "n_modules=1,2,3 (chained four-wire layouts)",
     )
     _add_common(p)
     p.add_argument(

@@ -40,10 +40,12 @@ from pathlib import Path
 from typing import Any
 
 from ..capacity import CapacityProtocol
+from ..layout import SpineLayout
 from ..params import ModelParams, SolverOptions
 from .space import (
     METRICS,
     SearchDim,
+    design_params,
     evaluate_design,
     make_design,
     parse_constraint,
@@ -73,11 +75,11 @@ class DesignProblem:
 
     Args:
         space: search dimensions (:class:`~.space.SearchDim` or spec strings ``"a=6e-3:14e-3"``,
-            ``"eps0=0.03:0.06"``, ``"n_w=1,2,3"``).
+            ``"eps0=0.03:0.06"``, ``"n_w=1,2,3"``, ``"n_modules=1,2,3"``: a chained layout).
         metric: objective metric (name or alias, see :data:`~.space.METRICS`).
         maximize: True to maximise, False to minimise.
         constraints: :class:`~.space.Constraint` or strings ``"actuating_ability>=0.15"``.
-        base: base model (default MODEL.md §7 baseline).
+        base: base design (default MODEL.md §7 baseline, planar; or a ``SpineLayout.chain``).
         protocol: capacity protocol (default MODEL.md §10.4).
         solver: solver options (None = defaults).
         fixed: fixed overrides of the base design (``{"E_t": 30e6}``).
@@ -91,7 +93,7 @@ class DesignProblem:
     metric: str = "stable_angle_deg"
     maximize: bool = True
     constraints: tuple = ()
-    base: ModelParams = field(default_factory=ModelParams)
+    base: ModelParams | SpineLayout = field(default_factory=ModelParams)
     protocol: CapacityProtocol = field(default_factory=CapacityProtocol)
     solver: SolverOptions | None = None
     fixed: dict = field(default_factory=dict)
@@ -131,7 +133,8 @@ class DesignProblem:
             "metric": self.metric,
             "direction": self.direction,
             "constraints": [str(c) for c in self.constraints],
-            "base_params": dataclasses.asdict(self.base),
+            "base_params": dataclasses.asdict(design_params(self.base)),
+            "base_n_modules": self.base.n_modules if isinstance(self.base, SpineLayout) else None,
             "protocol": dataclasses.asdict(self.protocol),
             "solver": None if self.solver is None else dataclasses.asdict(self.solver),
             "fixed": self.fixed,
@@ -150,7 +153,7 @@ class DesignProblem:
             metric=cfg["metric"],
             maximize=cfg["direction"] == "maximize",
             constraints=tuple(cfg["constraints"]),
-            base=ModelParams(**cfg["base_params"]),
+            base=_base_from_config(cfg),
             protocol=CapacityProtocol(**cfg["protocol"]),
             solver=None if cfg["solver"] is None else SolverOptions(**cfg["solver"]),
             fixed=cfg["fixed"],
@@ -183,6 +186,13 @@ class DesignProblem:
         for c, g in zip(self.constraints, rec["constraint_violations"], strict=True):
             trial.set_constraint(str(c), g)
         return rec[self.metric]
+
+
+def _base_from_config(cfg: dict[str, Any]) -> ModelParams | SpineLayout:
+    """The base design of a stored problem (configs written before layouts have no n_modules)."""
+    params = ModelParams(**cfg["base_params"])
+    n = cfg.get("base_n_modules")
+    return params if n is None else SpineLayout.chain(n, params)
 
 
 def make_sampler(name: str, seed: int | None, n_startup_trials: int = 10):
@@ -330,6 +340,12 @@ class OptimizationResult:
 
     def best_params(self) -> ModelParams | None:
         """The complete ModelParams of the best design (None if none feasible)."""
+        model = self.best_design()
+        return None if model is None else design_params(model)
+
+    def best_design(self) -> ModelParams | SpineLayout | None:
+        """The best design: its ModelParams, or its SpineLayout for a chained design (None if none
+        feasible)."""
         if self.best is None:
             return None
         return make_design(self.best["params"], self.problem.base, self.problem.protocol)[0]

@@ -48,6 +48,7 @@ _DISPLAY: dict[str, tuple[str, float]] = {
     "voltage": ("V", 1.0),
     "n_w": ("wires per side", 1.0),
     "n_seg": ("segments", 1.0),
+    "n_modules": ("modules", 1.0),
     "m_seg": ("kg", 1.0),
     "m_top": ("kg", 1.0),
 }

@@ -2,11 +2,17 @@
 
 A *design* is a set of overrides on the baseline: any :class:`~spine_gym.params.ModelParams` field
 (``spine_gym.params.field_names()``: wire offset ``a``, wires per side ``n_w``, pre-strain ``eps0``,
-tube modulus ``E_t``, …) plus the drive ``voltage`` of the capacity protocol
-(:class:`~spine_gym.capacity.CapacityProtocol`). Each design is scored by
-:func:`spine_gym.capacity.capacity_metrics`; this module neither re-implements the protocol nor the
-physics, it only parses user specifications, validates them up front (so that a typo fails before
-any worker starts) and turns one evaluation into a flat record.
+tube modulus ``E_t``, …), the drive ``voltage`` of the capacity protocol
+(:class:`~spine_gym.capacity.CapacityProtocol`) and the layout parameter ``n_modules``
+(:data:`LAYOUT_PARAMS`). Without ``n_modules`` a design is the planar spine (``ModelParams``);
+with it, it is the chained spatial spine :meth:`SpineLayout.chain(n_modules, params)
+<spine_gym.layout.SpineLayout.chain>` (``n_modules=1``: the seed's one four-wire module), whose
+factory reads ``a``, ``n_w``, ``n_seg``, ``ls``, ``L0`` and ``m_top`` of the params, so the same
+axes sweep the wire offset and the wire count of every module (SPATIAL.md §1, §6). Each design is
+scored by :func:`spine_gym.capacity.capacity_metrics` (``layout=`` for the spatial ones); this
+module neither re-implements the protocol nor the physics, it only parses user specifications,
+validates them up front (so that a typo fails before any worker starts) and turns one evaluation
+into a flat record.
 
 Specification grammar (shared by the CLI and the Python API):
 
@@ -29,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
+from ..layout import MAX_MODULES, SpineLayout
 from ..params import ModelParams, SolverOptions, field_names
 from ..physics import layout as L
 from ..simulate import SimulationError
@@ -36,10 +43,12 @@ from ..simulate import SimulationError
 __all__ = [
     "METRICS",
     "METRIC_ALIASES",
+    "LAYOUT_PARAMS",
     "PROTOCOL_PARAMS",
     "Constraint",
     "SearchDim",
     "design_parameter_names",
+    "design_params",
     "evaluate_design",
     "is_integer_param",
     "make_design",
@@ -82,23 +91,28 @@ INF_METRICS = ("responding_time_s", "responding_time_swing_s", "actuating_abilit
 #: Design variables that live in the capacity protocol rather than in ModelParams.
 PROTOCOL_PARAMS: dict[str, tuple[float, float]] = {"voltage": (0.0, 100.0)}  # [V], CapacityProtocol
 
+#: Design variables of the layout (integers): a design that sets one runs on a SpineLayout.
+LAYOUT_PARAMS: dict[str, tuple[int, int]] = {"n_modules": (1, MAX_MODULES)}  # SpineLayout.chain
+
 _MODEL_FIELDS = frozenset(field_names())
-_INT_FIELDS = frozenset(f.name for f in dataclasses.fields(ModelParams) if f.type in ("int", int))
+_INT_FIELDS = frozenset(
+    f.name for f in dataclasses.fields(ModelParams) if f.type in ("int", int)
+) | frozenset(LAYOUT_PARAMS)
 
 
 def design_parameter_names() -> list[str]:
-    """Every name a design study may vary: the ModelParams fields, then ``voltage``."""
-    return field_names() + list(PROTOCOL_PARAMS)
+    """Every name a design study may vary: the ModelParams fields, ``voltage``, then ``n_modules``."""
+    return field_names() + list(PROTOCOL_PARAMS) + list(LAYOUT_PARAMS)
 
 
 def is_integer_param(name: str) -> bool:
-    """True for integer design variables (``n_w``, ``n_seg``)."""
+    """True for integer design variables (``n_w``, ``n_seg``, ``n_modules``)."""
     return name in _INT_FIELDS
 
 
 def _check_name(name: str) -> str:
     name = name.strip()
-    if name not in _MODEL_FIELDS and name not in PROTOCOL_PARAMS:
+    if name not in _MODEL_FIELDS and name not in PROTOCOL_PARAMS and name not in LAYOUT_PARAMS:
         raise ValueError(
             f"unknown design parameter {name!r}; valid names: {', '.join(design_parameter_names())}"
         )
@@ -110,6 +124,8 @@ def parameter_range(name: str) -> tuple[float, float]:
     name = _check_name(name)
     if name in PROTOCOL_PARAMS:
         return PROTOCOL_PARAMS[name]
+    if name in LAYOUT_PARAMS:
+        return LAYOUT_PARAMS[name]
     return ModelParams._RANGES[name]
 
 
@@ -326,37 +342,72 @@ def parse_constraint(spec: str) -> Constraint:
     raise ValueError(f"constraint {spec!r} must look like METRIC>=X or METRIC<=Y")
 
 
+def design_params(model: ModelParams | SpineLayout) -> ModelParams:
+    """The ModelParams of a design (a layout's ``params``)."""
+    return model.params if isinstance(model, SpineLayout) else model
+
+
+def _as_chain(layout: SpineLayout) -> int:
+    """``n_modules`` of a layout made by :meth:`SpineLayout.chain` (ValueError for any other)."""
+    n = layout.n_modules
+    if layout != SpineLayout.chain(n, layout.params):
+        raise ValueError(
+            "base layout must be SpineLayout.chain(n_modules, params) (design overrides rebuild it "
+            f"from its params), got a layout with {n} module(s) of another geometry"
+        )
+    return n
+
+
 def make_design(
     overrides: dict[str, float | int],
-    base: ModelParams | None = None,
+    base: ModelParams | SpineLayout | None = None,
     protocol: CapacityProtocol | None = None,
-) -> tuple[ModelParams, CapacityProtocol]:
-    """Apply design overrides to a base model and protocol (both validated).
+) -> tuple[ModelParams | SpineLayout, CapacityProtocol]:
+    """Apply design overrides to a base design and protocol (all validated).
+
+    Args:
+        overrides: ``{name: value}`` of any :func:`design_parameter_names`.
+        base: a ModelParams (planar spine) or a layout made by :meth:`SpineLayout.chain`
+            (default: the MODEL.md §7 baseline, planar).
+        protocol: base capacity protocol.
+
+    Returns:
+        ``(model, protocol)``: ``model`` is a ModelParams for a planar design and
+        ``SpineLayout.chain(n_modules, params)`` when ``n_modules`` is overridden or the base is a
+        chain (the params overrides then apply to every module: ``a``, ``n_w``, ...).
 
     Raises:
-        ValueError: unknown name or an invalid value; the message names the parameter.
+        ValueError: unknown name or an invalid value (incl. a chain past self-weight buckling);
+        the message names the parameter.
     """
     base = base or ModelParams()
     protocol = protocol or CapacityProtocol()
+    n_modules = _as_chain(base) if isinstance(base, SpineLayout) else None
     model_kw: dict[str, Any] = {}
     proto_kw: dict[str, Any] = {}
     for k, v in overrides.items():
-        _check_name(k)
+        k = _check_name(k)
         v = _as_param_values(k, [v])[0]
-        (proto_kw if k in PROTOCOL_PARAMS else model_kw)[k] = v
+        if k in LAYOUT_PARAMS:
+            _check_values_in_range(k, (v,))
+            n_modules = v
+        else:
+            (proto_kw if k in PROTOCOL_PARAMS else model_kw)[k] = v
     try:
-        params = base.replace(**model_kw) if model_kw else base
+        params = design_params(base)
+        params = params.replace(**model_kw) if model_kw else params
         proto = dataclasses.replace(protocol, **proto_kw) if proto_kw else protocol
+        model = params if n_modules is None else SpineLayout.chain(n_modules, params)
     except ValueError as e:
         shown = ", ".join(f"{k}={v!r}" for k, v in overrides.items())
         raise ValueError(f"invalid design ({shown}): {e}") from e
-    return params, proto
+    return model, proto
 
 
 def evaluate_design(
-    params: ModelParams, protocol: CapacityProtocol, solver: SolverOptions | None = None
+    model: ModelParams | SpineLayout, protocol: CapacityProtocol, solver: SolverOptions | None = None
 ) -> dict[str, Any]:
-    """Capacity metrics of one design as a flat record.
+    """Capacity metrics of one design (planar ``ModelParams`` or a ``SpineLayout``) as a flat record.
 
     Returns:
         dict with every :data:`METRICS` key (floats; ``inf`` where a level is never reached, NaN
@@ -366,7 +417,10 @@ def evaluate_design(
         ``"failed: <reason>"`` for any other failure of the simulation.
     """
     try:
-        m = capacity_metrics(params, protocol, solver)
+        if isinstance(model, SpineLayout):
+            m = capacity_metrics(protocol=protocol, solver=solver, layout=model)
+        else:
+            m = capacity_metrics(model, protocol, solver)
     except SimulationError as e:
         cause = "buckled" if e.status == L.ERR_BUCKLING else "failed"
         return {k: math.nan for k in METRICS} | {"status": f"{cause}: {e}"}

@@ -31,10 +31,12 @@ from typing import Any
 import numpy as np
 
 from ..capacity import CapacityProtocol
+from ..layout import SpineLayout
 from ..params import ModelParams, SolverOptions
 from .space import (
     METRICS,
     Constraint,
+    design_params,
     evaluate_design,
     is_integer_param,
     make_design,
@@ -92,7 +94,9 @@ def normalise_axes(axes) -> dict[str, list]:
     return out
 
 
-def _evaluate_task(task: tuple[ModelParams, CapacityProtocol, SolverOptions | None]) -> dict[str, Any]:
+def _evaluate_task(
+    task: tuple[ModelParams | SpineLayout, CapacityProtocol, SolverOptions | None],
+) -> dict[str, Any]:
     """Worker entry point (top level so that spawned processes can import it)."""
     params, protocol, solver = task
     return evaluate_design(params, protocol, solver)
@@ -145,7 +149,8 @@ class SweepResult:
         rows: one dict per design: ``index``, the axis values, every metric of
             :data:`~spine_gym.design.space.METRICS` (``inf`` = level never reached, NaN = failed
             run) and ``status``.
-        base: base model (after fixed overrides).
+        base: base design after fixed overrides (ModelParams, or a chained SpineLayout when
+            ``n_modules`` is fixed).
         protocol: base capacity protocol (after fixed overrides).
         solver: solver options (None = defaults).
         fixed: fixed overrides applied to the base design.
@@ -155,7 +160,7 @@ class SweepResult:
 
     axes: dict[str, list]
     rows: list[dict[str, Any]]
-    base: ModelParams = field(default_factory=ModelParams)
+    base: ModelParams | SpineLayout = field(default_factory=ModelParams)
     protocol: CapacityProtocol = field(default_factory=CapacityProtocol)
     solver: SolverOptions | None = None
     fixed: dict[str, Any] = field(default_factory=dict)
@@ -254,7 +259,8 @@ class SweepResult:
         return {
             "axes": self.axes,
             "fixed": self.fixed,
-            "base_params": dataclasses.asdict(self.base),
+            "base_params": dataclasses.asdict(design_params(self.base)),
+            "base_n_modules": self.base.n_modules if isinstance(self.base, SpineLayout) else None,
             "protocol": dataclasses.asdict(self.protocol),
             "solver": None if self.solver is None else dataclasses.asdict(self.solver),
             "n_designs": len(self.rows),
@@ -299,8 +305,9 @@ def sweep(
     Args:
         axes: ``{"a": [6e-3, 1e-2], "n_w": [1, 2]}``, ``[("a", [...]), ...]`` or spec strings
             ``["a=6e-3:14e-3:9", "n_w=1,2,3"]`` (grammar in :mod:`.space`). Names: any
-            ``ModelParams`` field or ``voltage`` [V]. The last axis varies fastest.
-        base: base model (default: MODEL.md §7 baseline).
+            ``ModelParams`` field, ``voltage`` [V] or ``n_modules`` (the design then runs on
+            ``SpineLayout.chain(n_modules, params)``). The last axis varies fastest.
+        base: base design (default: MODEL.md §7 baseline, planar; or a ``SpineLayout.chain``).
         protocol: capacity protocol (default: MODEL.md §10.4, 60 + 60 + 30 s at 3.2 V).
         solver: solver options (default: ``SolverOptions()``).
         fixed: overrides applied to the base before sweeping (e.g. ``{"E_t": 30e6}``).
