@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
+from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
     LAYOUT_PARAMS,
@@ -273,7 +274,7 @@ def _cmd_best(args, parser) -> int:
         }
         print("ModelParams differing from the baseline:", changed)
         model = res.best_design()
-        if model is not p:
+        if isinstance(model, SpineLayout):
             print(f"layout: SpineLayout.chain({model.n_modules}, params)")
     return 0
 
