@@ -55,3 +55,18 @@ def vertex_loads(n_seg: int, n: int, dt: float, dim: int, tip_force=None, vertex
     if tip_force is not None:
         loads[:, 0, :] += as_series("tip_force", tip_force, rows, dt, (dim,))
     return loads
+
+
+class Trajectory:
+    """What the planar and the spatial results share: time-indexed numpy trajectories."""
+
+    def to_dict(self) -> dict[str, np.ndarray]:
+        """The trajectories as a dict of numpy arrays (scalars, params and the final state left out)."""
+        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray) and k != "final_state"}
+
+    def at(self, t: float) -> int:
+        """Row index of the sample nearest to time ``t`` [s]."""
+        return int(np.argmin(np.abs(self.time - t)))
+
+    def __len__(self) -> int:
+        return self.time.shape[0]

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, as_series, vertex_loads
+from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import batch
@@ -25,7 +25,7 @@ __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "
 
 
 @dataclass
-class SimulationResult:
+class SimulationResult(Trajectory):
     """Trajectory of one simulation, sampled every ``dt`` (row 0 is t = 0).
 
     Per side (``_right`` / ``_left``): temperature [K], stress [Pa], strain [-], phase fractions
@@ -67,17 +67,6 @@ class SimulationResult:
     substeps: int = 0
     shape_passes: int = 0
     final_state: np.ndarray = field(default=None, repr=False)
-
-    def to_dict(self) -> dict[str, np.ndarray]:
-        """The trajectories as a dict of numpy arrays (scalars and params left out)."""
-        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray) and k != "final_state"}
-
-    def at(self, t: float) -> int:
-        """Row index of the sample nearest to time ``t`` [s]."""
-        return int(np.argmin(np.abs(self.time - t)))
-
-    def __len__(self) -> int:
-        return self.time.shape[0]
 
 
 def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=None) -> np.ndarray:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, as_series, vertex_loads
+from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
 from .layout import SpineLayout
 from .params import SolverOptions
 from .physics import layout as L
@@ -24,7 +24,7 @@ __all__ = ["SpatialResult", "simulate_spatial", "initial_state_spatial", "build_
 
 
 @dataclass
-class SpatialResult:
+class SpatialResult(Trajectory):
     """Trajectory of one spatial simulation, sampled every ``dt`` (row 0 is t = 0).
 
     Per wire group (arrays (n + 1, W), columns in the layout's wire order, see
@@ -72,17 +72,6 @@ class SpatialResult:
     def tip_azimuth_deg(self) -> np.ndarray:
         """Azimuth β of the tip bend in the base frame [deg], in (−180, 180] (0 where Θ = 0)."""
         return np.degrees(np.arctan2(self.tip_bending_deg[:, 1], self.tip_bending_deg[:, 0]))
-
-    def to_dict(self) -> dict[str, np.ndarray]:
-        """The trajectories as a dict of numpy arrays."""
-        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray) and k != "final_state"}
-
-    def at(self, t: float) -> int:
-        """Row index of the sample nearest to time ``t`` [s]."""
-        return int(np.argmin(np.abs(self.time - t)))
-
-    def __len__(self) -> int:
-        return self.time.shape[0]
 
 
 def build_loads_3d(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=None) -> np.ndarray:
