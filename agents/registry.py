@@ -28,6 +28,7 @@ from spine_gym.controllers import (
     MPPIController,
     PIDController,
     SpatialBangBangController,
+    SpatialMPPIController,
     SpatialPIDController,
     SpatialStepController,
     StepVoltageController,
@@ -154,6 +155,20 @@ def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
             pid_space,
             from_env=True,
         ),  # fmt: skip
+        "mpc_oracle": ControllerSpec(
+            SpatialMPPIController,
+            "MPPI on the spatial core, true state, future targets and loads (privileged upper bound)",
+            kwargs={"mode": "oracle"},
+            from_env=True,
+            in_default=False,
+        ),
+        "mpc_estimated": ControllerSpec(
+            SpatialMPPIController,
+            "MPPI on the spatial core from the observation (per-wire phase-fraction estimator)",
+            kwargs={"mode": "estimated"},
+            from_env=True,
+            in_default=False,
+        ),
     }
 
 

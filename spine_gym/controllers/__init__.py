@@ -3,7 +3,9 @@
 * :mod:`.baselines` — the paper's step voltage, a bang-bang relay and a PID (the classical baselines).
 * :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
   true state (``oracle``, privileged) or an estimated one (``estimated``).
-* :mod:`.estimator` — the phase-fraction estimator behind the ``estimated`` mode.
+* :mod:`.mpc_spatial` — the same MPPI for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (one voltage
+  sequence per wire, the spatial core's batched rollouts).
+* :mod:`.estimator` — the phase-fraction estimators behind the ``estimated`` mode.
 * :mod:`.spatial` — the three baselines for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (per
   bending axis and module; the chain's references from the arc inverse kinematics).
 """
@@ -19,8 +21,9 @@ from .baselines import (
     steady_state_map,
     volts_to_action,
 )
-from .estimator import PhaseEstimator, austenite_from_resistance
+from .estimator import PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
 from .mpc import MODES, MPPIConfig, MPPIController
+from .mpc_spatial import SpatialMPPIController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
 
 __all__ = [
@@ -36,7 +39,9 @@ __all__ = [
     "MPPIConfig",
     "MPPIController",
     "MODES",
+    "SpatialMPPIController",
     "PhaseEstimator",
+    "SpatialPhaseEstimator",
     "austenite_from_resistance",
     "SpatialSignals",
     "SpatialStepController",

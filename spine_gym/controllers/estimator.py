@@ -37,10 +37,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..envs.core import OBS_NAMES, EnvConfig, planar_obs_index
+from ..envs.spatial import SpatialConfig
 from ..physics import layout as L
+from ..physics import spatial_layout as SL
+from ..physics import spatial_solver as sps
 from ..physics.solver import advance, composite, init_state, needs_stability_check
+from ..physics.spatial_stability import needs_stability_check as spatial_needs_check
 
-__all__ = ["PhaseEstimator", "austenite_from_resistance"]
+__all__ = ["PhaseEstimator", "SpatialPhaseEstimator", "austenite_from_resistance"]
 
 # SmaSpine-v0's observation indices, from its table (right before left in each pair)
 OBS_DIM = len(OBS_NAMES)
@@ -53,9 +57,13 @@ OBS_RES_R = planar_obs_index("resistance")
 OBS_RES_L = OBS_RES_R + 1
 
 
-def austenite_from_resistance(resistance: np.ndarray, params) -> np.ndarray:
-    """x_A of a wire from its measured resistance [Ohm] (MODEL.md §3.7 inverted), clipped to [0, 1]."""
-    lam = np.asarray(resistance, dtype=np.float64) * params.wire_area / params.L0
+def austenite_from_resistance(resistance: np.ndarray, params, length=None) -> np.ndarray:
+    """x_A of a wire from its measured resistance [Ohm] (MODEL.md §3.7 inverted), clipped to [0, 1].
+
+    ``length``: the wire's length [m] (scalar or per wire; default ``params.L0``, the seed's wire;
+    a chain module's wires are shorter, SPATIAL.md §6)."""
+    length = params.L0 if length is None else np.asarray(length, dtype=np.float64)
+    lam = np.asarray(resistance, dtype=np.float64) * params.wire_area / length
     return np.clip((lam - params.lam_M) / (params.lam_A - params.lam_M), 0.0, 1.0)
 
 
@@ -162,4 +170,125 @@ class PhaseEstimator:
         check = needs_stability_check(self.loads, self.kp)
         st, _ = composite(s, self.loads, self.kp, self.ks, self._work, self._saved, check)
         if st != L.OK:
+            s[:] = backup
+
+
+def _identified(nominal, temperatures: np.ndarray, resistance: np.ndarray, lengths: np.ndarray):
+    """``nominal`` with T_E and λ_M of the first observation of an episode (all wires in
+    martensite at ambient temperature, MODEL.md §3.10, §3.7), clipped to the ranges ``ModelParams``
+    accepts and keeping λ_A > λ_M."""
+    lo_t, hi_t = nominal._RANGES["T_E"]
+    lo_m, hi_m = nominal._RANGES["lam_M"]
+    t_e = float(np.clip(np.mean(temperatures), lo_t, hi_t))
+    lam_m = float(np.clip(np.mean(resistance * nominal.wire_area / lengths), lo_m, hi_m))
+    lam_m = min(lam_m, nominal.lam_A * (1.0 - 1e-6))
+    return nominal.replace(T_E=t_e, lam_M=lam_m)
+
+
+class SpatialPhaseEstimator:
+    """:class:`PhaseEstimator` for a spatial or chained spine (``SmaSpine3D-v0``, ``SmaSpineChain-v0``).
+
+    The same predict/correct cycle on the spatial core (SPATIAL.md), per wire group: predict one
+    control period with the applied voltages (the observation's previous actions, the env's
+    per-wire scale), nominal parameters and no external load
+    (:func:`spine_gym.physics.spatial_solver.advance`); correct the temperatures to the measured
+    ones and each wire's austenite fraction to its resistance (MODEL.md §3.7 with the wire's own
+    length, split of the martensite as predicted); solve the shape again (the composite solve).
+    ``identify=True`` takes T_E and λ_M from the first observation as the planar estimator does.
+
+    Args:
+        config: the env's :class:`~spine_gym.envs.spatial.SpatialConfig` (layout, periods, solver).
+        index: observation indices of the entries read, ``{"temperature", "resistance",
+            "previous_action"} -> slice`` (``env.unwrapped.obs_index``).
+        identify: identify T_E and λ_M from each episode's first observation.
+    """
+
+    KEYS = ("temperature", "resistance", "previous_action")
+
+    def __init__(self, config: SpatialConfig, index: dict, identify: bool = True):
+        if not isinstance(config, SpatialConfig):
+            raise ValueError(f"config must be a SpatialConfig, got {type(config).__name__}")
+        missing = [k for k in self.KEYS if k not in index]
+        if missing:
+            raise ValueError(f"index must give the observation slices of {self.KEYS}, missing {missing}")
+        self.config = config
+        self.index = {k: index[k] for k in self.KEYS}
+        self.identify = bool(identify)
+        self.nominal = config.params
+        self.ks = config.solver.to_kernel()
+        lay = config.layout
+        self.n_wires, self.n_modules, self.n_seg = lay.n_wires, lay.n_modules, lay.n_seg
+        self.loads = np.zeros((self.n_seg, 3))  # assumed loads: none (not observed)
+        self.state = np.zeros(lay.state_size())
+        self.volt_coef = np.broadcast_to(np.asarray(config.volt_coef, dtype=np.float64), (self.n_wires,))
+        self._started = False
+
+    def reset(self) -> None:
+        """The env's starting state (straight at ambient, MODEL.md §3.10) under the assumed loads,
+        with the nominal parameters until the first observation identifies them."""
+        self._set_params(self.nominal)
+        self._started = False
+
+    def _set_params(self, params) -> None:
+        self.params = params
+        self.kp, self.kw, self.km = self.config.layout_for(params).to_kernel()
+        self._wk = sps.make_work(self.n_wires, self.n_modules, self.n_seg)
+        st = sps.init_state(self.state, self.kp, self.ks, self.kw, self.km, self.loads)
+        if st != L.OK:  # pragma: no cover - the nominal unloaded start always solves
+            raise RuntimeError(L.STATUS_TEXT.get(st, str(st)))
+
+    def _read(self, obs: np.ndarray, key: str) -> np.ndarray:
+        return obs[self.index[key]]
+
+    def _block(self, field: int) -> np.ndarray:
+        """View of the per-wire block ``field`` (``spatial_layout.F_*``) of the estimated state."""
+        o = SL.wire_offset(field, self.n_wires)
+        return self.state[o : o + self.n_wires]
+
+    def fractions(self) -> np.ndarray:
+        """Estimated (W, 2) martensite fractions (x₊, x₋) of every wire group."""
+        return np.stack([self._block(SL.F_XP), self._block(SL.F_XM)], axis=1)
+
+    def update(self, obs: np.ndarray) -> np.ndarray:
+        """Predict over the control period just taken (unless this is the first observation of the
+        episode), correct with ``obs`` and return the estimated state (a view, do not modify)."""
+        obs = np.asarray(obs, dtype=np.float64)
+        if obs.ndim != 1:
+            raise ValueError(f"obs must be one observation of shape (d,), got {obs.shape}")
+        if self._started:
+            self._predict(obs)
+        elif self.identify:
+            lengths = self.kw[:, SL.W_L0]
+            self._set_params(
+                _identified(self.nominal, self._read(obs, "temperature"), self._read(obs, "resistance"), lengths)
+            )
+        self._started = True
+        self._correct(obs)
+        return self.state
+
+    def _predict(self, obs: np.ndarray) -> None:
+        volts = (np.clip(self._read(obs, "previous_action"), -1.0, 1.0) + 1.0) * self.volt_coef
+        backup = self.state.copy()
+        for _ in range(self.config.n_sub):
+            st, _, _ = sps.advance(
+                self.state, self.kp, self.ks, self.kw, self.km, volts, self.loads, self.config.physics_dt, False
+            )
+            if st != L.OK or not np.all(np.isfinite(self.state)):  # keep the last valid estimate
+                self.state[:] = backup
+                return
+
+    def _correct(self, obs: np.ndarray) -> None:
+        s = self.state
+        backup = s.copy()
+        self._block(SL.F_T)[:] = self._read(obs, "temperature")
+        xa = austenite_from_resistance(self._read(obs, "resistance"), self.params, self.kw[:, SL.W_L0])
+        xp = self._block(SL.F_XP)
+        xm = self._block(SL.F_XM)
+        mart = xp + xm
+        share = np.where(mart > 1e-12, xp / np.maximum(mart, 1e-300), 1.0)
+        xp[:] = (1.0 - xa) * share
+        xm[:] = (1.0 - xa) * (1.0 - share)
+        check = spatial_needs_check(self.loads, self.kp, self.km)
+        st, _ = sps.composite(s, self.loads, self.kp, self.ks, self.kw, self.km, self._wk, check)
+        if st != L.OK or not np.all(np.isfinite(s)):
             s[:] = backup

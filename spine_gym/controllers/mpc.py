@@ -49,7 +49,7 @@ from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
 from .estimator import PhaseEstimator
 
-__all__ = ["MPPIConfig", "MPPIController", "MODES", "FAILED_COST"]
+__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST"]
 
 OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
 OBS_PREVIEW = planar_obs_index("target_preview")
@@ -164,7 +164,168 @@ def _whole(name: str, value: float, unit: float) -> int:
     return n
 
 
-class MPPIController(BaseController):
+class MPPIBase(BaseController):
+    """What MPPI does the same on every spine: sampling, weighting, warm start (module docstring).
+
+    A subclass builds the planning problem of one control step from the observation
+    (:meth:`_problem`, a tuple) and scores the sampled voltage sequences on it (:meth:`_score`:
+    (N, H, W) volts -> (N,) costs). Voltages are seed-equivalent volts in [0, ``v_max``] per wire
+    group (a chain's shorter wires get them scaled by the subclass); the plan is (H, W).
+
+    Args:
+        settings: :class:`MPPIConfig`.
+        mode: one of :data:`MODES`.
+        n_wires: wire groups W (voltage sequences per wire).
+        control_period, physics_dt: the env's [s] (the rollouts' step is ``plan_physics_dt``).
+        v_max, temperature_limit: :class:`BaseController` (full scale, guard).
+    """
+
+    name = "mpc"
+
+    def __init__(
+        self,
+        settings: MPPIConfig | None,
+        mode: str,
+        n_wires: int,
+        control_period: float,
+        physics_dt: float,
+        **kwargs,
+    ):
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        settings = MPPIConfig() if settings is None else settings
+        if not isinstance(settings, MPPIConfig):
+            raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
+        if settings.n_samples < n_wires + 2:
+            raise ValueError(
+                f"n_samples must be >= {n_wires + 2} for {n_wires} wires (the plan, all off and full "
+                f"heating of each wire are always sampled), got {settings.n_samples}"
+            )
+        super().__init__(dt=control_period, **kwargs)
+        self.mode = mode
+        self.settings = s = settings
+        self.name = f"mpc_{mode}"
+        self.n_wires = int(n_wires)
+        self.horizon_steps = _whole("horizon", s.horizon, control_period)
+        self.plan_dt = physics_dt if s.plan_physics_dt is None else float(s.plan_physics_dt)
+        self.plan_sub = _whole("control_period (with plan_physics_dt)", control_period, self.plan_dt)
+        if s.plan_h_min is not None and s.plan_h_min > self.plan_dt:
+            raise ValueError(
+                f"plan_h_min must be in (0, {self.plan_dt:g}] s (the rollouts' physics step), "
+                f"got {s.plan_h_min!r}"
+            )
+        knot_steps = max(1, int(round(s.knot_period / control_period)))
+        n_knots = math.ceil((self.horizon_steps - 1) / knot_steps) + 1
+        # (H, n_knots) linear interpolation from knots to control steps
+        pos = np.arange(self.horizon_steps) / knot_steps
+        self._interp = np.maximum(0.0, 1.0 - np.abs(pos[:, None] - np.arange(n_knots)[None, :]))
+        self._n_knots = n_knots
+        self.env = None
+
+    def reset(self) -> None:
+        """New episode: zero plan, fresh generator."""
+        super().reset()
+        self.plan = np.zeros((self.horizon_steps, self.n_wires))
+        self.rng = np.random.default_rng(self.settings.seed)
+        self.last_cost = math.nan
+        self._last_preview = None
+
+    # ------------------------------------------------------------------ predict
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3 ``predict`` for one env (observation ``(d,)`` or ``(1, d)``); ``state`` is unused."""
+        obs, _ = self._check_obs(observation)
+        if obs.shape[0] != 1:
+            raise ValueError(
+                f"{type(self).__name__} plans for one env: observation batch must have 1 row, "
+                f"got {obs.shape[0]}"
+            )
+        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
+            self.reset()
+        action, _ = super().predict(observation, None, None, deterministic)
+        return action, None
+
+    def _volts(self, obs, mem):
+        problem = self._problem(obs[0])
+        for _ in range(self.settings.iterations):
+            self._improve(problem)
+        volts = self.plan[0].copy()
+        self.plan[:-1] = self.plan[1:]  # warm start: shift, repeat the last
+        return volts[None, :]
+
+    def _oracle_env(self):
+        if self.env is None:
+            raise ValueError(
+                f"oracle mode needs the env: {type(self).__name__}(..., 'oracle', env=env) or bind(env)"
+            )
+        return self.env
+
+    # ------------------------------------------------------------------ one MPPI update
+    def _sample(self) -> np.ndarray:
+        """(N, H, W) voltage sequences: the plan plus smooth noise, clipped; row 0 the plan itself,
+        row 1 all off, row 2 + w full heating of wire w alone."""
+        s = self.settings
+        n, w = s.n_samples, self.n_wires
+        knots = self.rng.normal(0.0, s.noise_std, size=(n, self._n_knots, w))
+        knots[0] = 0.0  # the current plan itself
+        noise = np.einsum("hk,nkc->nhc", self._interp, knots)
+        volts = np.clip(self.plan[None, :, :] + noise, 0.0, self.v_max)
+        volts[1] = 0.0  # every wire off
+        for j in range(w):  # full heating of one wire alone
+            volts[2 + j] = 0.0
+            volts[2 + j, :, j] = self.v_max
+        return volts
+
+    def _improve(self, problem) -> None:
+        volts = self._sample()
+        cost = self._score(volts, problem)
+        best = cost.min()
+        lam = self.settings.temperature * max(cost.mean() - best, 1e-9)
+        w = np.exp(-(cost - best) / lam)
+        w /= w.sum()
+        self.plan = np.einsum("n,nhc->hc", w, volts)
+        self.last_cost = float(best)
+
+    def _cost(self, sq_err, energy, temp, status) -> np.ndarray:
+        """(N,) costs from the squared tracking error (N, H), the rollouts' electrical energy (N,)
+        [J], the temperatures (N, H, W) [K] and the statuses (N,)."""
+        s = self.settings
+        over = np.maximum(temp - self._t_lim, 0.0)
+        cost = (
+            s.w_track * np.sum(sq_err, axis=1)
+            + s.w_energy * energy
+            + s.w_temp * np.sum(over * over, axis=(1, 2))
+        )
+        return np.where(status == L.OK, cost, FAILED_COST)
+
+    def _preview_targets(self, target: np.ndarray, preview: np.ndarray, preview_steps: int, rate_limit: float):
+        """(H, d) targets over the horizon from the observation alone.
+
+        Linear from the current target to the preview (``preview_steps`` ahead), then continued
+        with the preview's own rate of change (its difference over the last period) if that is
+        at most ``rate_limit`` (a ramp, a sine or a circle; a jump of the preview is a step,
+        which is then held).
+        """
+        h = self.horizon_steps
+        p_steps = max(preview_steps, 1)
+        steps = np.arange(1, h + 1)[:, None]
+        rate = np.zeros_like(preview) if self._last_preview is None else (preview - self._last_preview) / self.dt
+        self._last_preview = preview.copy()
+        if np.linalg.norm(rate) > rate_limit:
+            rate = np.zeros_like(preview)
+        ahead = np.maximum(steps - p_steps, 0) * self.dt
+        return target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+
+    def _problem(self, obs):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _score(self, volts, problem) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def config(self) -> dict:
+        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
+
+
+class MPPIController(MPPIBase):
     """MPPI on the env's physics (see the module docstring).
 
     Args:
@@ -177,8 +338,6 @@ class MPPIController(BaseController):
             come from ``config``).
     """
 
-    name = "mpc"
-
     def __init__(
         self,
         config: EnvConfig,
@@ -190,40 +349,20 @@ class MPPIController(BaseController):
     ):
         if not isinstance(config, EnvConfig):
             raise ValueError(f"config must be an EnvConfig (env.config), got {type(config).__name__}")
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        settings = MPPIConfig() if settings is None else settings
-        if not isinstance(settings, MPPIConfig):
-            raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
         for key in ("v_max", "dt"):
             if key in kwargs:
                 raise ValueError(f"{key} comes from config; do not pass it to MPPIController")
-        super().__init__(v_max=config.v_max, dt=config.control_period, **kwargs)
+        super().__init__(
+            settings, mode, 2, config.control_period, config.physics_dt, v_max=config.v_max, **kwargs
+        )
+        s = self.settings
         self.env_config = config
-        self.mode = mode
-        self.settings = s = settings
-        self.name = f"mpc_{mode}"
-        self.horizon_steps = _whole("horizon", s.horizon, config.control_period)
-        self.plan_dt = config.physics_dt if s.plan_physics_dt is None else float(s.plan_physics_dt)
-        self.plan_sub = _whole("control_period (with plan_physics_dt)", config.control_period, self.plan_dt)
-        knot_steps = max(1, int(round(s.knot_period / config.control_period)))
-        n_knots = math.ceil((self.horizon_steps - 1) / knot_steps) + 1
-        # (H, n_knots) linear interpolation from knots to control steps
-        pos = np.arange(self.horizon_steps) / knot_steps
-        self._interp = np.maximum(0.0, 1.0 - np.abs(pos[:, None] - np.arange(n_knots)[None, :]))
-        self._n_knots = n_knots
         self._kernel = rollout_many if s.parallel else rollout_many_serial
         p = config.params
         self._side_volume = p.wire_volume * p.n_w
-        if s.plan_h_min is not None and s.plan_h_min > self.plan_dt:
-            raise ValueError(
-                f"plan_h_min must be in (0, {self.plan_dt:g}] s (the rollouts' physics step), "
-                f"got {s.plan_h_min!r}"
-            )
         self._ks = s.plan_solver(config.solver).to_kernel()
         self._t_lim = config.temperature_limit - s.temp_margin
         self.estimator = PhaseEstimator(config) if mode == "estimated" else None
-        self.env = None
         if env is not None:
             self.bind(env)
         n, h = s.n_samples, self.horizon_steps
@@ -253,44 +392,15 @@ class MPPIController(BaseController):
     def reset(self) -> None:
         """New episode: zero plan, fresh generator and estimator."""
         super().reset()
-        self.plan = np.zeros((self.horizon_steps, 2))
-        self.rng = np.random.default_rng(self.settings.seed)
         if self.estimator is not None:
             self.estimator.reset()
-        self.last_cost = math.nan
-        self._last_preview = None
-
-    # ------------------------------------------------------------------ predict
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        """SB3 ``predict`` for one env (observation ``(10,)`` or ``(1, 10)``); ``state`` is unused."""
-        obs, _ = self._check_obs(observation)
-        if obs.shape[0] != 1:
-            raise ValueError(
-                f"MPPIController plans for one env: observation batch must have 1 row, got {obs.shape[0]}"
-            )
-        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
-            self.reset()
-        action, _ = super().predict(observation, None, None, deterministic)
-        return action, None
-
-    def _volts(self, obs, mem):
-        problem = self._problem(obs[0])
-        for _ in range(self.settings.iterations):
-            self._improve(*problem)
-        volts = self.plan[0].copy()
-        self.plan[:-1] = self.plan[1:]  # warm start: shift, repeat the last
-        return volts[None, :]
 
     # ------------------------------------------------------------------ the planning problem
     def _problem(self, obs):
         """Start state, constants, loads and resolve flags, targets [deg] and angle offset [deg]."""
         h = self.horizon_steps
         if self.mode == "oracle":
-            if self.env is None:
-                raise ValueError(
-                    "oracle mode needs the env: MPPIController(config, 'oracle', env=env) or bind(env)"
-                )
-            snap = self.env.snapshot()
+            snap = self._oracle_env().snapshot()
             a = snap.arrays
             k = snap.step_index
             n_steps = a["forces"].shape[0]
@@ -304,39 +414,22 @@ class MPPIController(BaseController):
         state0 = est.update(obs)
         loads = np.broadcast_to(est.loads, (h, *est.loads.shape))
         resolve = np.zeros(h, dtype=np.bool_)
-        targets = self._preview_targets(obs)
+        targets = self._planar_targets(obs)
         return state0, est.kp, loads, resolve, targets, est.angle_offset, self._side_volume
 
-    def _preview_targets(self, obs) -> np.ndarray:
-        """Targets over the horizon from the observation alone [deg].
-
-        Linear from the current target to the preview (``target_preview`` ahead), then continued
-        with the preview's own rate of change (its difference over the last period) if that is
-        at most :data:`MAX_EXTRAPOLATED_RATE` (a ramp or a sine; a jump of the preview is a step,
-        which is then held), clipped to the env's target bounds.
-        """
-        h = self.horizon_steps
-        p_steps = max(self.env_config.preview_steps, 1)
-        steps = np.arange(1, h + 1)
-        target, preview = obs[OBS_TARGET], obs[OBS_PREVIEW]
-        rate = 0.0 if self._last_preview is None else (preview - self._last_preview) / self.dt
-        self._last_preview = preview
-        if abs(rate) > MAX_EXTRAPOLATED_RATE:
-            rate = 0.0
-        ahead = np.maximum(steps - p_steps, 0) * self.dt
-        out = target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+    def _planar_targets(self, obs) -> np.ndarray:
+        """(H,) targets over the horizon [deg] from the observed target and its preview
+        (:meth:`MPPIBase._preview_targets`), clipped to the env's target bounds."""
+        out = self._preview_targets(
+            obs[OBS_TARGET : OBS_TARGET + 1],
+            obs[OBS_PREVIEW : OBS_PREVIEW + 1],
+            self.env_config.preview_steps,
+            MAX_EXTRAPOLATED_RATE,
+        )[:, 0]
         return np.clip(out, -ANGLE_LIMIT, ANGLE_LIMIT)
 
-    def _improve(self, state0, kp, loads, resolve, targets, offset, side_volume) -> None:
-        s = self.settings
-        n = s.n_samples
-        knots = self.rng.normal(0.0, s.noise_std, size=(n, self._n_knots, 2))
-        knots[0] = 0.0  # the current plan itself
-        noise = np.einsum("hk,nkc->nhc", self._interp, knots)
-        volts = np.clip(self.plan[None, :, :] + noise, 0.0, self.v_max)
-        volts[1] = 0.0  # both wires off
-        volts[2, :, 0], volts[2, :, 1] = self.v_max, 0.0  # full heating of one side ...
-        volts[3, :, 0], volts[3, :, 1] = 0.0, self.v_max  # ... or the other
+    def _score(self, volts, problem) -> np.ndarray:
+        state0, kp, loads, resolve, targets, offset, side_volume = problem
         self._kernel(
             state0,
             kp,
@@ -353,23 +446,7 @@ class MPPIController(BaseController):
             self._joule,
             self._status,
         )
-        cost = self._cost(state0, targets, offset, side_volume)
-        best = cost.min()
-        lam = s.temperature * max(cost.mean() - best, 1e-9)
-        w = np.exp(-(cost - best) / lam)
-        w /= w.sum()
-        self.plan = np.einsum("n,nhc->hc", w, volts)
-        self.last_cost = float(best)
-
-    def _cost(self, state0, targets, offset, side_volume) -> np.ndarray:
-        s = self.settings
         err = np.degrees(self._angle) + offset - targets[None, :]
-        track = np.sum(err * err, axis=1)
         q0 = np.array([state0[L.X_QJR], state0[L.X_QJL]])
         energy = np.sum(self._joule[:, -1, :] - q0[None, :], axis=1) * side_volume
-        over = np.maximum(self._temp - self._t_lim, 0.0)
-        cost = s.w_track * track + s.w_energy * energy + s.w_temp * np.sum(over * over, axis=(1, 2))
-        return np.where(self._status == L.OK, cost, FAILED_COST)
-
-    def config(self) -> dict:
-        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
+        return self._cost(err * err, energy, self._temp, self._status)

@@ -12,15 +12,28 @@ last valid values for the rest of the horizon and reports the status, so the cal
 
 Compiled twice from one body (STYLE.md): ``rollout_many`` runs the rollouts in parallel with
 ``prange``; ``rollout_many_serial`` is the serial twin.
+
+``rollout_many_spatial`` / ``rollout_many_spatial_serial`` are the same for a spatial or chained
+spine (SPATIAL.md): every rollout is advanced with :func:`spatial_solver.advance`, exactly the loop
+of :func:`env_kernels.step_many_spatial` (a physics step that reports OK but leaves a non-finite
+state counts as failed, as there), and records after every control step the spine's
+:func:`spatial_solver.record` row — the row the env's probe turns into its readings (tip bending,
+tip position, temperatures, resistances, Joule heat), so the caller scores a rollout with the
+env's own conversions.
 """
 
 from __future__ import annotations
 
 import numba
 
+import numpy as np
+
 from ._jit import jit, pjit
-from .layout import OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
+from .layout import ERR_NONFINITE, OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
 from .solver import advance
+from .spatial_solver import advance as spatial_advance
+from .spatial_solver import make_work, sizes
+from .spatial_solver import record as spatial_record
 
 
 def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, angle, temp, joule, status):
@@ -86,3 +99,54 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
 
 rollout_many = pjit(_rollout_many)
 rollout_many_serial = jit(_rollout_many)
+
+
+def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_sub, work, rec, status):
+    """Roll ``B`` copies of the spatial ``state0`` over ``H`` control steps with their own voltages.
+
+    Args:
+        state0: (S,) spatial start state (:mod:`.spatial_layout`; not modified).
+        kp, ks: constants and solver options; kw, km: the spine's wire-group and module tables.
+        volts: (B, H, W) voltage on each wire group held over control step h [V].
+        loads: (H, N, 3) global vertex forces held over control step h [N] (shared by every rollout).
+        resolve: (H,) bool, the loads of step h differ from those of the last mechanical solve.
+        dt: physics step [s]; n_sub: physics steps per control step.
+        work: (B, S) scratch, row b receives rollout b's state (its final state on return).
+        rec: (B, H, R) out, the :func:`spatial_solver.record` row after each control step
+            (R = ``record_size``); a failed rollout holds its last valid row (the start state's
+            if it failed in the first step).
+        status: (B,) int64 out, OK or the first failure's status code.
+    """
+    b = volts.shape[0]
+    horizon = volts.shape[1]
+    s = state0.shape[0]
+    nw, nm, ns = sizes(kw, km)
+    for i in numba.prange(b):
+        st = work[i]
+        wk = make_work(nw, nm, ns)
+        for q in range(s):
+            st[q] = state0[q]
+        status[i] = OK
+        for h in range(horizon):
+            if status[i] == OK:
+                for j in range(n_sub):
+                    code, _, _ = spatial_advance(
+                        st, kp, ks, kw, km, volts[i, h], loads[h], dt, resolve[h] and j == 0
+                    )
+                    if code == OK and not np.all(np.isfinite(st)):
+                        code = ERR_NONFINITE
+                    if code != OK:
+                        status[i] = code
+                        break
+            if status[i] == OK:
+                spatial_record(st, kp, kw, km, wk, rec[i, h])
+            elif h == 0:  # failed in the first step: report the start state
+                for q in range(s):
+                    st[q] = state0[q]
+                spatial_record(st, kp, kw, km, wk, rec[i, 0])
+            else:  # failed earlier: hold the last valid row
+                rec[i, h, :] = rec[i, h - 1, :]
+
+
+rollout_many_spatial = pjit(_rollout_many_spatial)
+rollout_many_spatial_serial = jit(_rollout_many_spatial)

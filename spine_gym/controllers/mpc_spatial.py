@@ -1,0 +1,277 @@
+"""Sampling model-predictive control (MPPI) of ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
+
+The MPPI of :mod:`.mpc` (smooth voltage sequences, weighting by ``exp(−cost / λ)``, warm start
+from the shifted plan, the same :class:`~.mpc.MPPIConfig`) generic over the wires of a
+:class:`~spine_gym.layout.SpineLayout`: one voltage sequence per wire group (4 for the seed's
+module, 4 per module for a chain). The rollouts are one call of
+:func:`spine_gym.physics.rollout.rollout_many_spatial` on the spatial core the env runs
+(:func:`spine_gym.physics.spatial_solver.advance`); what they record is turned into the env's
+readings by the env's own probe (tip bending vector [deg], tip position [mm], temperatures [K],
+cumulative Joule heat [J]), so the cost uses the env's definitions:
+
+* **tracking**: the env's tracked entry (its table's task: the tip bending vector for
+  ``SmaSpine3D-v0``, the tip position for ``SmaSpineChain-v0``) against the target over the
+  horizon, ``w_track Σ_h |e_h · REFERENCE_ERROR_SCALE / error_scale|²`` — the error in units of
+  the env's reward ``error_scale`` (10° by default for the bending vector, as the planar angle;
+  20 mm for the tip position), so one ``w_track`` serves every env;
+* **energy**: ``w_energy ×`` the electrical energy of the rollout [J] (all wires, the env's
+  Joule accounting);
+* **over-temperature**: ``w_temp Σ_h Σ_wires max(0, T − T_lim)²`` with T_lim the env's limit
+  minus ``temp_margin``.
+
+Voltages are planned in seed-equivalent volts in [0, ``v_max``] for every wire; a chain module's
+shorter wires get them times :attr:`SpineLayout.voltage_scale`, exactly as the env maps an
+action (``volts = (a + 1) · volt_coef``), so the action of wire j is ``2 V_j / v_max − 1``.
+
+State modes as the planar MPC: ``"oracle"`` (**privileged**: the env's true state through its
+public ``snapshot()``, the episode's parameters, future targets and loads) and ``"estimated"``
+(:class:`~.estimator.SpatialPhaseEstimator` per wire from the observed temperatures and
+resistances; nominal parameters but T_E and λ_M identified; no loads; targets from the observed
+target and its preview; the observed tracked entry minus the estimated one held over the horizon
+as an output disturbance).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..envs import _bookkeeping as bk
+from ..envs.spatial import SpatialConfig
+from ..envs.table import SENSOR_SOURCES
+from ..envs.task import LoadSchedule
+from ..physics import spatial_layout as SL
+from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
+from ..physics.spatial_solver import make_work, record, record_size
+from .baselines import volts_to_action
+from .estimator import SpatialPhaseEstimator
+from .mpc import MAX_EXTRAPOLATED_RATE, PLAN_FIELDS, MPPIBase, MPPIConfig
+
+__all__ = ["SpatialMPPIController", "SPATIAL_PLAN_FIELDS", "REFERENCE_ERROR_SCALE", "SpatialReadings"]
+
+REFERENCE_ERROR_SCALE = 10.0  # [deg] the planar env's error_scale: tracking errors are scaled to it
+# config fields the plan depends on besides PLAN_FIELDS (the layout, the task's scale)
+SPATIAL_PLAN_FIELDS = (*PLAN_FIELDS, "layout", "error_scale")
+
+
+class SpatialReadings:
+    """The env's readings of spatial record rows: its probe (:func:`._bookkeeping.spatial_probe`)
+    with the record columns of its batch, and where the tracked entry, the temperatures and the
+    Joule heat sit in a probe row (from the env's table).
+
+    Args:
+        env: a spatial env (its ``BATCH`` class and configuration give the column maps).
+    """
+
+    def __init__(self, env):
+        cfg = env.config
+        batch = type(env).BATCH(cfg, 1, parallel=False)
+        lay = cfg.layout
+        self.record_cols = batch.record_cols
+        self.probe_cols = batch.probe_cols
+        self.record_size = int(record_size(lay.n_wires, lay.n_modules, lay.n_seg))
+        task = batch.table.task
+        self.task = slice(
+            int(self.probe_cols[SENSOR_SOURCES[task.source]]),
+            int(self.probe_cols[SENSOR_SOURCES[task.source]]) + task.size,
+        )
+        nw = lay.n_wires
+        self.temp = slice(int(self.probe_cols[bk.PB_TEMP]), int(self.probe_cols[bk.PB_TEMP]) + nw)
+        self.joule = slice(int(self.probe_cols[bk.PB_JOULE]), int(self.probe_cols[bk.PB_JOULE]) + nw)
+        # nominal per-wire constants (L0 / A_w, wire volume) of an unloaded nominal episode
+        batch.reset_env(
+            0, np.random.default_rng(0), {"params": cfg.params, "loads": LoadSchedule(dim=cfg.force_dim)}
+        )
+        self.ohm = batch.ohm[0].copy()
+        self.wvol = batch.wvol[0].copy()
+
+    def __call__(self, rec: np.ndarray, ohm: np.ndarray, wvol: np.ndarray) -> np.ndarray:
+        """(M, probe width) probe rows of (M, R) record rows of one spine (``ohm``, ``wvol``: (W,))."""
+        m = rec.shape[0]
+        probe = np.empty((m, int(self.probe_cols[-1])))
+        rows = np.arange(m, dtype=np.int64)
+        bk.spatial_probe(
+            rows,
+            rec,
+            self.record_cols,
+            np.ascontiguousarray(np.broadcast_to(ohm, (m, ohm.shape[0]))),
+            np.ascontiguousarray(np.broadcast_to(wvol, (m, wvol.shape[0]))),
+            self.probe_cols,
+            probe,
+        )
+        return probe
+
+
+class SpatialMPPIController(MPPIBase):
+    """MPPI for a spatial env (see the module docstring); build it with :meth:`from_env`.
+
+    Args:
+        env: the spatial env it plans for (``SmaSpine3D-v0``, ``SmaSpineChain-v0``; its
+            configuration, table and batch class); oracle mode reads its state, and
+            :meth:`bind` follows each episode's env.
+        mode: ``"oracle"`` (privileged) or ``"estimated"``.
+        settings: :class:`~.mpc.MPPIConfig` (default :meth:`default_settings` of the env).
+        temperature_limit: guard of :class:`~.baselines.BaseController` [K] (a wire observed at or
+            above it gets 0 V), or None.
+    """
+
+    def __init__(self, env, mode: str = "estimated", *, settings: MPPIConfig | None = None, **kwargs):
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if not isinstance(cfg, SpatialConfig):
+            raise ValueError(
+                f"env must be a spatial env (SmaSpine3D-v0, SmaSpineChain-v0), got {type(env).__name__}"
+            )
+        for key in ("v_max", "dt"):
+            if key in kwargs:
+                raise ValueError(f"{key} comes from the env; do not pass it to SpatialMPPIController")
+        settings = self.default_settings(cfg) if settings is None else settings
+        super().__init__(
+            settings, mode, cfg.n_wires, cfg.control_period, cfg.physics_dt, v_max=cfg.v_max, **kwargs
+        )
+        s = self.settings
+        self.env_config = cfg
+        self.readings = SpatialReadings(env)
+        table = env.table
+        self._idx = {
+            key: env.obs_index(key)
+            for key in (table.task.key, "temperature", "resistance", "previous_action")
+        }
+        self._task_obs = env.obs_index(table.task.key)
+        target = [e.key for e in table.entries if e.source == "target"][0]
+        preview = [e.key for e in table.entries if e.source == "preview"][0]
+        self._target_obs, self._preview_obs = env.obs_index(target), env.obs_index(preview)
+        self._target_low = table.low[self._target_obs].astype(np.float64)
+        self._target_high = table.high[self._target_obs].astype(np.float64)
+        self._err_scale = REFERENCE_ERROR_SCALE / cfg.error_scale
+        self._rate_limit = MAX_EXTRAPOLATED_RATE / self._err_scale  # in the task's unit per s
+        self._scale = np.asarray(cfg.layout.voltage_scale, dtype=np.float64)
+        self._kernel = rollout_many_spatial if s.parallel else rollout_many_spatial_serial
+        self._ks = s.plan_solver(cfg.solver).to_kernel()
+        self._t_lim = cfg.temperature_limit - s.temp_margin
+        lay = cfg.layout
+        self._nominal = lay.to_kernel()
+        self._shape = (lay.n_wires, lay.n_modules, lay.n_seg)
+        self.estimator = (
+            SpatialPhaseEstimator(cfg, {k: self._idx[k] for k in SpatialPhaseEstimator.KEYS})
+            if mode == "estimated"
+            else None
+        )
+        n, h = s.n_samples, self.horizon_steps
+        self._work = np.empty((n, lay.state_size()))
+        self._rec = np.empty((n, h, self.readings.record_size))
+        self._status = np.empty(n, dtype=np.int64)
+        self.bind(env)
+        self.reset()
+
+    @classmethod
+    def from_env(cls, env, **kwargs) -> SpatialMPPIController:
+        """Build for a spatial env (the registry's constructor)."""
+        return cls(env, **kwargs)
+
+    @staticmethod
+    def default_settings(cfg: SpatialConfig) -> MPPIConfig:
+        """The default :class:`MPPIConfig` of a spatial env: fewer, shorter rollouts than the
+        planar default, so that a plan fits the 0.1-s control period on the spatial core
+        (benchmarks/bench_mpc.py); a chain's rollouts cost about twice a module's."""
+        if cfg.n_modules == 1:
+            return MPPIConfig(n_samples=16, horizon=2.0)
+        return MPPIConfig(n_samples=12, horizon=2.0)
+
+    # ------------------------------------------------------------------ wiring
+    def bind(self, env) -> None:
+        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its configuration
+        differs in a field of :data:`SPATIAL_PLAN_FIELDS`."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if type(cfg) is not type(self.env_config) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in SPATIAL_PLAN_FIELDS
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {SPATIAL_PLAN_FIELDS}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
+        self.env = env
+
+    def reset(self) -> None:
+        """New episode: zero plan, fresh generator and estimator."""
+        super().reset()
+        if self.estimator is not None:
+            self.estimator.reset()
+
+    # ------------------------------------------------------------------ observation
+    def _check_obs(self, observation):
+        obs, single = super()._check_obs(observation)
+        if not np.all(np.isfinite(obs)):
+            raise ValueError("observation must be finite, got NaN or inf")
+        return obs, single
+
+    def _temperatures(self, obs):
+        return obs[:, self._idx["temperature"]]
+
+    def _action(self, obs, volts):
+        """Guard, clip to [0, v_max] seed-equivalent volts, action 2 V / v_max − 1 per wire."""
+        if self.temperature_limit is not None:
+            volts = np.where(self._temperatures(obs) >= self.temperature_limit, 0.0, volts)
+        return volts_to_action(np.clip(volts, 0.0, self.v_max), self.v_max)
+
+    # ------------------------------------------------------------------ the planning problem
+    def _problem(self, obs):
+        """(state0, kp, kw, km, loads, resolve, targets (H, d), offset (d,), ohm, wvol)."""
+        h = self.horizon_steps
+        if self.mode == "oracle":
+            snap = self._oracle_env().snapshot()
+            a = snap.arrays
+            k = snap.step_index
+            n_steps = a["forces"].shape[0]
+            idx = np.minimum(np.arange(k, k + h), n_steps - 1)
+            loads = np.zeros((h, self._shape[2], 3))
+            loads[:, 0, :] = a["forces"][idx]
+            resolve = a["resolve_plan"][idx] & (np.arange(k, k + h) < n_steps)
+            last = a["targets"].shape[0] - 1
+            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), last)]
+            offset = np.zeros(targets.shape[1])
+            return snap.state, snap.kp, a["kws"], a["kms"], loads, resolve, targets, offset, a["ohm"], a["wvol"]
+        est = self.estimator
+        state0 = est.update(obs)
+        loads = np.zeros((h, self._shape[2], 3))
+        resolve = np.zeros(h, dtype=np.bool_)
+        r = self.readings
+        now = self._readings_of(state0, est.kp, est.kw, est.km, r.ohm, r.wvol)
+        offset = obs[self._task_obs] - now[r.task]
+        targets = self._preview_targets(
+            obs[self._target_obs], obs[self._preview_obs], self.env_config.preview_steps, self._rate_limit
+        )
+        targets = np.clip(targets, self._target_low, self._target_high)
+        return state0, est.kp, est.kw, est.km, loads, resolve, targets, offset, r.ohm, r.wvol
+
+    def _readings_of(self, state, kp, kw, km, ohm, wvol) -> np.ndarray:
+        """Probe row of one spatial state (the env's readings of it)."""
+        row = np.empty((1, self.readings.record_size))
+        record(state, kp, kw, km, make_work(*self._shape), row[0])
+        return self.readings(row, ohm, wvol)[0]
+
+    def _score(self, volts, problem) -> np.ndarray:
+        state0, kp, kw, km, loads, resolve, targets, offset, ohm, wvol = problem
+        n, h = volts.shape[0], volts.shape[1]
+        self._kernel(
+            state0,
+            kp,
+            self._ks,
+            kw,
+            km,
+            np.ascontiguousarray(volts * self._scale),
+            np.ascontiguousarray(loads),
+            np.ascontiguousarray(resolve),
+            self.plan_dt,
+            self.plan_sub,
+            self._work,
+            self._rec,
+            self._status,
+        )
+        r = self.readings
+        probe = r(self._rec.reshape(n * h, -1), ohm, wvol).reshape(n, h, -1)
+        err = (probe[:, :, r.task] + offset - targets[None, :, :]) * self._err_scale
+        q0 = state0[SL.wire_offset(SL.F_QJ, self._shape[0]) :][: self._shape[0]] * wvol
+        energy = np.sum(probe[:, -1, r.joule] - q0[None, :], axis=1)
+        return self._cost(np.sum(err * err, axis=2), energy, probe[:, :, r.temp], self._status)
