@@ -22,10 +22,20 @@ estimated mode with N in ``--samples`` at the default horizon and with the horiz
 (``MPPIConfig.plan_step_c``) in ``--step-c`` (0.01 is the env's own criterion, the setting before
 the default became 0.03: where every rollout crosses a phase transformation it needs ~3x the
 sub-steps, and the 95th percentile of the plan time went over the control period).
+The planar defaults run twice more with the rollouts on the frozen-rate scheme of MODEL.md §6.1
+(``MPPIConfig(plan_scheme="frozen")``) instead of the env's coupled scheme (§6.5): the MPC plan
+time before and after issue 11's faster physics, in the same run.
+
+Every spatial env id (``--envs``: ``SmaSpine3D-v0``, ``SmaSpineChain-v0``) runs
+:class:`~spine_gym.controllers.SpatialMPPIController` at its default settings
+(``SpatialMPPIController.default_settings``) in both modes on two scenarios of its suite, against
+its tuned PID, and the estimated mode with N in ``--spatial-samples`` and the horizon in
+``--spatial-horizons`` (their RMSE is the tip-bending error [deg] or the tip-position error [mm]).
 Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
 
     .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
         [--samples 16 32 64] [--horizons 2 3 5] [--step-c 0.01 0.03 0.1]
+        [--envs SmaSpine3D-v0 SmaSpineChain-v0] [--spatial-samples 8 16 32] [--spatial-horizons 1 2 3]
 
 The machine is shared: the load average at start and end is recorded, and the absolute times are
 upper bounds of what a quiet machine gives.
@@ -47,11 +57,13 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
+from agents.common import CHAIN_ENV_ID, SPATIAL_ENV_ID
 from agents.runtime import build_controller, make_env
-from agents.scenarios import build_suite
-from spine_gym.controllers import MPPIConfig, MPPIController
+from agents.scenarios import build_spatial_suite, build_suite
+from spine_gym.controllers import MPPIConfig, MPPIController, SpatialMPPIController
 
 OUT = Path(__file__).resolve().parent / "results"
+SPATIAL_SCENARIOS = {SPATIAL_ENV_ID: ("step_diag", "circle_dist"), CHAIN_ENV_ID: ("steps", "circle_dist")}
 
 
 def machine() -> dict:
@@ -76,6 +88,8 @@ def machine() -> dict:
 def run(ctrl, env, scenarios, bar) -> dict:
     """Episodes of ``ctrl``; per-step plan and env-step times, RMSE and energy."""
     plan_t, plan_cpu, step_t, rmse, energy = [], [], [], [], []
+    table = env.unwrapped.table
+    error_key = [e.key for e in table.entries if e.source == "error"][0]
     for sc in scenarios:
         if hasattr(ctrl, "bind"):
             ctrl.bind(env)
@@ -91,7 +105,7 @@ def run(ctrl, env, scenarios, bar) -> dict:
             plan_t.append(t1 - t0)
             plan_cpu.append(c1 - c0)
             step_t.append(t2 - t1)
-            err.append(info["tracking_error_deg"])
+            err.append(np.linalg.norm(info[error_key]))
             e += info["energy_J"]
             bar.update(1)
             if te or tr:
@@ -143,7 +157,57 @@ def configurations(samples, horizons, step_cs) -> list[tuple[str, str, MPPIConfi
         if c != d.plan_step_c
         for mode in ("oracle", "estimated")
     ]
+    out += [
+        (f"default {mode}, frozen scheme", mode, dataclasses.replace(d, plan_scheme="frozen"))
+        for mode in ("oracle", "estimated")
+    ]
     return out
+
+
+def spatial_configurations(env, samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
+    """Both modes at the env's defaults, then the estimated mode over N and the horizon."""
+    d = SpatialMPPIController.default_settings(env.unwrapped.config)
+    out = [("default oracle", "oracle", d), ("default estimated", "estimated", d)]
+    out += [
+        (f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n))
+        for n in samples
+        if n != d.n_samples
+    ]
+    out += [
+        (f"estimated H={h:g}s", "estimated", dataclasses.replace(d, horizon=h))
+        for h in horizons
+        if h != d.horizon
+    ]
+    return out
+
+
+def _line(name: str, r: dict) -> str:
+    return (
+        f"{name:<36s} plan {r['plan_ms_median']:6.1f} ms (p95 {r['plan_ms_p95']:6.1f}; CPU "
+        f"{r['plan_cpu_ms_median']:5.1f} / p95 {r['plan_cpu_ms_p95']:5.1f}), RTF "
+        f"{r['realtime_factor_median']:5.2f} (p95 {r['realtime_factor_p95']:5.2f}), plan/env-step "
+        f"{r['plan_over_env_step']:6.0f}, RMSE {r['rmse_deg']:5.2f}, {r['energy_J']:5.0f} J"
+    )
+
+
+def sweep(env, suite, cfgs, make, bar) -> dict:
+    """The PID and every configuration ``(name, mode, settings)`` of ``make(mode, settings)``."""
+    out = {"scenarios": [s.name for s in suite], "pid": run(build_controller("pid", env), env, suite, bar)}
+    out["configs"] = []
+    for name, mode, settings in cfgs:
+        r = run(make(mode, settings), env, suite, bar)
+        out["configs"].append(
+            {"name": name, "mode": mode, "parallel": settings.parallel, "settings": dataclasses.asdict(settings), **r}
+        )
+        bar.write(_line(name, r))
+    return out
+
+
+def spatial_suite(env_id: str, duration: float) -> list:
+    names = SPATIAL_SCENARIOS[env_id]
+    profiles = sorted({n.removesuffix("_dist") for n in names})
+    suite = build_spatial_suite(env_id, duration, profiles)
+    return [s for s in suite if s.name in names]
 
 
 def plot(res: dict, path: Path) -> None:
@@ -155,13 +219,14 @@ def plot(res: dict, path: Path) -> None:
     d = MPPIConfig()
     rows = res["configs"]
     sweeps = (("n_samples", "rollouts N"), ("horizon", "horizon [s]"), ("plan_step_c", "rollout sub-step c"))
-    fig, axes = plt.subplots(1, 4, figsize=(17, 4))
+    fig, axes = plt.subplots(1, 5, figsize=(21, 4.2))
     for ax_i, (key, label) in enumerate(sweeps):
         sel = [
             r
             for r in rows
             if r["mode"] == "estimated"
             and r["parallel"] == d.parallel
+            and r["settings"].get("plan_scheme") is None
             and all(r["settings"][k] == getattr(d, k) for k, _ in sweeps if k != key)
         ]
         sel.sort(key=lambda r: r["settings"][key])
@@ -187,8 +252,25 @@ def plot(res: dict, path: Path) -> None:
     ax.set_xlabel("real-time factor (0.1 s / plan time)")
     ax.tick_params(axis="y", labelsize=7)
     ax.legend(fontsize=7, loc="lower right")
+    ax = axes[4]
+    names, med, p95, cpu = [], [], [], []
+    for env_id, sres in res.get("spatial", {}).items():
+        for r in sres["configs"]:
+            names.append(f"{env_id.removeprefix('SmaSpine').removesuffix('-v0')}: {r['name']}")
+            med.append(r["realtime_factor_median"])
+            p95.append(r["realtime_factor_p95"])
+            cpu.append(r["realtime_factor_cpu_p95"])
+    if names:
+        ax.barh(names, med, color="C0", label="median")
+        ax.barh(names, p95, color="C1", alpha=0.7, label="p95")
+        ax.scatter(cpu, names, color="k", marker="|", s=80, label="p95 of CPU time", zorder=3)
+        ax.axvline(1.0, color="k", lw=1)
+        ax.set_xscale("log")
+        ax.set_xlabel("real-time factor, spatial envs")
+        ax.tick_params(axis="y", labelsize=7)
+        ax.legend(fontsize=7, loc="lower right")
     la = res["machine"]["load_average_start"][0]
-    fig.suptitle(f"MPPI on SmaSpine-v0 ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)")
+    fig.suptitle(f"MPPI on SmaSpine-v0 and the spatial envs ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -207,6 +289,9 @@ def main(argv=None) -> dict:
         default=[0.01, 0.03, 0.1],
         help="rollout sub-step criteria c to compare (0.01: the env's own)",
     )
+    p.add_argument("--envs", nargs="*", default=[SPATIAL_ENV_ID, CHAIN_ENV_ID], help="spatial env ids")
+    p.add_argument("--spatial-samples", nargs="*", type=int, default=[8, 32])
+    p.add_argument("--spatial-horizons", nargs="*", type=float, default=[1.0, 3.0])
     p.add_argument("--out", default=str(OUT))
     args = p.parse_args(argv)
     names = sorted({n.removesuffix("_dist") for n in args.scenarios})
@@ -225,30 +310,35 @@ def main(argv=None) -> dict:
     )
     warm.predict(env.reset(seed=0)[0])
     cfgs = configurations(args.samples, args.horizons, args.step_c)
-    steps = len(suite) * env.unwrapped.config.n_steps
-    res = {"machine": info, "duration_s": args.duration, "scenarios": [s.name for s in suite], "configs": []}
-    with tqdm(total=steps * (len(cfgs) + 1), desc="bench_mpc", unit="step") as bar:
-        res["pid"] = run(build_controller("pid", env), env, suite, bar)
-        for name, mode, settings in cfgs:
-            ctrl = MPPIController(
-                env.config, mode, env=env, settings=settings, temperature_limit=env.temperature_limit - 5.0
-            )
-            r = run(ctrl, env, suite, bar)
-            res["configs"].append(
-                {
-                    "name": name,
-                    "mode": mode,
-                    "parallel": settings.parallel,
-                    "settings": dataclasses.asdict(settings),
-                    **r,
-                }
-            )
-            bar.write(
-                f"{name:<36s} plan {r['plan_ms_median']:6.1f} ms (p95 {r['plan_ms_p95']:6.1f}; CPU "
-                f"{r['plan_cpu_ms_median']:5.1f} / p95 {r['plan_cpu_ms_p95']:5.1f}), RTF "
-                f"{r['realtime_factor_median']:5.2f} (p95 {r['realtime_factor_p95']:5.2f}), plan/env-step "
-                f"{r['plan_over_env_step']:6.0f}, RMSE {r['rmse_deg']:5.2f} deg, {r['energy_J']:5.0f} J"
-            )
+    for env_id in args.envs:  # compile / load the spatial kernels outside the timing
+        senv = make_env({"episode_duration": 1.0}, env_id=env_id)
+        warm = SpatialMPPIController(senv, "oracle", settings=MPPIConfig(n_samples=10, horizon=0.2))
+        warm.predict(senv.reset(seed=0)[0])
+    steps = len(suite) * env.unwrapped.config.n_steps * (len(cfgs) + 1)
+    spatial = {}
+    for env_id in args.envs:
+        senv = make_env({"episode_duration": args.duration}, env_id=env_id)
+        scfgs = spatial_configurations(senv, args.spatial_samples, args.spatial_horizons)
+        ssuite = spatial_suite(env_id, args.duration)
+        spatial[env_id] = (senv, ssuite, scfgs)
+        steps += len(ssuite) * senv.config.n_steps * (len(scfgs) + 1)
+    res = {"machine": info, "duration_s": args.duration, "scenarios": [s.name for s in suite]}
+    guard = env.temperature_limit - 5.0
+    with tqdm(total=steps, desc="bench_mpc", unit="step") as bar:
+        planar = sweep(
+            env, suite, cfgs,
+            lambda mode, st: MPPIController(env.config, mode, env=env, settings=st, temperature_limit=guard),
+            bar,
+        )  # fmt: skip
+        res["pid"], res["configs"] = planar["pid"], planar["configs"]
+        res["spatial"] = {}
+        for env_id, (senv, ssuite, scfgs) in spatial.items():
+            bar.write(f"--- {env_id}")
+
+            def make(mode, st, senv=senv):
+                return SpatialMPPIController(senv, mode, settings=st, temperature_limit=senv.temperature_limit - 5.0)
+
+            res["spatial"][env_id] = sweep(senv, ssuite, scfgs, make, bar)
     info["load_average_end"] = os.getloadavg()
     pid = res["pid"]
     print(f"PID reference: RMSE {pid['rmse_deg']:.2f} deg, {pid['energy_J']:.0f} J")

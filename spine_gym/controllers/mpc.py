@@ -96,6 +96,9 @@ class MPPIConfig:
             per physics step at ``plan_physics_dt / plan_h_min`` — and so the plan time when every
             rollout crosses a phase transformation, where the rate criterion alone asks for
             hundreds (the phase update is implicit, so coarse sub-steps stay stable).
+        plan_scheme: time-stepping scheme of the rollouts (``SolverOptions.scheme``: ``"coupled"``
+            or ``"frozen"``); ``None``: the env's. benchmarks/bench_mpc.py compares the plan time
+            of both (issue 11).
         iterations: MPPI updates per control step, in [1, 100].
         parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
             shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
@@ -115,6 +118,7 @@ class MPPIConfig:
     plan_physics_dt: float | None = 0.1
     plan_step_c: float | None = 0.03
     plan_h_min: float | None = None
+    plan_scheme: str | None = None
     iterations: int = 1
     parallel: bool = False
     seed: int = 0
@@ -146,6 +150,8 @@ class MPPIConfig:
         if self.plan_h_min is not None:
             hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
             _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
+        if self.plan_scheme is not None and self.plan_scheme not in L.SCHEMES:
+            raise ValueError(f"plan_scheme must be None or one of {sorted(L.SCHEMES)}, got {self.plan_scheme!r}")
 
     def plan_solver(self, solver: SolverOptions) -> SolverOptions:
         """The env's solver options with the rollouts' sub-step settings applied."""
@@ -154,6 +160,8 @@ class MPPIConfig:
             changes["step_c"] = float(self.plan_step_c)
         if self.plan_h_min is not None:
             changes["h_min"] = float(self.plan_h_min)
+        if self.plan_scheme is not None:
+            changes["scheme"] = self.plan_scheme
         return solver.replace(**changes) if changes else solver
 
 
@@ -177,6 +185,8 @@ class MPPIBase(BaseController):
         mode: one of :data:`MODES`.
         n_wires: wire groups W (voltage sequences per wire).
         control_period, physics_dt: the env's [s] (the rollouts' step is ``plan_physics_dt``).
+        extremes: (E, W) 0/1 masks of wires driven at ``v_max`` over the whole horizon, each
+            always sampled (default: every wire alone).
         v_max, temperature_limit: :class:`BaseController` (full scale, guard).
     """
 
@@ -189,6 +199,7 @@ class MPPIBase(BaseController):
         n_wires: int,
         control_period: float,
         physics_dt: float,
+        extremes: np.ndarray | None = None,
         **kwargs,
     ):
         if mode not in MODES:
@@ -196,11 +207,13 @@ class MPPIBase(BaseController):
         settings = MPPIConfig() if settings is None else settings
         if not isinstance(settings, MPPIConfig):
             raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
-        if settings.n_samples < n_wires + 2:
+        extremes = np.eye(n_wires) if extremes is None else np.asarray(extremes, dtype=np.float64)
+        if settings.n_samples < extremes.shape[0] + 2:
             raise ValueError(
-                f"n_samples must be >= {n_wires + 2} for {n_wires} wires (the plan, all off and full "
-                f"heating of each wire are always sampled), got {settings.n_samples}"
+                f"n_samples must be >= {extremes.shape[0] + 2} for this spine (the plan, all off and "
+                f"{extremes.shape[0]} full-drive patterns are always sampled), got {settings.n_samples}"
             )
+        self._extremes = extremes
         super().__init__(dt=control_period, **kwargs)
         self.mode = mode
         self.settings = s = settings
@@ -262,7 +275,7 @@ class MPPIBase(BaseController):
     # ------------------------------------------------------------------ one MPPI update
     def _sample(self) -> np.ndarray:
         """(N, H, W) voltage sequences: the plan plus smooth noise, clipped; row 0 the plan itself,
-        row 1 all off, row 2 + w full heating of wire w alone."""
+        row 1 all off, row 2 + e the full-drive pattern e (``extremes``)."""
         s = self.settings
         n, w = s.n_samples, self.n_wires
         knots = self.rng.normal(0.0, s.noise_std, size=(n, self._n_knots, w))
@@ -270,9 +283,8 @@ class MPPIBase(BaseController):
         noise = np.einsum("hk,nkc->nhc", self._interp, knots)
         volts = np.clip(self.plan[None, :, :] + noise, 0.0, self.v_max)
         volts[1] = 0.0  # every wire off
-        for j in range(w):  # full heating of one wire alone
-            volts[2 + j] = 0.0
-            volts[2 + j, :, j] = self.v_max
+        m = self._extremes.shape[0]
+        volts[2 : 2 + m] = self.v_max * self._extremes[:, None, :]  # full-drive patterns
         return volts
 
     def _improve(self, problem) -> None:

@@ -46,8 +46,15 @@ from .baselines import volts_to_action
 from .estimator import SpatialPhaseEstimator
 from .mpc import MAX_EXTRAPOLATED_RATE, PLAN_FIELDS, MPPIBase, MPPIConfig
 
-__all__ = ["SpatialMPPIController", "SPATIAL_PLAN_FIELDS", "REFERENCE_ERROR_SCALE", "SpatialReadings"]
+__all__ = [
+    "SpatialMPPIController",
+    "SPATIAL_PLAN_FIELDS",
+    "REFERENCE_ERROR_SCALE",
+    "SpatialReadings",
+    "drive_patterns",
+]
 
+N_DIRECTIONS = 8  # bending directions of the always-sampled full-drive patterns (drive_patterns)
 REFERENCE_ERROR_SCALE = 10.0  # [deg] the planar env's error_scale: tracking errors are scaled to it
 # config fields the plan depends on besides PLAN_FIELDS (the layout, the task's scale)
 SPATIAL_PLAN_FIELDS = (*PLAN_FIELDS, "layout", "error_scale")
@@ -101,6 +108,15 @@ class SpatialReadings:
         return probe
 
 
+def drive_patterns(layout, n_directions: int = N_DIRECTIONS) -> np.ndarray:
+    """(n_directions, W) full-drive patterns always sampled: for each of ``n_directions``
+    bending directions φ evenly spaced in the module frame, every wire within 45° of φ in every
+    module (for the seed's module toward a wire, one wire; between two, both)."""
+    psi = np.radians([w.psi_deg for m in layout.modules for w in m.wires])
+    phi = 2.0 * np.pi * np.arange(n_directions) / n_directions
+    return (np.cos(psi[None, :] - phi[:, None]) >= np.cos(np.pi / 4.0) - 1e-9).astype(np.float64)
+
+
 class SpatialMPPIController(MPPIBase):
     """MPPI for a spatial env (see the module docstring); build it with :meth:`from_env`.
 
@@ -126,7 +142,14 @@ class SpatialMPPIController(MPPIBase):
                 raise ValueError(f"{key} comes from the env; do not pass it to SpatialMPPIController")
         settings = self.default_settings(cfg) if settings is None else settings
         super().__init__(
-            settings, mode, cfg.n_wires, cfg.control_period, cfg.physics_dt, v_max=cfg.v_max, **kwargs
+            settings,
+            mode,
+            cfg.n_wires,
+            cfg.control_period,
+            cfg.physics_dt,
+            extremes=drive_patterns(cfg.layout),
+            v_max=cfg.v_max,
+            **kwargs,
         )
         s = self.settings
         self.env_config = cfg
