@@ -101,7 +101,7 @@ def test_spatial_estimator_recovers_the_phase_fractions_on_a_seeded_3d_episode()
         est.update(obs)
         s = env.state
         x = np.stack([s[SL.wire_offset(f, nw) :][:nw] for f in (SL.F_XP, SL.F_XM)], axis=1)
-        worst = max(worst, float(np.abs(est.fractions() - x).max()))
+        worst = max(worst, float(np.abs(est.fractions - x).max()))
         x_a_max = max(x_a_max, float((1.0 - x.sum(axis=1)).max()))
         a, _ = pid.predict(obs)
         obs, _, te, tr, _ = env.step(a)
@@ -151,11 +151,13 @@ PUSH_3D = LoadSchedule(tip_force_events=((6.0, 9.0, (-0.3, 0.2, 0.0)),), payload
     ids=["constant_pushed", "step"],
 )
 def test_spatial_mpc_oracle_tracks_better_than_the_tuned_pid(target, loads):
-    """12-s episodes of SmaSpine3D-v0: a constant target between two wires under a payload and a
+    """15-s episodes of SmaSpine3D-v0: a constant target between two wires under a payload and a
     tip push, a step toward another quadrant without loads. RMSE of the tip bending vector error
     over the episode and, by a clear margin, after the first 4 s (the first rise from the
-    straight spine is at the wires' physical limit for both)."""
-    env = _env(episode_duration=12.0)
+    straight spine is at the wires' physical limit for both: both heat the two wires toward the
+    target at full drive). Measured on 12-s episodes: constant 10.38° vs the PID's 10.46° (after
+    4 s 2.69° vs 3.88°), step 4.26° vs 10.23° (2.49° vs 8.25°)."""
+    env = _env(episode_duration=15.0)
     pid = build_controller("pid", env)
     mpc = build_controller("mpc_oracle", env)
     e_pid = _episode(env, pid, target, loads)

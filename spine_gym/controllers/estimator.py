@@ -1,4 +1,4 @@
-"""State estimator for ``SmaSpine-v0``: the hidden phase fractions from what the env observes.
+"""State estimators: the hidden phase fractions of a spine from what its env observes.
 
 The env observes the bending angle, both wire temperatures and both wire resistances (and the
 action it applied). The model state behind them (``spine_gym.physics.layout``) also holds, per
@@ -30,6 +30,10 @@ The angle is not forced onto the state (the fractions are already pinned by the 
 difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used by MPC as
 an output disturbance (it carries the unobserved payload and tip forces). How well it recovers the
 fractions on seeded episodes is tested in ``tests/test_mpc.py`` and quoted in ``docs/agents.md``.
+
+:class:`SpatialPhaseEstimator` is the same estimator for ``SmaSpine3D-v0`` and
+``SmaSpineChain-v0`` (every wire group of the layout, the spatial core, each wire's own length in
+the resistance inversion; tested in ``tests/test_mpc_spatial.py``).
 """
 
 from __future__ import annotations
@@ -245,6 +249,7 @@ class SpatialPhaseEstimator:
         o = SL.wire_offset(field, self.n_wires)
         return self.state[o : o + self.n_wires]
 
+    @property
     def fractions(self) -> np.ndarray:
         """Estimated (W, 2) martensite fractions (x₊, x₋) of every wire group."""
         return np.stack([self._block(SL.F_XP), self._block(SL.F_XM)], axis=1)

@@ -44,7 +44,7 @@ from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from ..physics.spatial_solver import make_work, record, record_size
 from .baselines import volts_to_action
 from .estimator import SpatialPhaseEstimator
-from .mpc import MAX_EXTRAPOLATED_RATE, PLAN_FIELDS, MPPIBase, MPPIConfig
+from .mpc import PLAN_FIELDS, MPPIBase, MPPIConfig
 
 __all__ = [
     "SpatialMPPIController",
@@ -56,6 +56,10 @@ __all__ = [
 
 N_DIRECTIONS = 8  # bending directions of the always-sampled full-drive patterns (drive_patterns)
 REFERENCE_ERROR_SCALE = 10.0  # [deg] the planar env's error_scale: tracking errors are scaled to it
+# [deg/s at the reference scale] faster preview changes are steps (held, not extrapolated): the
+# suites' circles and figure-eights move the target by <= ~25 deg/s (3-D) or mm/s (chain), a step's
+# preview jumps by >= 10 x that in one 0.1-s period
+MAX_PREVIEW_RATE = 50.0
 # config fields the plan depends on besides PLAN_FIELDS (the layout, the task's scale)
 SPATIAL_PLAN_FIELDS = (*PLAN_FIELDS, "layout", "error_scale")
 
@@ -166,7 +170,7 @@ class SpatialMPPIController(MPPIBase):
         self._target_low = table.low[self._target_obs].astype(np.float64)
         self._target_high = table.high[self._target_obs].astype(np.float64)
         self._err_scale = REFERENCE_ERROR_SCALE / cfg.error_scale
-        self._rate_limit = MAX_EXTRAPOLATED_RATE / self._err_scale  # in the task's unit per s
+        self._rate_limit = MAX_PREVIEW_RATE / self._err_scale  # in the task's unit per s
         self._scale = np.asarray(cfg.layout.voltage_scale, dtype=np.float64)
         self._kernel = rollout_many_spatial if s.parallel else rollout_many_spatial_serial
         self._ks = s.plan_solver(cfg.solver).to_kernel()
@@ -193,12 +197,14 @@ class SpatialMPPIController(MPPIBase):
 
     @staticmethod
     def default_settings(cfg: SpatialConfig) -> MPPIConfig:
-        """The default :class:`MPPIConfig` of a spatial env: fewer, shorter rollouts than the
-        planar default, so that a plan fits the 0.1-s control period on the spatial core
-        (benchmarks/bench_mpc.py); a chain's rollouts cost about twice a module's."""
+        """The default :class:`MPPIConfig` of a spatial env: the planar horizon (3 s: a cold
+        antagonist needs about that at full drive before it pulls, a shorter horizon cannot see a
+        reversal pay off) with fewer rollouts than the planar 32, so that the plan time stays
+        near the 0.1-s control period on the spatial core (benchmarks/bench_mpc.py); a chain's
+        rollouts cost about twice a module's."""
         if cfg.n_modules == 1:
-            return MPPIConfig(n_samples=16, horizon=2.0)
-        return MPPIConfig(n_samples=12, horizon=2.0)
+            return MPPIConfig(n_samples=16, horizon=3.0)
+        return MPPIConfig(n_samples=12, horizon=3.0)
 
     # ------------------------------------------------------------------ wiring
     def bind(self, env) -> None:
