@@ -89,8 +89,10 @@ def test_registry_builds_every_spatial_baseline_with_its_tuned_settings(env_id):
         )
         if name == "pid":
             assert ctrl.gains.kp == tuned["pid"]["kp"]
-    with pytest.raises(ValueError, match="unknown controller 'mpc_oracle'"):
-        build_controller("mpc_oracle", env)
+    assert {"mpc_oracle", "mpc_estimated"} <= set(registry.registry_for(env_id))  # issue 10: every env id
+    assert build_controller("mpc_oracle", env).mode == "oracle"
+    with pytest.raises(ValueError, match="unknown controller 'lqr'"):
+        build_controller("lqr", env)
     env.close()
 
 
