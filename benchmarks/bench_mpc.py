@@ -29,13 +29,14 @@ time before and after issue 11's faster physics, in the same run.
 Every spatial env id (``--envs``: ``SmaSpine3D-v0``, ``SmaSpineChain-v0``) runs
 :class:`~spine_gym.controllers.SpatialMPPIController` at its default settings
 (``SpatialMPPIController.default_settings``) in both modes on two scenarios of its suite, against
-its tuned PID, and the estimated mode with N in ``--spatial-samples`` and the horizon in
+its tuned PID, the default estimated mode with the parallel kernel, and the estimated mode with
+N in ``--spatial-samples`` and the horizon in
 ``--spatial-horizons`` (their RMSE is the tip-bending error [deg] or the tip-position error [mm]).
 Writes ``benchmarks/results/mpc_speed.json`` and ``benchmarks/results/mpc_speed.png``.
 
     .venv/bin/python benchmarks/bench_mpc.py [--duration 15] [--scenarios step_cross sine_fast_dist]
         [--samples 16 32 64] [--horizons 2 3 5] [--step-c 0.01 0.03 0.1]
-        [--envs SmaSpine3D-v0 SmaSpineChain-v0] [--spatial-samples 8 16 32] [--spatial-horizons 1 2 3]
+        [--envs SmaSpine3D-v0 SmaSpineChain-v0] [--spatial-samples 12 32] [--spatial-horizons 2 4]
 
 The machine is shared: the load average at start and end is recorded, and the absolute times are
 upper bounds of what a quiet machine gives.
@@ -167,7 +168,11 @@ def configurations(samples, horizons, step_cs) -> list[tuple[str, str, MPPIConfi
 def spatial_configurations(env, samples, horizons) -> list[tuple[str, str, MPPIConfig]]:
     """Both modes at the env's defaults, then the estimated mode over N and the horizon."""
     d = SpatialMPPIController.default_settings(env.unwrapped.config)
-    out = [("default oracle", "oracle", d), ("default estimated", "estimated", d)]
+    out = [
+        ("default oracle", "oracle", d),
+        ("default estimated", "estimated", d),
+        ("default estimated, parallel kernel", "estimated", dataclasses.replace(d, parallel=not d.parallel)),
+    ]
     out += [
         (f"estimated N={n}", "estimated", dataclasses.replace(d, n_samples=n))
         for n in samples
@@ -290,8 +295,8 @@ def main(argv=None) -> dict:
         help="rollout sub-step criteria c to compare (0.01: the env's own)",
     )
     p.add_argument("--envs", nargs="*", default=[SPATIAL_ENV_ID, CHAIN_ENV_ID], help="spatial env ids")
-    p.add_argument("--spatial-samples", nargs="*", type=int, default=[8, 32])
-    p.add_argument("--spatial-horizons", nargs="*", type=float, default=[1.0, 3.0])
+    p.add_argument("--spatial-samples", nargs="*", type=int, default=[12, 32])
+    p.add_argument("--spatial-horizons", nargs="*", type=float, default=[2.0, 4.0])
     p.add_argument("--out", default=str(OUT))
     args = p.parse_args(argv)
     names = sorted({n.removesuffix("_dist") for n in args.scenarios})
@@ -312,8 +317,9 @@ def main(argv=None) -> dict:
     cfgs = configurations(args.samples, args.horizons, args.step_c)
     for env_id in args.envs:  # compile / load the spatial kernels outside the timing
         senv = make_env({"episode_duration": 1.0}, env_id=env_id)
-        warm = SpatialMPPIController(senv, "oracle", settings=MPPIConfig(n_samples=10, horizon=0.2))
-        warm.predict(senv.reset(seed=0)[0])
+        for par in (False, True):
+            st = MPPIConfig(n_samples=10, horizon=0.2, parallel=par)
+            SpatialMPPIController(senv, "oracle", settings=st).predict(senv.reset(seed=0)[0])
     steps = len(suite) * env.unwrapped.config.n_steps * (len(cfgs) + 1)
     spatial = {}
     for env_id in args.envs:
