@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..envs import _bookkeeping as bk
+from ..envs.core import EnvConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
 from ..envs.task import LoadSchedule
@@ -55,7 +56,7 @@ __all__ = [
 ]
 
 N_DIRECTIONS = 8  # bending directions of the always-sampled full-drive patterns (drive_patterns)
-REFERENCE_ERROR_SCALE = 10.0  # [deg] the planar env's error_scale: tracking errors are scaled to it
+REFERENCE_ERROR_SCALE = EnvConfig.error_scale  # [deg] the planar env's default: errors are scaled to it
 # [deg/s at the reference scale] faster preview changes are steps (held, not extrapolated): the
 # suites' circles and figure-eights move the target by <= ~25 deg/s (3-D) or mm/s (chain), a step's
 # preview jumps by >= 10 x that in one 0.1-s period
