@@ -202,7 +202,13 @@ def sweep(env, suite, cfgs, make, bar) -> dict:
     for name, mode, settings in cfgs:
         r = run(make(mode, settings), env, suite, bar)
         out["configs"].append(
-            {"name": name, "mode": mode, "parallel": settings.parallel, "settings": dataclasses.asdict(settings), **r}
+            {
+                "name": name,
+                "mode": mode,
+                "parallel": settings.parallel,
+                "settings": dataclasses.asdict(settings),
+                **r,
+            }
         )
         bar.write(_line(name, r))
     return out
@@ -275,7 +281,8 @@ def plot(res: dict, path: Path) -> None:
         ax.tick_params(axis="y", labelsize=7)
         ax.legend(fontsize=7, loc="lower right")
     la = res["machine"]["load_average_start"][0]
-    fig.suptitle(f"MPPI on SmaSpine-v0 and the spatial envs ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)")
+    cores = res["machine"]["cpu_count"]
+    fig.suptitle(f"MPPI on SmaSpine-v0 and the spatial envs ({cores} cores, load average {la:.1f} at start)")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -342,7 +349,9 @@ def main(argv=None) -> dict:
             bar.write(f"--- {env_id}")
 
             def make(mode, st, senv=senv):
-                return SpatialMPPIController(senv, mode, settings=st, temperature_limit=senv.temperature_limit - 5.0)
+                return SpatialMPPIController(
+                    senv, mode, settings=st, temperature_limit=senv.temperature_limit - 5.0
+                )
 
             res["spatial"][env_id] = sweep(senv, ssuite, scfgs, make, bar)
     info["load_average_end"] = os.getloadavg()

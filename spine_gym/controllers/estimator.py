@@ -265,7 +265,9 @@ class SpatialPhaseEstimator:
         elif self.identify:
             lengths = self.kw[:, SL.W_L0]
             self._set_params(
-                _identified(self.nominal, self._read(obs, "temperature"), self._read(obs, "resistance"), lengths)
+                _identified(
+                    self.nominal, self._read(obs, "temperature"), self._read(obs, "resistance"), lengths
+                )
             )
         self._started = True
         self._correct(obs)
@@ -276,7 +278,15 @@ class SpatialPhaseEstimator:
         backup = self.state.copy()
         for _ in range(self.config.n_sub):
             st, _, _ = sps.advance(
-                self.state, self.kp, self.ks, self.kw, self.km, volts, self.loads, self.config.physics_dt, False
+                self.state,
+                self.kp,
+                self.ks,
+                self.kw,
+                self.km,
+                volts,
+                self.loads,
+                self.config.physics_dt,
+                False,
             )
             if st != L.OK or not np.all(np.isfinite(self.state)):  # keep the last valid estimate
                 self.state[:] = backup

@@ -151,7 +151,9 @@ class MPPIConfig:
             hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
             _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
         if self.plan_scheme is not None and self.plan_scheme not in L.SCHEMES:
-            raise ValueError(f"plan_scheme must be None or one of {sorted(L.SCHEMES)}, got {self.plan_scheme!r}")
+            raise ValueError(
+                f"plan_scheme must be None or one of {sorted(L.SCHEMES)}, got {self.plan_scheme!r}"
+            )
 
     def plan_solver(self, solver: SolverOptions) -> SolverOptions:
         """The env's solver options with the rollouts' sub-step settings applied."""
@@ -309,7 +311,9 @@ class MPPIBase(BaseController):
         )
         return np.where(status == L.OK, cost, FAILED_COST)
 
-    def _preview_targets(self, target: np.ndarray, preview: np.ndarray, preview_steps: int, rate_limit: float):
+    def _preview_targets(
+        self, target: np.ndarray, preview: np.ndarray, preview_steps: int, rate_limit: float
+    ):
         """(H, d) targets over the horizon from the observation alone.
 
         Linear from the current target to the preview (``preview_steps`` ahead), then continued
@@ -320,7 +324,9 @@ class MPPIBase(BaseController):
         h = self.horizon_steps
         p_steps = max(preview_steps, 1)
         steps = np.arange(1, h + 1)[:, None]
-        rate = np.zeros_like(preview) if self._last_preview is None else (preview - self._last_preview) / self.dt
+        rate = (
+            np.zeros_like(preview) if self._last_preview is None else (preview - self._last_preview) / self.dt
+        )
         self._last_preview = preview.copy()
         if np.linalg.norm(rate) > rate_limit:
             rate = np.zeros_like(preview)

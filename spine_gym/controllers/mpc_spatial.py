@@ -261,7 +261,18 @@ class SpatialMPPIController(MPPIBase):
             last = a["targets"].shape[0] - 1
             targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), last)]
             offset = np.zeros(targets.shape[1])
-            return snap.state, snap.kp, a["kws"], a["kms"], loads, resolve, targets, offset, a["ohm"], a["wvol"]
+            return (
+                snap.state,
+                snap.kp,
+                a["kws"],
+                a["kms"],
+                loads,
+                resolve,
+                targets,
+                offset,
+                a["ohm"],
+                a["wvol"],
+            )
         est = self.estimator
         state0 = est.update(obs)
         loads = np.zeros((h, self._shape[2], 3))

@@ -25,7 +25,6 @@ env's own conversions.
 from __future__ import annotations
 
 import numba
-
 import numpy as np
 
 from ._jit import jit, pjit
