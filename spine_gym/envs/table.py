@@ -127,6 +127,10 @@ class Table:
         sensors = [e for e in self.entries if e.sensor]
         self.n_channels = sum(e.size for e in sensors)
         self.info_keys = tuple(e.key for e in self.entries if e.info)
+        infos = [e for e in self.entries if e.info]
+        # row-dict layout: the scalar info columns (in key order) and where the vector entries go
+        self._scalar_cols = np.array([self.cols[e.key].start for e in infos if e.size == 1], dtype=np.int64)
+        self._vector_at = tuple((k, self.cols[e.key]) for k, e in enumerate(infos) if e.size > 1)
         self._sensors = sensors
         self._noise_sigma = dict(noise_sigma)
 
@@ -201,6 +205,18 @@ class Table:
             if e.info:
                 s = self.cols[e.key]
                 out[e.key] = rows[:, s.start] if e.size == 1 else rows[:, s]
+        return out
+
+    def row_dicts(self, rows: np.ndarray) -> list[dict]:
+        """One info dict per step row of ``rows`` (n, width), as a single env returns it: scalars
+        as Python floats, vectors as (size,) arrays. The vectors are views of ``rows``: pass a
+        block that is not written again (a fresh copy)."""
+        keys = self.info_keys
+        out = []
+        for i, values in enumerate(rows[:, self._scalar_cols].tolist()):
+            for k, s in self._vector_at:  # ascending positions: each insert lands at its key's place
+                values.insert(k, rows[i, s])
+            out.append(dict(zip(keys, values, strict=True)))
         return out
 
     # ------------------------------------------------------------------ documentation
