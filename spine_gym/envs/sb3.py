@@ -98,7 +98,9 @@ class SmaSpineSB3VecEnv(VecEnv):
         infos = self.venv.row_infos(out.rows, out.status)
         if out.final is not None:
             f = out.final
-            for d, i, obs in zip(self.venv.row_infos(f.rows, f.status), f.env_ids.tolist(), f.obs, strict=True):
+            for d, i, obs in zip(
+                self.venv.row_infos(f.rows, f.status), f.env_ids.tolist(), f.obs, strict=True
+            ):
                 self.reset_infos[i] = infos[i]
                 d["terminal_observation"] = obs
                 infos[i] = d

@@ -128,7 +128,9 @@ class TableBatch:
         self.noise = np.zeros((b, self.table.n_channels))  # stays 0 without sensor noise
         self._coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (nw,)).copy()
         self._fresh_actions = np.full((b, nw), -1.0)
-        self._out = tuple(bk.Out(obs=self.obs, row=self.last_row, terminated=self.terminated, truncated=self.truncated))
+        self._out = tuple(
+            bk.Out(obs=self.obs, row=self.last_row, terminated=self.terminated, truncated=self.truncated)
+        )
         self._spec = tuple(self.spec)
         self._mem = tuple(self.mem)
         inputs = (self.probe, self.status)
@@ -296,8 +298,16 @@ class TableBatch:
         if rows is None:
             rows = self.row_ids
         ok = bk.begin_step(
-            rows, actions, self.act, self.volts, self._coef, self.mem.k, self.forces, self.resolve_plan,
-            self.loads, self.resolve,
+            rows,
+            actions,
+            self.act,
+            self.volts,
+            self._coef,
+            self.mem.k,
+            self.forces,
+            self.resolve_plan,
+            self.loads,
+            self.resolve,
         )
         if not ok:
             validate_actions(actions, actions.shape)  # raises the documented ValueError

@@ -316,7 +316,9 @@ class SmaSpineVectorEnv(VectorEnv):
             core.obs.copy(), reward, terminated, truncated, core.last_row.copy(), core.status.copy(), final
         )
 
-    def row_infos(self, rows: np.ndarray | None = None, status: np.ndarray | None = None) -> list[dict[str, Any]]:
+    def row_infos(
+        self, rows: np.ndarray | None = None, status: np.ndarray | None = None
+    ) -> list[dict[str, Any]]:
         """One info dict per row, as the single env gives it, of table ``rows`` and ``status`` from
         :meth:`step_arrays` (default: every sub-env's last step or reset)."""
         if rows is None:
@@ -325,7 +327,11 @@ class SmaSpineVectorEnv(VectorEnv):
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as a float array of the batch's shape (the batch checks finiteness)."""
-        if isinstance(actions, np.ndarray) and actions.dtype in _FLOATS and actions.shape == self.action_space.shape:
+        if (
+            isinstance(actions, np.ndarray)
+            and actions.dtype in _FLOATS
+            and actions.shape == self.action_space.shape
+        ):
             return actions
         return validate_actions(actions, self.action_space.shape)
 
