@@ -9,9 +9,11 @@ accumulators, the sensor delay line plus the noise drawn in Python, the step row
 declarative table (:mod:`spine_gym.envs.table`: which quantity goes to which column and which are
 observed comes in as integer maps), the observation (clipped to its bounds), the reward terms, the
 over-temperature cost and the termination/truncation flags. The same code runs for every env id,
-for the single env (one row) and the vector env (all rows), so both return the same numbers;
-doing it in one jitted call instead of ~40 small NumPy operations keeps the per-step Python cost
-of the single env low.
+for the single env (one row) and the vector env (all rows), so both return the same numbers.
+:func:`begin_step` prepares a step's inputs (clipped actions, voltages, loads, resolve flags).
+Outputs go into the batch's preallocated (B, ...) buffers at the rows stepped, so a step has no
+NumPy temporaries; the groups of arrays are passed as plain tuples (:func:`finish`), which numba
+types on its fast path.
 
 The formulas are documented in the env classes (Observation space, Rewards).
 """

@@ -1,10 +1,13 @@
 """B spines of one env driven by its declarative table: the batch behind the single and the vector env.
 
 :class:`TableBatch` holds the per-environment arrays (model state, episode data, the writer's
-memory), resets one environment with its own generator and steps all active ones at once: one
-jitted call of the plant's step kernel, one of its probe (the physics readings in the common
-probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
-observation, reward, info, from the env's :class:`~.table.Table`). Subclasses are the plants
+memory), resets one environment with its own generator and steps all active ones at once
+(:meth:`TableBatch.advance`): one jitted call of :func:`._bookkeeping.begin_step` (actions,
+voltages, loads), one of the plant's step kernel, one of its probe (the physics readings in the
+common probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
+observation, reward, info, from the env's :class:`~.table.Table`), all into preallocated
+per-environment buffers (``obs``, ``last_row``, ``status``, ``terminated``, ``truncated``) that
+the envs copy out. Subclasses are the plants
 (:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the physics arrays, draw the
 episode's target and solve, advance, record and probe their spines. The single env is a batch of
 one, so single and vector env run the same code and give the same numbers (tested bit for bit).
@@ -284,7 +287,7 @@ class TableBatch:
 
         Writes the buffers :attr:`obs`, :attr:`last_row` (the step rows: reward, info), :attr:`status`,
         :attr:`terminated` and :attr:`truncated` at ``rows`` and leaves the other rows as they are:
-        three jitted calls (inputs, physics, bookkeeping) and no NumPy temporaries.
+        four jitted calls (inputs, physics, probe, bookkeeping) and no NumPy temporaries.
 
         Args:
             actions: (B, W) float32 or float64; clipped to [-1, 1] (ValueError if not finite; the

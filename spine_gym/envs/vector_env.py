@@ -3,9 +3,13 @@
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
-``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the parallel kernel
-:func:`spine_gym.physics.env_kernels.step_many` per step. Row i therefore equals
-``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
+``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the kernel
+:func:`spine_gym.physics.env_kernels.step_many` (or its serial twin) per step. Row i therefore
+equals ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for
+bit). A step writes the batch's preallocated buffers (observations, table rows, flags) in four
+jitted calls and hands out fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the
+Gymnasium info dict holds views of the copied rows, and the SB3 adapter builds its per-env dicts
+from the same rows.
 """
 
 from __future__ import annotations
@@ -74,12 +78,15 @@ class SmaSpineVectorEnv(VectorEnv):
       the single spaces for ``observation_space``/``action_space``, each sub-env's generator, seed,
       state and episode for ``np_random``, ``np_random_seed``, ``state``, ``target_profile``,
       ``load_schedule``, ``model_params``; any other attribute is shared and repeated.
-    * ``parallel``: run the loop over spines on all cores (default: when ``num_envs > 1``). numba
-      runs it on GNU OpenMP here, whose idle workers spin for a while after each step; when other
-      processes keep the cores busy that spinning competes with the Python work between steps
-      and the parallel loop can fall below the serial one (measured with two training runs on
-      the 2-core machine: 2.1k steps/s at N = 16 vs 16.6k with ``OMP_WAIT_POLICY=PASSIVE``). On a
-      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` or pass ``parallel=False``.
+    * ``parallel``: run the loop over spines on all numba threads (``True``), serially (``False``) or,
+      by default (``None``), in parallel only from ``PARALLEL_MIN_ENVS`` = 64 sub-envs on. Below
+      that a step's physics is too short for the threads to pay on a machine other processes
+      also use: every parallel step waits for its slowest thread, and GNU OpenMP's idle workers
+      spin after each step, competing with the Python work in between (measured on the shared
+      2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
+      at N = 256 at 0.6-0.7x; on an idle machine 1.7-1.8x at N >= 256; benchmarks/README.md).
+      The serial default also never starts OpenMP's threads. With the parallel kernel on a
+      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once).
     * ``render()`` returns a tuple of ``num_envs`` frames.
     """
 
