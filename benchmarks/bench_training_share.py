@@ -227,11 +227,23 @@ def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.nda
     return calls, venv.unwrapped._core.states.copy()
 
 
+def _same_in_every_call(calls: list, p: int) -> bool:
+    first = calls[0][1][p]
+    if isinstance(first, np.ndarray):
+        return all(np.array_equal(args[p], first) for _, args in calls)
+    return all(args[p] == first for _, args in calls)
+
+
 def time_replay(calls: list, final_states: np.ndarray) -> float:
     """Seconds of the recorded kernel calls back to back on the recorded start states (argument 0;
-    checked to end on the native env's states bit for bit)."""
+    checked to end on the native env's states bit for bit). An argument equal in every call
+    (constants, the active mask) is one array, as in the env; the others are per-call copies."""
     states = calls[0][1][0].copy()
-    prepared = [(fn, (states, *(_copy(a) for a in args[1:]))) for fn, args in calls]
+    shared = {p: _copy(calls[0][1][p]) for p in range(1, len(calls[0][1])) if _same_in_every_call(calls, p)}
+    prepared = [
+        (fn, (states, *(shared[p] if p in shared else _copy(a) for p, a in enumerate(args) if p > 0)))
+        for fn, args in calls
+    ]
     t0 = time.perf_counter()
     for fn, args in prepared:
         fn(*args)
