@@ -61,6 +61,7 @@ from spine_gym.physics import env_kernels  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
+SHORT = dict(zip(IDS, ("planar", "3D", "chain"), strict=True))
 KERNELS = ("step_many", "step_many_serial", "step_many_spatial", "step_many_spatial_serial")
 TARGET_SHARE = 0.10  # env share of PPO wall time (the adapter's step_wait)
 TARGET_NATIVE_OVER_KERNEL = 0.90  # native env rate per core / kernel-only rate
@@ -166,8 +167,9 @@ def ppo_share(rollouts: int, parallel: bool | None, threads: int) -> dict:
     sec = {k: t.seconds for k, t in timers.items()}
     cpu_sec = {k: t.cpu for k, t in timers.items()}
     steps = max(1, timers["outer"].calls)
+    kernel = "parallel" if adapter.venv.parallel else "serial"
     return {
-        "label": f"parallel={parallel}, {threads} numba thread(s)",
+        "label": f"parallel={parallel} ({kernel} kernel), {threads} numba threads",
         "parallel_arg": parallel,
         "parallel_kernel": bool(adapter.venv.parallel),
         "numba_threads": threads,
@@ -352,7 +354,8 @@ def plot(res: dict, path: Path) -> None:
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
     names, vals = [], []
     for key, r in res["native_vs_kernel"].items():
-        names.append(key.replace("SmaSpine", "").replace("-v0", "").replace(" N=", "\nN=") or key)
+        env_id, size = key.split(" ")
+        names.append(f"{SHORT[env_id]}\n{size}")
         vals.append(r["native_over_kernel"])
     ax2.bar(range(len(vals)), vals, color="tab:blue")
     ax2.axhline(TARGET_NATIVE_OVER_KERNEL, color="k", ls="--", lw=1, label="target 0.9")
