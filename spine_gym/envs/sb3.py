@@ -6,7 +6,9 @@ observation of the finished episode in ``infos[i]["terminal_observation"]`` and
 ``infos[i]["TimeLimit.truncated"]`` (``truncated and not terminated``), exactly as SB3's own
 ``DummyVecEnv`` does. :class:`SmaSpineSB3VecEnv` gives that over
 :class:`~spine_gym.envs.vector_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
-physics of all environments stays one parallel numba call per step. It composes with
+physics of all environments stays one numba call per step, and the per-env info dicts are built
+straight from the vector env's table rows (:meth:`~spine_gym.envs.vector_env.SmaSpineVectorEnv.step_arrays`,
+no Gymnasium info dict in between). It composes with
 ``VecMonitor`` and ``VecNormalize``::
 
     from stable_baselines3 import PPO

@@ -1,4 +1,4 @@
-"""Native vector env of ``SmaSpine-v0``: N spines stepped by one parallel numba loop.
+"""Native vector env of ``SmaSpine-v0``: N spines stepped by one numba loop (parallel from 64 envs).
 
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
@@ -49,7 +49,7 @@ FinalArrays = namedtuple("FinalArrays", ["env_ids", "obs", "rows", "status"])
 
 
 class SmaSpineVectorEnv(VectorEnv):
-    """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted parallel loop.
+    """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted loop over the spines.
 
     Action, observation, reward, info keys and arguments are those of ``SmaSpineEnv`` (its class
     docstring is the documentation); the vector-specific parts are:
