@@ -86,7 +86,8 @@ class SmaSpineVectorEnv(VectorEnv):
       2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
       at N = 256 at 0.6-0.7x; on an idle machine 1.7-1.8x at N >= 256; benchmarks/README.md).
       The serial default also never starts OpenMP's threads. With the parallel kernel on a
-      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once).
+      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once)
+      or ``NUMBA_THREADING_LAYER=workqueue`` (no spinning; one parallel call at a time).
     * ``render()`` returns a tuple of ``num_envs`` frames.
     """
 
