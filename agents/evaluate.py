@@ -269,7 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--mpc",
         action="store_true",
-        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI: ~0.1 s per step, ~15 min per mode on the full suite)",
+        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI, on every env id: ~0.1 s per step, "
+        "~15-30 min per mode on a full suite)",
     )
     p.add_argument(
         "--models",

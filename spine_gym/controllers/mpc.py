@@ -29,6 +29,10 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     preview's rate of change). The observed angle minus the estimated one is an output
     disturbance held over the horizon (offset-free MPC).
 
+The sampling, the weighting and the warm start are :class:`MPPIBase`, shared with
+:class:`~spine_gym.controllers.mpc_spatial.SpatialMPPIController` (the same planner, one voltage
+sequence per wire, for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``).
+
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
 SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
 (observation batches of one row).
@@ -87,7 +91,9 @@ class MPPIConfig:
         plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
             rollouts then reproduce the env exactly); a whole fraction of the control period.
         plan_step_c: adaptive sub-step criterion c of the rollouts (MODEL.md §6.1 b: rate × h <= c),
-            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``, 0.01). The default 0.03 takes
+            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``, 0.01). It acts only on the
+            frozen-rate scheme (``SolverOptions.step_c``); the coupled scheme, the planar env's
+            default since issue 11, chooses its sub-steps by ``tol_x``. The default 0.03 takes
             a third of the sub-steps where the wires transform, which brought the 95th percentile
             of the plan time under the control period at an unchanged RMSE
             (benchmarks/bench_mpc.py).
