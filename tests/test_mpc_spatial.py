@@ -9,7 +9,7 @@ import spine_gym  # noqa: F401 - registers the envs
 from agents.common import CHAIN_ENV_ID, SPATIAL_ENV_ID
 from agents.runtime import build_controller, make_env, run_episode
 from spine_gym.controllers import MPPIConfig, SpatialMPPIController, SpatialPhaseEstimator
-from spine_gym.controllers.mpc_spatial import SpatialReadings
+from spine_gym.controllers.mpc_spatial import SpatialReadings, drive_patterns
 from spine_gym.envs.task import LoadSchedule
 from spine_gym.envs.task_spatial import BendTarget
 from spine_gym.physics import layout as L
@@ -205,3 +205,15 @@ def test_spatial_mpc_rejects_bad_settings_and_envs():
     bad[-1] = np.nan
     with pytest.raises(ValueError, match="finite"):
         ctrl.predict(bad)
+
+
+def test_drive_patterns_heat_the_wires_toward_each_of_eight_directions():
+    """Toward a wire: that wire alone; between two neighbours: both; never an antagonistic pair;
+    a chain's modules get the same pattern (SPATIAL.md: wire j of every module at ψ = 90° j)."""
+    one = drive_patterns(_env().config.layout)
+    assert one.tolist() == [
+        [1, 0, 0, 0], [1, 1, 0, 0], [0, 1, 0, 0], [0, 1, 1, 0],
+        [0, 0, 1, 0], [0, 0, 1, 1], [0, 0, 0, 1], [1, 0, 0, 1],
+    ]  # fmt: skip
+    chain = drive_patterns(_env(CHAIN_ENV_ID).config.layout)
+    assert np.array_equal(chain, np.hstack([one, one]))
