@@ -121,7 +121,7 @@ from .spatial_tube import (
     solve_shape,
     wire_length,
 )
-from .stability import solve_in_place
+from .stability import lu_factor, lu_solve, solve_in_place
 
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
 INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
@@ -189,11 +189,15 @@ def wire_block(state, field, nw):
     WK_INV,  # (2K, 2K) (I − J)⁻¹
     WK_AT,  # (W,) temperature terms a of the linearised heat balance
     WK_BT,  # (W, 2) and b
-    WK_AMAT,  # (2W, 2W) matrix of the step
-    WK_LU,  # (2W, 2W) its copy for the solve
+    WK_ACT,  # (W + 1,) int: the wires in the linear system (_active_wires), their count last
+    WK_XA,  # (2W,) their fractions (then the error's residuals)
+    WK_RTA,  # (W, 12) their rates and slopes
+    WK_SA,  # (W, 2W) their rows and columns of dσ/dx
+    WK_LU,  # (2W, 2W) the step's matrix, then its LU factors
+    WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(31)
+) = range(35)
 
 
 @jit
@@ -227,8 +231,12 @@ def make_work(nw, nm, ns):
         np.empty((2 * nm, 2 * nm)),
         np.empty(nw),
         np.empty((nw, 2)),
+        np.zeros(nw + 1, dtype=np.int64),
+        np.empty(2 * nw),
+        np.empty((nw, 12)),
+        np.empty((nw, 2 * nw)),
         np.empty((2 * nw, 2 * nw)),
-        np.empty((2 * nw, 2 * nw)),
+        np.zeros(2 * nw, dtype=np.int64),
         np.empty(2 * nw),
         np.empty(omega_offset(nw, nm)),
     )
@@ -800,43 +808,68 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
 
 
 @jit
+def _active_wires(x0, rt, h, act):
+    """Indices of the wires that transform over h into ``act`` (W + 1; the count in act[W]).
+
+    A wire for which :func:`.coupled.quiet` holds on its own (every active transition · h <=
+    QUIET_RH) moves its fractions by less than 1e-9 over the step: its coupling terms in the step's
+    matrix are below round-off (as for the planar core's quiet step), and through dσ/dx it moves the
+    other wires' stresses by Pa. It takes the frozen-rate step and leaves the linear system, so
+    unpowered wires away from their transformation cost no sensitivity column and no matrix rows.
+    """
+    nw = rt.shape[0]
+    na = 0
+    for j in range(nw):
+        if not quiet(x0[2 * j : 2 * j + 2], rt[j : j + 1], h):
+            act[na] = j
+            na += 1
+    act[nw] = na
+    return na
+
+
+@jit
 def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
     """Linearly implicit Euler step of every wire's fractions over h into wk[WK_XS] (MODEL.md §6.5;
-    cf. :func:`.solver._predict_coupled`); wk[WK_AMAT] keeps its matrix (the identity for a
-    :func:`.coupled.quiet` step). Returns False if a matrix is singular."""
+    cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires` through the coupled
+    system, whose LU factors stay in wk[WK_LU] for the error estimate, the quiet ones by the
+    frozen-rate step. Returns False if the system is singular."""
     nw = kw.shape[0]
     x0 = wk[WK_X0]
     xs = wk[WK_XS]
     rt = wk[WK_RT]
-    amat = wk[WK_AMAT]
+    act = wk[WK_ACT]
     for j in range(nw):
         x0[2 * j] = xp[j]
         x0[2 * j + 1] = xm[j]
-    if quiet(x0, rt, h):
-        for j in range(nw):
-            xs[2 * j], xs[2 * j + 1] = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
-        for i in range(2 * nw):
-            for c in range(2 * nw):
-                amat[i, c] = 1.0 if i == c else 0.0
+        xs[2 * j], xs[2 * j + 1] = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
+    na = _active_wires(x0, rt, h, act)
+    if na == 0:
         return True
     if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
         return False
-    a_t = wk[WK_AT]
-    b_t = wk[WK_BT]
+    dsdx = wk[WK_DSDX]
     jnum = wk[WK_JNUM]
-    for j in range(nw):
-        a, b_p, b_m = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
-        a_t[j] = a
-        b_t[j, 0] = b_p
-        b_t[j, 1] = b_m
-    vec = wk[WK_VEC]
-    linear_system(x0, rt, wk[WK_DSDX], h, a_t, b_t, amat, vec)
-    lu = wk[WK_LU]
-    lu[:, :] = amat
-    if not solve_in_place(lu, vec):
+    xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
+    for a in range(na):  # the active wires' rows and columns
+        j = act[a]
+        xa[2 * a] = xp[j]
+        xa[2 * a + 1] = xm[j]
+        rta[a, :] = rt[j]
+        for b in range(na):
+            q = act[b]
+            sa[a, 2 * b] = dsdx[j, 2 * q]
+            sa[a, 2 * b + 1] = dsdx[j, 2 * q + 1]
+        a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
+    m = 2 * na
+    lu = wk[WK_LU][:m, :m]
+    vec = wk[WK_VEC][:m]
+    linear_system(xa[:m], rta[:na], sa[:na, :m], h, a_t[:na], b_t[:na], lu, vec)
+    if not lu_factor(lu, wk[WK_PIV]):
         return False
-    for j in range(nw):
-        xs[2 * j], xs[2 * j + 1] = clip_fractions(xp[j] + vec[2 * j], xm[j] + vec[2 * j + 1])
+    lu_solve(lu, wk[WK_PIV], vec)
+    for a in range(na):
+        j = act[a]
+        xs[2 * j], xs[2 * j + 1] = clip_fractions(xp[j] + vec[2 * a], xm[j] + vec[2 * a + 1])
     return True
 
 
@@ -859,8 +892,9 @@ def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
 @jit
 def _coupled_error(temp, sig, kp, kw, h, wk):
     """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
-    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx); wk[WK_X0]/wk[WK_RT]/wk[WK_BACKUP]
-    hold the start, wk[WK_XS]/wk[WK_RT_NEW] and ``temp``, ``sig`` the end of the step."""
+    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix that of the active wires
+    (the identity for the quiet ones); wk[WK_X0]/wk[WK_RT]/wk[WK_BACKUP] hold the start,
+    wk[WK_XS]/wk[WK_RT_NEW] and ``temp``, ``sig`` the end of the step."""
     nw = kw.shape[0]
     x0 = wk[WK_X0]
     xs = wk[WK_XS]
@@ -871,22 +905,34 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
     vec = wk[WK_VEC]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
-    trunc = 0.0
+    act = wk[WK_ACT]
+    na = act[nw]
+    e = 0.0
     for j in range(nw):
         i = 2 * j
         tw, vec[i], vec[i + 1] = wire_error(
             h, x0[i], x0[i + 1], xs[i], xs[i + 1], rt[j], rt1[j], back[o_t + j], temp[j],
             back[o_s + j], sig[j], jnum[j], kp,
         )  # fmt: skip
-        trunc = max(trunc, tw)
-    lu = wk[WK_LU]
-    lu[:, :] = wk[WK_AMAT]
-    if not solve_in_place(lu, vec):
-        return np.inf
-    e = 0.0
-    for i in range(2 * nw):
+        e = max(e, tw)
+    if na == 0:  # the filter is the identity
+        for i in range(2 * nw):
+            e = max(e, abs(vec[i]))
+        return e
+    ra = wk[WK_XA]  # the active wires' residuals through the step's own matrix
+    for a in range(na):
+        j = act[a]
+        ra[2 * a] = vec[2 * j]
+        ra[2 * a + 1] = vec[2 * j + 1]
+        vec[2 * j] = 0.0
+        vec[2 * j + 1] = 0.0
+    m = 2 * na
+    lu_solve(wk[WK_LU][:m, :m], wk[WK_PIV], ra[:m])
+    for i in range(m):
+        e = max(e, abs(ra[i]))
+    for i in range(2 * nw):  # the quiet wires' (identity rows)
         e = max(e, abs(vec[i]))
-    return max(e, trunc)
+    return e
 
 
 @jit
