@@ -171,12 +171,13 @@ def lu_factor(a, piv):
 def lu_solve(lu, piv, b):
     """Solve a x = b in place (x → ``b``) with the factors of :func:`lu_factor`."""
     n = lu.shape[0]
-    for k in range(n):
+    for k in range(n):  # P b (the exchanges swapped whole rows, multipliers included: P A = L U)
         p = piv[k]
         if p != k:
             t = b[k]
             b[k] = b[p]
             b[p] = t
+    for k in range(n):
         for i in range(k + 1, n):
             b[i] -= lu[i, k] * b[k]
     for k in range(n - 1, -1, -1):
