@@ -251,17 +251,25 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """
     sums = wk[WK_SUMS]
     eps = wk[WK_EPS]
+    chord_sums(omega, km, sums)
+    for j in range(kw.shape[0]):
+        eps[j] = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
+    strain_mechanics(xp, xm, kp, kw, wk)
+
+
+@jit
+def strain_mechanics(xp, xm, kp, kw, wk):
+    """The second half of :func:`wire_mechanics`: wk[WK_SIG] and wk[WK_G] from the strains wk[WK_EPS]
+    (e.g. those of the last converged shape, when only the fractions changed since)."""
+    eps = wk[WK_EPS]
     sig = wk[WK_SIG]
     gm = wk[WK_G]
-    chord_sums(omega, km, sums)
     for k in range(gm.shape[0]):
         gm[k, 0] = 0.0
         gm[k, 1] = 0.0
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
-        e = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
-        s = stress(e, xp[j], xm[j], kp)
-        eps[j] = e
+        s = stress(eps[j], xp[j], xm[j], kp)
         sig[j] = s
         k = int(kw[j, W_MOD])
         t = kw[j, W_NW] * aw * s * kw[j, W_A]
@@ -353,13 +361,16 @@ def _predict(omega, sens, dm, scale, out):
 
 
 @jit
-def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
+def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
     Converged when the last shape pass moved ω by less than tol_theta and either the residual
     max|G − M| or the Newton step ΔM is below tol_moment. The residual is tested first, as it needs
     no Jacobian; in the planar case |ΔM| = |G − M| / (1 − J) <= |G − M| (J <= 0), so whenever the
     residual test passes the planar step test passes too, and the decisions are the planar ones.
+
+    With ``known``, wk[WK_EPS] already holds the strains of the starting shape (the last converged
+    one: only the fractions changed), so the first iteration takes its stresses from them.
 
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
@@ -372,8 +383,11 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     ns = omega.shape[0]
     e = np.inf
     passes = 0
-    for _ in range(int(ks[S_MAXROOT])):
-        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+    for it in range(int(ks[S_MAXROOT])):
+        if known and it == 0:
+            strain_mechanics(xp, xm, kp, kw, wk)
+        else:
+            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         if e < tol_th and _residual_norm(mw, wk) < tol_m:
             return OK, passes
         big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
@@ -546,7 +560,7 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
-def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False):
+def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False):
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
     Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
@@ -555,6 +569,7 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
     state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
     reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
+    ``known``: ``eps`` are the strains of the starting shape ω (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
     saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
@@ -562,7 +577,11 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     copy_pairs(saved_m, mw)
     if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
         return ERR_BUCKLING, 0
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    if known:
+        e_start = wk[WK_EPS]
+        for j in range(eps.shape[0]):
+            e_start[j] = eps[j]
+    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known)
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
@@ -709,7 +728,8 @@ def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km,
     for j in range(xp.shape[0]):
         xp[j] = xs[2 * j]
         xm[j] = xs[2 * j + 1]
-    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
+    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True)
     if st == OK:
         _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
     return st, p
