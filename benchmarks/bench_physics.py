@@ -446,7 +446,10 @@ def main(argv=None) -> int:
     for r in spatial.values():
         labels.append(r["label"])
         secs.append(r["median_s"])
-        ann.append(f"×{r['ratio_to_planar_default']:.2f} of planar")
+        ann.append(
+            f"×{r['ratio_to_planar_default']:.2f} of planar, "
+            f"max|Δ| {r['max_abs_bending_diff_to_spatial_reference_deg']:.3f}°"
+        )
     png = plot_timings(
         labels,
         secs,
