@@ -19,9 +19,11 @@ For the planar layouts (wires at 0° and 180°, optionally unpowered ones at 90�
 quantity is exactly zero, the Newton step reduces to the planar scalar step and the secant update
 to the planar one, so the two cores agree to the solver tolerance (SPATIAL.md §7.1, tested).
 
-:func:`advance` mirrors :func:`.solver.advance` line by line over arrays of wires: the same
-sub-step rule, implicit phase and convection updates and energy bookkeeping (MODEL.md §6.1). The
-wire model is :mod:`.sma`'s, not a copy.
+:func:`advance` mirrors :func:`.solver.advance` over arrays of wires, with the scheme that
+``SolverOptions.scheme`` selects: the coupled linearly implicit step with error-controlled sub-steps
+(default, MODEL.md §6.5, SPATIAL.md §8.6; its per-wire pieces are :mod:`.coupled`'s, shared with the
+planar core) or the frozen-rate step of MODEL.md §6.1; implicit convection and exact energy
+bookkeeping in both. The wire model is :mod:`.sma`'s, not a copy.
 """
 
 from __future__ import annotations
