@@ -156,8 +156,9 @@ def test_spatial_mpc_oracle_tracks_better_than_the_tuned_pid(target, loads, whol
     vector error over the episode and after the first 4 s. On the constant target the first rise
     from the straight spine is at the wires' physical limit for both (both drive the two wires
     toward the target at full voltage), so the whole-episode RMSEs are alike (measured MPC
-    9.36° vs PID 9.39°) and the MPC's gain is in holding the target under the push (after 4 s
-    2.66° vs 3.43°, 0.77 x); on the step it is 3.89° vs 9.23° (after 4 s 2.32° vs 7.17°)."""
+    9.31° vs PID 9.39° with the spatial core's coupled step, 9.36° on the frozen scheme) and the
+    MPC's gain is in holding the target under the push (after 4 s 2.36° vs 3.41°, 0.69 x; frozen
+    0.77 x); on the step it is 3.70° vs 9.25° (after 4 s 1.86° vs 7.21°)."""
     env = _env(episode_duration=15.0)
     pid = build_controller("pid", env)
     mpc = build_controller("mpc_oracle", env)
