@@ -30,7 +30,7 @@ import numpy as np
 from ._jit import jit, pjit
 from .layout import ERR_NONFINITE, OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
 from .solver import advance
-from .spatial_solver import advance as spatial_advance
+from .spatial_solver import advance_in as spatial_advance_in
 from .spatial_solver import make_work, sizes
 from .spatial_solver import record as spatial_record
 
@@ -129,8 +129,8 @@ def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_s
         for h in range(horizon):
             if status[i] == OK:
                 for j in range(n_sub):
-                    code, _, _ = spatial_advance(
-                        st, kp, ks, kw, km, volts[i, h], loads[h], dt, resolve[h] and j == 0
+                    code, _, _ = spatial_advance_in(
+                        st, kp, ks, kw, km, volts[i, h], loads[h], dt, resolve[h] and j == 0, wk
                     )
                     if code == OK and not np.all(np.isfinite(st)):
                         code = ERR_NONFINITE
