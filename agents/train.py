@@ -30,7 +30,8 @@ meets the budget (:mod:`agents.lagrangian`); ``pid`` is the tuned PID's mean ene
 ``budget_episodes`` validation episodes of the training distribution (with the env's default
 observation: a longer ``target_preview`` of the policy is not given to the PID). ``lagrangian_init`` and
 ``lagrangian_lr`` set the initial multiplier and its step, ``budget_window`` how many finished
-episodes the mean energy of the dual step is taken over (default 32); the budget goes into ``meta.json``.
+episodes the mean energy of the dual step is taken over (default 32; 0: the episodes finished
+since the previous dual step); the budget goes into ``meta.json``.
 
 ``obs_integral: <τ [s] or inf>`` appends the (leaky) integral of the tracking error to the
 observation (:mod:`agents.integral`; ``obs_integral_limit`` its clip, default 300 deg s); its

@@ -153,3 +153,21 @@ def test_trained_integral_policy_round_trips_through_load_policy(tmp_path):
     a = run_episode(env, pol, seed=5).action
     b = run_episode(env, pol, seed=5).action
     np.testing.assert_array_equal(a, b)  # every memory (PID, integral) restarts with the episode
+
+
+def test_budget_window_zero_takes_only_the_episodes_since_the_last_dual_step():
+    e_ref = make_env(KW).config.energy_reference
+    env = EnergyBudgetVecEnv(make_vec_env(n_envs=2, seed=7, env_kwargs=KW), 100.0, e_ref, window=0)
+    env.reset()
+    ratios = []
+    for volts in (0.2, 0.9):  # one episode per sub-env at each drive level, a dual step after each
+        for _ in range(20):
+            env.step_async(np.full((2, 2), volts, dtype=np.float32))
+            env.step_wait()
+        assert len(env.finished) == 2
+        ratios.append(env.dual_ratio())
+        assert len(env.finished) == 0 and env.dual_ratio() is None
+    assert ratios[1] > 2.0 * ratios[0]  # the second mean is the hot episodes' alone
+    with pytest.raises(ValueError, match="budget_window must be an integer >= 0"):
+        EnergyBudgetVecEnv(env.venv, 100.0, e_ref, window=-1)
+    env.close()
