@@ -48,13 +48,16 @@ def oracle(env, w_energy: float) -> MPPIController:
     )
 
 
-def ceiling_rows(episodes: int, weights: list[float], distributions: list[str]) -> list[dict]:
-    """PID and oracle-MPC scores (mean RMSE [deg], energy [J], ratios to the PID) per distribution."""
+def ceiling_rows(
+    episodes: int, weights: list[float], distributions: list[str], duration: float | None = None
+) -> list[dict]:
+    """PID and oracle-MPC scores (mean RMSE [deg], energy [J], ratios to the PID) per distribution
+    (``duration``: episode length [s], default the env's 60 s)."""
     rows = []
     jobs = [(d, w) for d in distributions for w in [None, *weights]]
     ref = {}
     for dist, w in tqdm(jobs, desc="ceiling", unit="run"):
-        kw = DISTRIBUTIONS[dist]
+        kw = dict(DISTRIBUTIONS[dist]) | ({} if duration is None else {"episode_duration": float(duration)})
         env = make_env(kw)
         ctrl = build_controller("pid", env) if w is None else oracle(env, w)
         rmse, energy = validation_scores(ctrl, episodes, kw)

@@ -171,3 +171,26 @@ def test_budget_window_zero_takes_only_the_episodes_since_the_last_dual_step():
     with pytest.raises(ValueError, match="budget_window must be an integer >= 0"):
         EnergyBudgetVecEnv(env.venv, 100.0, e_ref, window=-1)
     env.close()
+
+
+def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_preview():
+    from agents.common import POLICIES_DIR
+    from agents.runtime import evaluation_env_kwargs
+
+    pol = load_policy(POLICIES_DIR / "ppo_int")
+    assert isinstance(pol, IntegralObsPolicy) and pol.spec.tau == 10.0 and pol.spec.size == 1
+    assert pol.model.model.observation_space.shape == (11,)
+    assert evaluation_env_kwargs(pol.env_kwargs) == {"target_preview": 3.0}
+
+
+def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weight_saves_energy(tmp_path):
+    """agents.ceiling on one 3-s validation episode: the PID row is the reference (ratios 1), and
+    the oracle's cost Σ e² + w_energy E spends less energy when w_energy is 1000× larger."""
+    from agents.ceiling import ceiling_rows, plot
+
+    rows = ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
+    assert [r["controller"] for r in rows] == ["pid", "mpc_oracle w_energy=0.01", "mpc_oracle w_energy=10"]
+    assert rows[0]["rmse_ratio"] == 1.0 and rows[0]["energy_ratio"] == 1.0
+    assert rows[2]["energy_J"] < rows[1]["energy_J"]
+    plot(rows, 0.7, tmp_path / "c.png")
+    assert (tmp_path / "c.png").stat().st_size > 1000
