@@ -5,7 +5,8 @@ Measured in one process after a warm-up (numba's cache loaded, every code path r
 * ``single``   — ``gym.make("SmaSpine-v0")`` (with Gymnasium's default wrappers), one env;
 * ``pendulum`` — ``gym.make("Pendulum-v1")``, the classic-control peer (pure NumPy dynamics);
 * ``sync``     — ``gymnasium.vector.SyncVectorEnv`` of N single envs (Python loop over envs);
-* ``native``   — ``gym.make_vec("SmaSpine-v0", num_envs=N)``: one parallel numba call per step;
+* ``native``   — ``gym.make_vec("SmaSpine-v0", num_envs=N)``: one numba call per step (the default
+  kernel choice: serial below ``PARALLEL_MIN_ENVS`` = 64 envs, parallel from there);
 
 for N = 1, 16, 256, 1024, plus two diagnostics: the native env at N = 256 and 1024 with numba
 limited to 1 thread vs all threads (core scaling), and the jitted kernel alone (the physics share
@@ -192,7 +193,7 @@ def plot(res: dict, path: Path) -> None:
     sizes = res["sizes"]
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
     ax.loglog(
-        sizes, [res["native"][str(n)] for n in sizes], "o-", label="native vector env (numba, parallel)"
+        sizes, [res["native"][str(n)] for n in sizes], "o-", label="native vector env (numba, default kernel)"
     )
     ax.loglog(sizes, [res["sync"][str(n)] for n in sizes], "s-", label="SyncVectorEnv of gym.make")
     ax.loglog(

@@ -20,7 +20,7 @@ STEP = (
 )
 
 
-def _run(parallel: bool) -> str:
+def _run(parallel: bool | None) -> str:
     r = subprocess.run(
         [sys.executable, "-c", STEP.format(p=parallel)], capture_output=True, text=True, timeout=300
     )
@@ -31,3 +31,9 @@ def _run(parallel: bool) -> str:
 def test_serial_kernel_never_runs_the_parallel_machine_code():
     assert "threads started: True" in _run(parallel=True)
     assert "threads started: False" in _run(parallel=False)
+
+
+def test_default_kernel_at_small_n_starts_no_threads():
+    """Issue 11: below PARALLEL_MIN_ENVS sub-envs the default (parallel=None) is the serial kernel,
+    so OpenMP's thread pool (and its spinning idle workers) never starts."""
+    assert "threads started: False" in _run(parallel=None)

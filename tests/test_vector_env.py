@@ -12,6 +12,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv, VectorEnv
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.envs import SmaSpineEnv, SmaSpineVectorEnv
 from spine_gym.envs.task import LoadSchedule, TargetProfile
+from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
 from spine_gym.physics import layout as L
 
 # short episodes so that autoresets happen; every source of randomness switched on
@@ -66,7 +67,9 @@ def test_make_vec_returns_the_native_vector_env_without_warnings():
     assert venv.num_envs == 3 and venv.max_steps == 600
     assert venv.action_space.shape == (3, 2) and venv.observation_space.shape == (3, 10)
     assert venv.single_observation_space == SmaSpineEnv().observation_space
-    assert venv.parallel
+    # the parallel kernel is the default from PARALLEL_MIN_ENVS sub-envs on (serial below it)
+    assert not venv.parallel and SmaSpineVectorEnv(PARALLEL_MIN_ENVS).parallel
+    assert not SmaSpineVectorEnv(PARALLEL_MIN_ENVS - 1).parallel
 
 
 def test_rows_equal_single_envs_seeded_seed_plus_i():

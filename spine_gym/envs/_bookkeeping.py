@@ -9,9 +9,11 @@ accumulators, the sensor delay line plus the noise drawn in Python, the step row
 declarative table (:mod:`spine_gym.envs.table`: which quantity goes to which column and which are
 observed comes in as integer maps), the observation (clipped to its bounds), the reward terms, the
 over-temperature cost and the termination/truncation flags. The same code runs for every env id,
-for the single env (one row) and the vector env (all rows), so both return the same numbers;
-doing it in one jitted call instead of ~40 small NumPy operations keeps the per-step Python cost
-of the single env low.
+for the single env (one row) and the vector env (all rows), so both return the same numbers.
+:func:`begin_step` prepares a step's inputs (clipped actions, voltages, loads, resolve flags).
+Outputs go into the batch's preallocated (B, ...) buffers at the rows stepped, so a step has no
+NumPy temporaries; the groups of arrays are passed as plain tuples (:func:`finish`), which numba
+types on its fast path.
 
 The formulas are documented in the env classes (Observation space, Rewards).
 """
@@ -62,14 +64,15 @@ C_PREVIEW, C_MAX_STEPS, N_COUNTS = range(3)  # integer settings (Spec.counts)
 
 # the per-environment memory the writer updates (rows of (B, ...) arrays; part of a snapshot)
 Memory = namedtuple("Memory", ["k", "joule", "hist", "prev_task", "prev_action"])
-# what the step produced: rows stepped, their physics readings, the applied inputs and the noise
-Step = namedtuple("Step", ["rows", "probe", "status", "actions", "volts", "loads", "targets", "noise"])
+# what the step produced: the physics readings, the applied inputs and the noise ((B, ...) arrays)
+Step = namedtuple("Step", ["probe", "status", "actions", "volts", "loads", "targets", "noise"])
 # the env's maps (from its table) and settings
 Spec = namedtuple(
     "Spec",
     ["qcol", "probe_cols", "chan_src", "chan_dst", "obs_cols", "task", "low", "high", "settings", "counts"],
 )
-# outputs: observations (n, OBS_DIM) float32, true step rows (n, width), flags (n,)
+# outputs, (B, ...) buffers written at the rows stepped: observations (B, OBS_DIM) float32, true
+# step rows (B, width), flags (B,)
 Out = namedtuple("Out", ["obs", "row", "terminated", "truncated"])
 
 
@@ -80,7 +83,7 @@ def _put(row, col, value):
 
 
 @jit
-def _sensors(j, i, step, mem, spec, fresh, true, measured):
+def _sensors(i, step, mem, spec, fresh, true, measured):
     """True channels from the probe row -> delay line -> measured = oldest + noise."""
     p = step.probe[i]
     delay = mem.hist.shape[1] - 1
@@ -98,7 +101,7 @@ def _sensors(j, i, step, mem, spec, fresh, true, measured):
         for c in range(nc):
             mem.hist[i, delay, c] = true[c]
     for c in range(nc):
-        measured[c] = mem.hist[i, 0, c] + step.noise[j, c]
+        measured[c] = mem.hist[i, 0, c] + step.noise[i, c]
 
 
 @jit
@@ -144,8 +147,8 @@ def _tracking(i, kk, step, spec, row):
 
 
 @jit
-def finish_rows(step, mem, spec, out, fresh):
-    """Bookkeeping of the spines ``step.rows`` after a step (or at reset if ``fresh``).
+def finish_rows(rows, step, mem, spec, out, fresh):
+    """Bookkeeping of the spines ``rows`` after a step (or at reset if ``fresh``).
 
     For each row: the step counter, the electrical energy of the step (from the model's Joule
     accumulators), the sensor channels through the delay line plus the noise drawn in Python, the
@@ -155,11 +158,12 @@ def finish_rows(step, mem, spec, out, fresh):
     ``fresh``: the episode starts (k = 0, no energy, zero reward terms and voltages, rate 0).
 
     Args:
+        rows: (n,) int64 environments to finish.
         step: :data:`Step` (``actions``, ``volts`` (B, W); ``loads`` (B, N, F); ``targets``
-            (B, n_grid, d); ``noise`` (n, C); ``probe`` (B, probe width); ``status`` (B,)).
+            (B, n_grid, d); ``noise`` (B, C); ``probe`` (B, probe width); ``status`` (B,)).
         mem: :data:`Memory`, updated in place.
         spec: :data:`Spec` of the env's table.
-        out: :data:`Out`, written.
+        out: :data:`Out`, written at ``rows`` (other rows are left as they are).
     """
     st = spec.settings
     period = st[S_PERIOD]
@@ -170,16 +174,16 @@ def finish_rows(step, mem, spec, out, fresh):
     true = np.empty(nc)
     measured = np.empty(nc)
     meas_row = np.empty(out.row.shape[1])
-    for j in range(step.rows.shape[0]):
-        i = step.rows[j]
+    for j in range(rows.shape[0]):
+        i = rows[j]
         if fresh:
             mem.k[i] = 0
         else:
             mem.k[i] += 1
         kk = mem.k[i]
-        row = out.row[j]
+        row = out.row[i]
         energy = _energy(i, step, mem, spec, fresh, row, period)
-        _sensors(j, i, step, mem, spec, fresh, true, measured)
+        _sensors(i, step, mem, spec, fresh, true, measured)
         for c in range(nc):
             row[spec.chan_dst[c]] = true[c]
         err = _tracking(i, kk, step, spec, row)
@@ -229,10 +233,50 @@ def finish_rows(step, mem, spec, out, fresh):
                 v = spec.low[q]
             elif v > spec.high[q]:
                 v = spec.high[q]
-            out.obs[j, q] = v
+            out.obs[i, q] = v
         ok = step.status[i] == OK
-        out.terminated[j] = not fresh and not ok
-        out.truncated[j] = not fresh and kk >= spec.counts[C_MAX_STEPS] and ok
+        out.terminated[i] = not fresh and not ok
+        out.truncated[i] = not fresh and kk >= spec.counts[C_MAX_STEPS] and ok
+
+
+@jit
+def finish(rows, step, mem, spec, out, fresh):
+    """:func:`finish_rows` with its groups passed as plain tuples (numba types a plain tuple of
+    arrays on its fast C path, a namedtuple through Python: ~2x the call overhead)."""
+    finish_rows(rows, Step(*step), Memory(*mem), Spec(*spec), Out(*out), fresh)
+
+
+@jit
+def begin_step(rows, actions, act, volts, coef, k, forces, plan, loads, resolve):
+    """Inputs of one step: clip the actions, set the voltages and the loads of step k.
+
+    Every row gets its clipped action ``act`` (B, W) (float64, from float32 or float64
+    ``actions``) and voltage ``volts = (act + 1) coef``; each environment of ``rows`` gets the
+    vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at the last step
+    after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
+    ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
+    then; the caller raises).
+    """
+    b, w = act.shape
+    for i in range(b):
+        for q in range(w):
+            if not math.isfinite(actions[i, q]):
+                return False
+    n_steps = forces.shape[1]
+    for i in range(b):
+        resolve[i] = False
+        for q in range(w):
+            a = min(max(np.float64(actions[i, q]), -1.0), 1.0)
+            act[i, q] = a
+            volts[i, q] = (a + 1.0) * coef[q]
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        k0 = k[i]
+        kk = min(k0, n_steps - 1)
+        for q in range(loads.shape[2]):
+            loads[i, 0, q] = forces[i, kk, q]
+        resolve[i] = plan[i, kk] and k0 < n_steps
+    return True
 
 
 @jit

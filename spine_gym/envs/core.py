@@ -480,8 +480,14 @@ def status_text(code: int) -> str:
 def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
     :func:`status_text` as an object array)."""
+    if not status.any():  # L.OK == 0: the common case, no failure
+        return _NO_ROWS, _NO_TEXTS
     failed = np.flatnonzero(status != L.OK)
     return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
+
+
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_TEXTS = np.zeros(0, dtype=object)
 
 
 def config_fields(cls: type = EnvConfig) -> list[str]:

@@ -6,7 +6,9 @@ observation of the finished episode in ``infos[i]["terminal_observation"]`` and
 ``infos[i]["TimeLimit.truncated"]`` (``truncated and not terminated``), exactly as SB3's own
 ``DummyVecEnv`` does. :class:`SmaSpineSB3VecEnv` gives that over
 :class:`~spine_gym.envs.vector_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
-physics of all environments stays one parallel numba call per step. It composes with
+physics of all environments stays one numba call per step, and the per-env info dicts are built
+straight from the vector env's table rows (:meth:`~spine_gym.envs.vector_env.SmaSpineVectorEnv.step_arrays`,
+no Gymnasium info dict in between). It composes with
 ``VecMonitor`` and ``VecNormalize``::
 
     from stable_baselines3 import PPO
@@ -49,23 +51,6 @@ VECTOR_ENVS = {
 }
 
 
-def _rows_to_dicts(info: dict[str, Any], n: int) -> list[dict[str, Any]]:
-    """Gymnasium's dict of arrays (with ``_key`` masks) -> one dict per env (masked keys only)."""
-    keys = [k for k in info if not k.startswith("_") and k not in ("final_obs", "final_info")]
-    out: list[dict[str, Any]] = [{} for _ in range(n)]
-    for key in keys:
-        arr = info[key]
-        mask = info.get("_" + key)
-        vals = arr.tolist() if arr.ndim == 1 else list(arr)
-        if mask is None or mask.all():
-            for d, v in zip(out, vals, strict=True):
-                d[key] = v
-        else:
-            for i in np.flatnonzero(mask):
-                out[i][key] = vals[i]
-    return out
-
-
 class SmaSpineSB3VecEnv(VecEnv):
     """SB3 ``VecEnv`` of ``num_envs`` environments of ``env_id`` stepped by the native vector env.
 
@@ -96,8 +81,8 @@ class SmaSpineSB3VecEnv(VecEnv):
                 if key not in RESET_OPTION_KEYS:
                     raise ValueError(f"unknown reset option {key!r}; valid keys: {RESET_OPTION_KEYS}")
                 options.setdefault(key, [None] * self.num_envs)[i] = value
-        obs, info = self.venv.reset(seed=list(self._seeds), options=options)
-        self.reset_infos = _rows_to_dicts(info, self.num_envs)
+        obs, _ = self.venv.reset(seed=list(self._seeds), options=options)
+        self.reset_infos = self.venv.row_infos()
         self._reset_seeds()
         self._reset_options()
         return obs
@@ -106,22 +91,24 @@ class SmaSpineSB3VecEnv(VecEnv):
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
+        """One step of every env: the vector env's fresh arrays, per-env dicts built from its table
+        rows in one pass (no Gymnasium info dict in between)."""
         if self._actions is None:
             raise RuntimeError("step_async() must be called before step_wait()")
-        obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
+        out = self.venv.step_arrays(self._actions)
         self._actions = None
-        n = self.num_envs
-        dones = terminated | truncated
-        infos = _rows_to_dicts(info, n)
-        if dones.any():
-            finals = _rows_to_dicts(info["final_info"], n)
-            for i in np.flatnonzero(dones):
+        infos = self.venv.row_infos(out.rows, out.status)
+        if out.final is not None:
+            f = out.final
+            for d, i, obs in zip(
+                self.venv.row_infos(f.rows, f.status), f.env_ids.tolist(), f.obs, strict=True
+            ):
                 self.reset_infos[i] = infos[i]
-                infos[i] = finals[i]
-                infos[i]["terminal_observation"] = info["final_obs"][i]
-        for i in range(n):
-            infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-        return obs, rewards.astype(np.float32), dones, infos
+                d["terminal_observation"] = obs
+                infos[i] = d
+        for d, t in zip(infos, (out.truncated & ~out.terminated).tolist(), strict=True):
+            d["TimeLimit.truncated"] = t
+        return out.obs, out.reward.astype(np.float32), out.terminated | out.truncated, infos
 
     def close(self) -> None:
         self.venv.close()

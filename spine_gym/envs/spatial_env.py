@@ -344,7 +344,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
 
 
 class SmaSpine3DVectorEnv(SmaSpineVectorEnv):
-    """``num_envs`` copies of :class:`SmaSpine3DEnv` in one jitted parallel loop (conventions of
+    """``num_envs`` copies of :class:`SmaSpine3DEnv` in one jitted loop over the spines (conventions of
     :class:`SmaSpineVectorEnv`: autoreset modes, ``reset_mask``, ``get_attr``, snapshot/restore)."""
 
     CONFIG = Spine3DConfig
@@ -352,7 +352,7 @@ class SmaSpine3DVectorEnv(SmaSpineVectorEnv):
 
 
 class SmaSpineChainVectorEnv(SmaSpineVectorEnv):
-    """``num_envs`` copies of :class:`SmaSpineChainEnv` in one jitted parallel loop (conventions of
+    """``num_envs`` copies of :class:`SmaSpineChainEnv` in one jitted loop over the spines (conventions of
     :class:`SmaSpineVectorEnv`)."""
 
     CONFIG = ChainConfig

@@ -16,8 +16,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..params import ModelParams, SolverOptions
-from ..physics import layout as L
-from .core import EnvConfig, SpineSnapshot, make_renderer, status_text, validate_actions
+from .core import EnvConfig, SpineSnapshot, make_renderer, validate_actions
 from .planar import PlanarBatch
 from .task import TARGET_KINDS
 
@@ -256,7 +255,6 @@ class SmaSpineEnv(gym.Env):
         self._core = self.BATCH(self.config, 1, parallel=False)
         self.action_space = spaces.Box(-1.0, 1.0, (config.n_wires,), np.float32)
         self.observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
-        self._rows = np.zeros(1, dtype=np.int64)
         self._renderer = None
         self._needs_reset = True
         self._done = False
@@ -334,7 +332,7 @@ class SmaSpineEnv(gym.Env):
         obs = self._core.reset_env(0, self.np_random, options)
         self._needs_reset = False
         self._done = False
-        return obs, self._info(self._core.reset_info(self._rows), 0)
+        return obs, self._info()
 
     def step(self, action):
         """One control period; returns ``(obs, reward, terminated, truncated, info)``."""
@@ -346,20 +344,16 @@ class SmaSpineEnv(gym.Env):
                 "step() called after the episode ended (terminated or truncated); call reset(). "
                 "The model keeps running with the last target and loads."
             )
-        obs, reward, terminated, truncated, info = self._core.step(a[None, :], (self.np_random,))
-        term, trunc = bool(terminated[0]), bool(truncated[0])
+        core = self._core
+        core.advance(a[None, :], (self.np_random,))
+        term, trunc = bool(core.terminated[0]), bool(core.truncated[0])
         self._done = self._done or term or trunc
-        return obs[0], float(reward[0]), term, trunc, self._info(info, 0)
+        return core.obs[0].copy(), float(core.last_row[0, core.reward_col]), term, trunc, self._info()
 
-    @staticmethod
-    def _info(arrays: dict[str, np.ndarray], j: int) -> dict[str, Any]:
-        out = {}
-        for key, v in arrays.items():
-            x = v[j]
-            out[key] = x.copy() if isinstance(x, np.ndarray) else x.item()
-        if out["status"] != L.OK:
-            out["status_text"] = status_text(out["status"])
-        return out
+    def _info(self) -> dict[str, Any]:
+        """The info of the last step or reset (the batch's row 0)."""
+        core = self._core
+        return core.row_infos(core.last_row[:1].copy(), core.status[:1])[0]
 
     def snapshot(self) -> SpineSnapshot:
         """The env's full state (model state, episode, bookkeeping, generator) as a copy.

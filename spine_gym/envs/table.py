@@ -127,6 +127,12 @@ class Table:
         sensors = [e for e in self.entries if e.sensor]
         self.n_channels = sum(e.size for e in sensors)
         self.info_keys = tuple(e.key for e in self.entries if e.info)
+        infos = [e for e in self.entries if e.info]
+        # the info entries' row columns: an index for a scalar, a slice for a vector
+        self._info_cols = tuple(
+            (e.key, self.cols[e.key].start if e.size == 1 else self.cols[e.key]) for e in infos
+        )
+        self._scalar_cols = np.array([c for _, c in self._info_cols if isinstance(c, int)], dtype=np.int64)
         self._sensors = sensors
         self._noise_sigma = dict(noise_sigma)
 
@@ -195,13 +201,17 @@ class Table:
         }
 
     def info_dict(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        """Info arrays of the step rows ``rows`` (n, width): scalars (n,), vectors (n, size)."""
-        out = {}
-        for e in self.entries:
-            if e.info:
-                s = self.cols[e.key]
-                out[e.key] = rows[:, s.start] if e.size == 1 else rows[:, s]
-        return out
+        """Info arrays of the step rows ``rows`` (n, width): scalars (n,), vectors (n, size) (views)."""
+        return {key: rows[:, c] for key, c in self._info_cols}
+
+    def row_dicts(self, rows: np.ndarray) -> list[dict]:
+        """One info dict per step row of ``rows`` (n, width), as a single env returns it: scalars
+        as Python floats, vectors as (size,) arrays. The vectors are views of ``rows``: pass a
+        block that is not written again (a fresh copy)."""
+        scalars = iter(rows[:, self._scalar_cols].T.tolist())  # per scalar key, its n values
+        columns = [next(scalars) if isinstance(c, int) else list(rows[:, c]) for _, c in self._info_cols]
+        keys = self.info_keys
+        return [dict(zip(keys, values, strict=True)) for values in zip(*columns, strict=True)]
 
     # ------------------------------------------------------------------ documentation
     def markdown_observation(self) -> str:

@@ -1,10 +1,13 @@
 """B spines of one env driven by its declarative table: the batch behind the single and the vector env.
 
 :class:`TableBatch` holds the per-environment arrays (model state, episode data, the writer's
-memory), resets one environment with its own generator and steps all active ones at once: one
-jitted call of the plant's step kernel, one of its probe (the physics readings in the common
-probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
-observation, reward, info, from the env's :class:`~.table.Table`). Subclasses are the plants
+memory), resets one environment with its own generator and steps all active ones at once
+(:meth:`TableBatch.advance`): one jitted call of :func:`._bookkeeping.begin_step` (actions,
+voltages, loads), one of the plant's step kernel, one of its probe (the physics readings in the
+common probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
+observation, reward, info, from the env's :class:`~.table.Table`), all into preallocated
+per-environment buffers (``obs``, ``last_row``, ``status``, ``terminated``, ``truncated``) that
+the envs copy out. Subclasses are the plants
 (:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the physics arrays, draw the
 episode's target and solve, advance, record and probe their spines. The single env is a batch of
 one, so single and vector env run the same code and give the same numbers (tested bit for bit).
@@ -21,7 +24,7 @@ from ..params import ModelParams
 from ..physics import layout as L
 from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
-from .core import RESET_OPTION_KEYS, BaseEnvConfig, SpineSnapshot
+from .core import RESET_OPTION_KEYS, BaseEnvConfig, SpineSnapshot, status_text, validate_actions
 from .table import Table
 from .task import LoadSchedule
 
@@ -116,10 +119,27 @@ class TableBatch:
             counts=counts,
         )
         self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
-        self._reward_col = self.table.cols["reward"].start
+        self.reward_col = self.table.cols["reward"].start
+        self.row_ids = np.arange(b)
         self._all = np.ones(b, dtype=np.bool_)
-        self._row_ids = np.arange(b)
+        # the step's buffers, written in place at the rows stepped (no per-step allocation)
+        self.obs = np.zeros((b, self.table.obs_dim), dtype=np.float32)  # last observation
+        self.terminated = np.zeros(b, dtype=np.bool_)
+        self.truncated = np.zeros(b, dtype=np.bool_)
+        self.act = np.zeros((b, nw))  # clipped actions of the step
+        self.resolve = np.zeros(b, dtype=np.bool_)
+        self.noise = np.zeros((b, self.table.n_channels))  # stays 0 without sensor noise
+        self._coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (nw,)).copy()
         self._fresh_actions = np.full((b, nw), -1.0)
+        self._out = tuple(
+            bk.Out(obs=self.obs, row=self.last_row, terminated=self.terminated, truncated=self.truncated)
+        )
+        self._spec = tuple(self.spec)
+        self._mem = tuple(self.mem)
+        inputs = (self.probe, self.status)
+        tail = (self.volts, self.loads, self.targets, self.noise)
+        self._step_in = (*inputs, self.act, *tail)  # bk.Step of a step
+        self._reset_in = (*inputs, self._fresh_actions, *tail)  # bk.Step of a reset
 
     # ------------------------------------------------------------------ plant hooks
     def _alloc_plant(self, b: int) -> None:
@@ -230,17 +250,28 @@ class TableBatch:
                 f"({L.STATUS_TEXT.get(st, st)}); use a lighter payload"
             )
         self.status[i] = L.OK
-        rows = np.array([i], dtype=np.int64)
+        rows = self.row_ids[i : i + 1]
         self._record(rows)
         self._probe(rows)
-        c = self.table.n_channels
-        noise = (rng.normal(size=c) * self.noise_sigma if self.noisy else np.zeros(c))[None, :]
-        obs = self._finish(rows, self._fresh_actions, noise, fresh=True)[0]
-        return obs[0]
+        if self.noisy:
+            self.noise[i] = rng.normal(size=self.table.n_channels) * self.noise_sigma
+        bk.finish(rows, self._reset_in, self._mem, self._spec, self._out, True)
+        return self.obs[i].copy()
 
     def parse_options(self, options) -> dict[str, Any]:
         """Validate ``reset(options=...)``: keys among ``target``, ``loads``, ``params``."""
         return _parse_options(options, RESET_OPTION_KEYS, self._parse_target, self.cfg)
+
+    def row_infos(self, block: np.ndarray, status: np.ndarray) -> list[dict[str, Any]]:
+        """Per-environment info dicts (a single env's ``info``) of the step rows ``block`` (n, width),
+        a fresh copy the dicts keep views of, and their ``status`` (n,): the table's keys, then
+        ``status`` and, on a failed step, ``status_text``."""
+        out = self.table.row_dicts(block)
+        for d, code in zip(out, status.tolist(), strict=True):
+            d["status"] = code
+            if code != L.OK:
+                d["status_text"] = status_text(code)
+        return out
 
     def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Info arrays of freshly reset environments ``rows`` (zero voltage, energy, reward terms)."""
@@ -249,32 +280,54 @@ class TableBatch:
         return info
 
     # ------------------------------------------------------------------ step
-    def _finish(self, rows, actions, noise, fresh: bool):
-        n = rows.shape[0]
-        out = bk.Out(
-            obs=np.empty((n, self.table.obs_dim), dtype=np.float32),
-            row=np.empty((n, self.table.width)),
-            terminated=np.empty(n, dtype=np.bool_),
-            truncated=np.empty(n, dtype=np.bool_),
+    def advance(
+        self, actions: np.ndarray, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Advance the environments ``rows`` (default all) by one control period, in place.
+
+        Writes the buffers :attr:`obs`, :attr:`last_row` (the step rows: reward, info), :attr:`status`,
+        :attr:`terminated` and :attr:`truncated` at ``rows`` and leaves the other rows as they are:
+        four jitted calls (inputs, physics, probe, bookkeeping) and no NumPy temporaries.
+
+        Args:
+            actions: (B, W) float32 or float64; clipped to [-1, 1] (ValueError if not finite; the
+                caller checks the shape).
+            rngs: per-environment generators (only used for sensor noise).
+            rows: (n,) int64 environments to step, ascending (default all).
+
+        Returns:
+            ``rows``.
+        """
+        if rows is None:
+            rows = self.row_ids
+        ok = bk.begin_step(
+            rows,
+            actions,
+            self.act,
+            self.volts,
+            self._coef,
+            self.mem.k,
+            self.forces,
+            self.resolve_plan,
+            self.loads,
+            self.resolve,
         )
-        step = bk.Step(
-            rows=rows,
-            probe=self.probe,
-            status=self.status,
-            actions=actions,
-            volts=self.volts,
-            loads=self.loads,
-            targets=self.targets,
-            noise=noise,
-        )
-        bk.finish_rows(step, self.mem, self.spec, out, fresh)
-        self.last_row[rows] = out.row
-        return out.obs, out
+        if not ok:
+            validate_actions(actions, actions.shape)  # raises the documented ValueError
+        active = self._all if rows.shape[0] == self.num_envs else np.isin(self.row_ids, rows)
+        self._advance(active, self.resolve)
+        self._probe(rows)
+        if self.noisy:  # drawn per environment from its own generator, after the physics
+            c = self.table.n_channels
+            for i in rows:
+                self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
+        bk.finish(rows, self._step_in, self._mem, self._spec, self._out, False)
+        return rows
 
     def step(
         self, actions: np.ndarray, rngs: Sequence[np.random.Generator], active: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """Advance the active environments by one control period.
+        """:meth:`advance` returning fresh arrays of the active rows.
 
         Args:
             actions: (B, W) finite float64 (validated by the caller), clipped here to [-1, 1].
@@ -285,31 +338,11 @@ class TableBatch:
             ``(obs, reward, terminated, truncated, info)`` for the active rows only, in row order;
             ``info`` is a dict of arrays with one row per active environment.
         """
-        cfg = self.cfg
-        if active is None:
-            active = self._all
-            rows = self._row_ids
-        else:
-            rows = np.flatnonzero(active)
-        n = rows.shape[0]
-        a = np.clip(actions, -1.0, 1.0)
-        np.multiply(a + 1.0, cfg.volt_coef, out=self.volts)
-        k0 = self.mem.k[rows]
-        kk = np.minimum(k0, cfg.n_steps - 1)
-        self.loads[rows, 0, :] = self.forces[rows, kk]
-        resolve = np.zeros(self.num_envs, dtype=np.bool_)
-        resolve[rows] = self.resolve_plan[rows, kk] & (k0 < cfg.n_steps)
-        self._advance(active, resolve)
-        self._probe(rows)
-        c = self.table.n_channels
-        noise = np.zeros((n, c))
-        if self.noisy:  # drawn per environment from its own generator, after the physics
-            for j, i in enumerate(rows):
-                noise[j] = rngs[i].normal(size=c) * self.noise_sigma
-        obs, out = self._finish(rows, a, noise, fresh=False)
-        info = self.table.info_dict(out.row)
+        rows = self.advance(actions, rngs, None if active is None else np.flatnonzero(active))
+        block = self.last_row[rows]
+        info = self.table.info_dict(block)
         info["status"] = self.status[rows]
-        return obs, out.row[:, self._reward_col], out.terminated, out.truncated, info
+        return self.obs[rows], block[:, self.reward_col], self.terminated[rows], self.truncated[rows], info
 
     # ------------------------------------------------------------------ snapshot / restore
     def snapshot(self, i: int) -> SpineSnapshot:

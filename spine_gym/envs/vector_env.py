@@ -1,15 +1,20 @@
-"""Native vector env of ``SmaSpine-v0``: N spines stepped by one parallel numba loop.
+"""Native vector env of ``SmaSpine-v0``: N spines stepped by one numba loop (parallel from 64 envs).
 
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
-``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the parallel kernel
-:func:`spine_gym.physics.env_kernels.step_many` per step. Row i therefore equals
-``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
+``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the kernel
+:func:`spine_gym.physics.env_kernels.step_many` (or its serial twin) per step. Row i therefore
+equals ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for
+bit). A step writes the batch's preallocated buffers (observations, table rows, flags) in four
+jitted calls and hands out fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the
+Gymnasium info dict holds views of the copied rows, and the SB3 adapter builds its per-env dicts
+from the same rows.
 """
 
 from __future__ import annotations
 
+from collections import namedtuple
 from collections.abc import Sequence
 from typing import Any
 
@@ -31,11 +36,20 @@ from .core import (
 )
 from .planar import PlanarBatch
 
-__all__ = ["SmaSpineVectorEnv"]
+__all__ = ["SmaSpineVectorEnv", "StepArrays", "FinalArrays", "PARALLEL_MIN_ENVS"]
+
+# fewest sub-envs for which the parallel kernel is the default (parallel=None; benchmarks/README.md)
+PARALLEL_MIN_ENVS = 64
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
+
+# a vector step as fresh arrays (SmaSpineVectorEnv.step_arrays); ``rows`` (n, width) the table rows
+StepArrays = namedtuple("StepArrays", ["obs", "reward", "terminated", "truncated", "rows", "status", "final"])
+# SAME_STEP: the sub-envs whose episode ended and their last observation, table row and status
+FinalArrays = namedtuple("FinalArrays", ["env_ids", "obs", "rows", "status"])
 
 
 class SmaSpineVectorEnv(VectorEnv):
-    """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted parallel loop.
+    """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted loop over the spines.
 
     Action, observation, reward, info keys and arguments are those of ``SmaSpineEnv`` (its class
     docstring is the documentation); the vector-specific parts are:
@@ -64,12 +78,16 @@ class SmaSpineVectorEnv(VectorEnv):
       the single spaces for ``observation_space``/``action_space``, each sub-env's generator, seed,
       state and episode for ``np_random``, ``np_random_seed``, ``state``, ``target_profile``,
       ``load_schedule``, ``model_params``; any other attribute is shared and repeated.
-    * ``parallel``: run the loop over spines on all cores (default: when ``num_envs > 1``). numba
-      runs it on GNU OpenMP here, whose idle workers spin for a while after each step; when other
-      processes keep the cores busy that spinning competes with the Python work between steps
-      and the parallel loop can fall below the serial one (measured with two training runs on
-      the 2-core machine: 2.1k steps/s at N = 16 vs 16.6k with ``OMP_WAIT_POLICY=PASSIVE``). On a
-      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` or pass ``parallel=False``.
+    * ``parallel``: run the loop over spines on all numba threads (``True``), serially (``False``) or,
+      by default (``None``), in parallel only from ``PARALLEL_MIN_ENVS`` = 64 sub-envs on. Below
+      that a step's physics is too short for the threads to pay on a machine other processes
+      also use: every parallel step waits for its slowest thread, and GNU OpenMP's idle workers
+      spin after each step, competing with the Python work in between (measured on the shared
+      2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
+      at N = 256 at 0.6-0.7x; on an idle machine 1.7-1.8x at N >= 256; benchmarks/README.md).
+      The serial default also never starts OpenMP's threads. With the parallel kernel on a
+      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once)
+      or ``NUMBA_THREADING_LAYER=workqueue`` (no spinning; one parallel call at a time).
     * ``render()`` returns a tuple of ``num_envs`` frames.
     """
 
@@ -108,7 +126,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": 1.0 / cfg.control_period}
-        self.parallel = self.num_envs > 1 if parallel is None else bool(parallel)
+        self.parallel = self.num_envs >= PARALLEL_MIN_ENVS if parallel is None else bool(parallel)
         self._core = self.BATCH(cfg, self.num_envs, parallel=self.parallel)
         self.single_action_space = spaces.Box(-1.0, 1.0, (cfg.n_wires,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -128,7 +146,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._core.max_steps = self.max_steps
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._sub_seeds: list[int | None] = [None] * self.num_envs
-        self._obs = np.zeros((self.num_envs, len(self._core.obs_names)), dtype=np.float32)
+        self._no_seeds: list[int | None] = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
 
@@ -224,7 +242,7 @@ class SmaSpineVectorEnv(VectorEnv):
         for i in rows:
             if seeds[i] is not None or self._rngs[i] is None:
                 self._rngs[i], self._sub_seeds[i] = seeding.np_random(seeds[i])
-            self._obs[i] = self._core.reset_env(int(i), self._rngs[i], self._options_for(options, int(i)))
+            self._core.reset_env(int(i), self._rngs[i], self._options_for(options, int(i)))
         self._autoreset[rows] = False
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
@@ -257,54 +275,92 @@ class SmaSpineVectorEnv(VectorEnv):
         self._ever_reset = True
         infos: dict[str, Any] = {}
         self._merge(infos, self._core.reset_info(rows), rows)
-        return self._obs.copy(), infos
+        return self._core.obs.copy(), infos
 
     # ------------------------------------------------------------------ step
     def step(self, actions):
         """Step every sub-env; see the class docstring for the autoreset convention."""
+        out = self.step_arrays(actions)
+        infos = self._infos(out.rows, out.status)
+        if out.final is not None:
+            n = self.num_envs
+            f = out.final
+            final: dict[str, Any] = {}
+            self._merge_step(final, self._info_arrays(f.rows, f.status), f.env_ids)
+            final_obs = np.full(n, None, dtype=object)
+            for j, i in enumerate(f.env_ids):
+                final_obs[i] = f.obs[j]
+            infos["final_obs"] = final_obs
+            infos["_final_obs"] = np.isin(np.arange(n), f.env_ids)
+            infos["final_info"] = final
+            infos["_final_info"] = infos["_final_obs"].copy()
+        return out.obs, out.reward, out.terminated, out.truncated, infos
+
+    def step_arrays(self, actions) -> StepArrays:
+        """One vector step as fresh arrays (what :meth:`step` and the SB3 adapter build their infos
+        from): observations, rewards, flags, the step rows (n, width) of the env's table and the
+        status codes after the autoresets, and in ``SAME_STEP`` mode the finished episodes' last
+        observations, rows and status (``final``, else None)."""
         if not self._ever_reset:
             raise RuntimeError("call reset() before step()")
-        a = validate_actions(actions, self.action_space.shape)
-        n = self.num_envs
-        reward = np.zeros(n)
-        terminated = np.zeros(n, dtype=np.bool_)
-        truncated = np.zeros(n, dtype=np.bool_)
-        infos: dict[str, Any] = {}
-        mode = self.autoreset_mode
-        if mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
+        a = self._actions(actions)
+        core = self._core
+        rows = None
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
             reset_rows = np.flatnonzero(self._autoreset)
-            self._reset_rows(reset_rows, [None] * n, {})
-            active = ~np.isin(np.arange(n), reset_rows)
-            self._merge(infos, self._core.reset_info(reset_rows), reset_rows)
-        else:
-            active = None
-        rows = np.arange(n) if active is None else np.flatnonzero(active)
-        if rows.size:
-            obs, r, te, tr, info = self._core.step(a, self._rngs, active)
-            self._obs[rows] = obs
-            reward[rows] = r
-            terminated[rows] = te
-            truncated[rows] = tr
-            done_rows = rows[te | tr]
-            if mode == AutoresetMode.SAME_STEP and done_rows.size:
-                final = {}
-                sel = np.isin(rows, done_rows)
-                self._merge_step(final, {k: v[sel] for k, v in info.items()}, done_rows)
-                final_obs = np.full(n, None, dtype=object)
-                for i in done_rows:
-                    final_obs[i] = self._obs[i].copy()
-                self._reset_rows(done_rows, [None] * n, {})
-                keep = ~sel
-                self._merge_step(infos, {k: v[keep] for k, v in info.items()}, rows[keep])
-                self._merge(infos, self._core.reset_info(done_rows), done_rows)
-                infos["final_obs"] = final_obs
-                infos["_final_obs"] = np.isin(np.arange(n), done_rows)
-                infos["final_info"] = final
-                infos["_final_info"] = infos["_final_obs"].copy()
-            else:
-                self._merge_step(infos, info, rows)
+            rows = np.flatnonzero(~self._autoreset)
+            self._reset_rows(reset_rows, self._no_seeds, {})
+        if rows is None or rows.size:
+            core.advance(a, self._rngs, rows)
+        terminated, truncated = core.terminated.copy(), core.truncated.copy()
+        reward = core.last_row[:, core.reward_col].copy()
         self._autoreset = terminated | truncated
-        return self._obs.copy(), reward, terminated, truncated, infos
+        final = None
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and self._autoreset.any():
+            done = np.flatnonzero(self._autoreset)
+            final = FinalArrays(done, core.obs[done], core.last_row[done], core.status[done])
+            self._reset_rows(done, self._no_seeds, {})
+        return StepArrays(
+            core.obs.copy(), reward, terminated, truncated, core.last_row.copy(), core.status.copy(), final
+        )
+
+    def row_infos(
+        self, rows: np.ndarray | None = None, status: np.ndarray | None = None
+    ) -> list[dict[str, Any]]:
+        """One info dict per row, as the single env gives it, of table ``rows`` and ``status`` from
+        :meth:`step_arrays` (default: every sub-env's last step or reset)."""
+        if rows is None:
+            rows, status = self._core.last_row.copy(), self._core.status.copy()
+        return self._core.row_infos(rows, status)
+
+    def _actions(self, actions) -> np.ndarray:
+        """The actions as a float array of the batch's shape (the batch checks finiteness)."""
+        if (
+            isinstance(actions, np.ndarray)
+            and actions.dtype in _FLOATS
+            and actions.shape == self.action_space.shape
+        ):
+            return actions
+        return validate_actions(actions, self.action_space.shape)
+
+    def _info_arrays(self, rows: np.ndarray, status: np.ndarray) -> dict[str, np.ndarray]:
+        """The table's info arrays (views of ``rows``) and ``status``."""
+        arrays = self._core.table.info_dict(rows)
+        arrays["status"] = status
+        return arrays
+
+    def _infos(self, rows: np.ndarray, status: np.ndarray) -> dict[str, Any]:
+        """Gymnasium's info dict of a step in which every sub-env has every key (views of the fresh
+        ``rows``, one block of all-True ``_key`` masks) plus ``status_text`` on failed rows."""
+        arrays = self._info_arrays(rows, status)
+        masks = np.ones((len(arrays), self.num_envs), dtype=np.bool_)
+        infos: dict[str, Any] = {}
+        for (key, v), m in zip(arrays.items(), masks, strict=True):
+            infos[key] = v
+            infos["_" + key] = m
+        failed, texts = status_texts(status)
+        self._merge(infos, {"status_text": texts}, failed)
+        return infos
 
     def _merge_step(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:
         """:meth:`_merge` of step infos plus ``status_text`` on the rows whose step failed."""
@@ -341,7 +397,7 @@ class SmaSpineVectorEnv(VectorEnv):
         i = self._check_index(i)
         snap = self._core.snapshot(i)
         state = self._rngs[i].bit_generator.state
-        return snap.with_rng(state, autoreset=bool(self._autoreset[i]), obs=self._obs[i].copy())
+        return snap.with_rng(state, autoreset=bool(self._autoreset[i]), obs=self._core.obs[i].copy())
 
     def restore(self, i: int, snap: SpineSnapshot) -> None:
         """Put a snapshot (of any sub-env or single env of the same configuration) into sub-env ``i``."""
@@ -353,7 +409,7 @@ class SmaSpineVectorEnv(VectorEnv):
             self._rngs[i].bit_generator.state = snap.rng_state
         self._autoreset[i] = bool(snap.extra.get("autoreset", snap.extra.get("done", False)))
         if "obs" in snap.extra:
-            self._obs[i] = snap.extra["obs"]
+            self._core.obs[i] = snap.extra["obs"]
 
     def _check_index(self, i) -> int:
         if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < self.num_envs:

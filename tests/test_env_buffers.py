@@ -1,0 +1,142 @@
+"""The env layer's preallocated step buffers (issue 11): every env id keeps the Gymnasium and SB3
+contracts of its single env, and nothing it hands out is overwritten by a later step.
+
+The vector envs step into per-batch buffers and hand out fresh copies; the SB3 adapter builds its
+per-env dicts straight from the table rows. These tests hold all three env ids to the reference
+implementations over single envs (``SyncVectorEnv``, SB3's ``DummyVecEnv``), with autoresets, sensor
+noise and domain randomisation on, and check that results kept from one step survive the next.
+"""
+
+import copy
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+import spine_gym  # noqa: F401 - registers the env ids
+from spine_gym.envs.sb3 import SmaSpineSB3VecEnv
+
+torch.set_num_threads(1)
+IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
+KW = {
+    "episode_duration": 0.8,  # 8 steps: autoresets within a short run
+    "domain_randomization": True,
+    "sensor_noise": {"angle": 0.2, "temperature": 0.5},
+    "tip_force_count": (1, 2),
+}
+MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
+
+
+def _acts(env_id, steps, n, seed=0):
+    w = gym.make(env_id).action_space.shape[0]
+    return np.random.default_rng(seed).uniform(-1.2, 1.2, size=(steps, n, w)).astype(np.float32)
+
+
+def _same(a, b, where):
+    """Equal values, dtypes and keys (tuples, lists, dicts recursively; object arrays element-wise)."""
+    if isinstance(b, tuple | list):
+        assert isinstance(a, tuple | list) and len(a) == len(b), where
+        for k, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same(x, y, f"{where}[{k}]")
+    elif isinstance(b, dict):
+        assert sorted(a) == sorted(b), f"{where}: keys {sorted(set(a) ^ set(b))}"
+        for k in b:
+            _same(a[k], b[k], f"{where}[{k!r}]")
+    elif isinstance(b, np.ndarray) and b.dtype == object:
+        assert a.dtype == object and len(a) == len(b), where
+        for x, y in zip(a, b, strict=True):
+            assert (x is None) == (y is None), where
+            if y is not None:
+                _same(x, y, where)
+    elif isinstance(b, np.ndarray):
+        assert isinstance(a, np.ndarray) and a.dtype == b.dtype and np.array_equal(a, b), where
+    else:
+        assert type(a) is type(b) and a == b, where
+
+
+def _frozen(x):
+    """A deep copy of a step result (to compare with later)."""
+    return copy.deepcopy(x)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+def test_vector_env_equals_sync_vector_env_and_keeps_what_it_returned(env_id, mode):
+    """Row i == single env i through autoresets (every mode, every env id), with SyncVectorEnv's
+    info keys and masks; the arrays of a step are not changed by the steps after it."""
+    n = 2
+    native = gym.make_vec(env_id, num_envs=n, autoreset_mode=mode, **KW)
+    sync = SyncVectorEnv([lambda: gym.make(env_id, **KW).unwrapped for _ in range(n)], autoreset_mode=mode)
+    _same(native.reset(seed=3), sync.reset(seed=3), "reset")
+    kept = []
+    for a in _acts(env_id, 20, n):
+        out = native.step(a)
+        _same(out, sync.step(a), "step")
+        kept.append((out, _frozen(out)))
+        if mode == AutoresetMode.DISABLED and (out[2] | out[3]).all():
+            for env in (native, sync):
+                env.reset(options={"reset_mask": np.ones(n, dtype=bool)})
+    for out, frozen in kept:
+        _same(out, frozen, "a step's result after later steps")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_sb3_adapter_infos_equal_dummy_vec_env_in_every_key(env_id):
+    """Every key and value of the per-env infos (terminal observations, TimeLimit.truncated,
+    reset_infos) as DummyVecEnv of single envs gives them, and they survive later steps."""
+    n = 2
+    ours = SmaSpineSB3VecEnv(n, env_id=env_id, **KW)
+    ref = DummyVecEnv([lambda: gym.make(env_id, **KW).unwrapped for _ in range(n)])
+    ours.seed(5)
+    ref.seed(5)
+    assert np.array_equal(ours.reset(), ref.reset())
+    _same(ours.reset_infos, ref.reset_infos, "reset_infos")
+    kept, ends = [], 0
+    for a in _acts(env_id, 18, n, seed=1):
+        ours.step_async(a)
+        ref.step_async(a)
+        out, expected = ours.step_wait(), ref.step_wait()
+        _same(list(out), list(expected), "step_wait")
+        _same(ours.reset_infos, ref.reset_infos, "reset_infos")
+        ends += int(out[2].sum())
+        kept.append((out, _frozen(out)))
+    assert ends >= 2 * n
+    for out, frozen in kept:
+        _same(list(out), list(frozen), "a step's infos after later steps")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_single_env_results_are_not_overwritten_by_later_steps(env_id):
+    env = gym.make(env_id, **KW).unwrapped
+    first = env.reset(seed=0)
+    kept = [(first, _frozen(first))]
+    for a in _acts(env_id, 6, 1)[:, 0]:
+        out = env.step(a)
+        kept.append((out, _frozen(out)))
+    for out, frozen in kept:
+        _same(out, frozen, "a step's result after later steps")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_copied_pickled_and_restored_vector_envs_continue_bit_for_bit(env_id):
+    """A deep copy, a pickle and a snapshot/restore of a vector env mid-episode continue exactly as
+    the original (their buffers are their own: the copy's writer does not write into the original)."""
+    n = 2
+    venv = gym.make_vec(env_id, num_envs=n, autoreset_mode=AutoresetMode.SAME_STEP, **KW).unwrapped
+    venv.reset(seed=8)
+    acts = _acts(env_id, 16, n, seed=2)
+    for a in acts[:5]:
+        venv.step(a)
+    snaps = [venv.snapshot(i) for i in range(n)]
+    clones = [copy.deepcopy(venv), pickle.loads(pickle.dumps(venv))]
+    expected = [venv.step(a) for a in acts[5:]]
+    for clone in clones:
+        assert clone._core.obs is not venv._core.obs
+        _same([clone.step(a) for a in acts[5:]], expected, "clone")
+    for i, snap in enumerate(snaps):
+        venv.restore(i, snap)
+    _same([venv.step(a) for a in acts[5:]], expected, "restored")
