@@ -21,20 +21,24 @@ simulated second and per sub-step, and the maximum |Θ − Θ_reference| over th
 50-s hysteresis run (default and frozen) against its own fine-step reference. On a loaded machine
 the times are upper bounds; the ratios (same run, interleaved) are what carries over.
 
-Spatial core (SPATIAL.md), 20-s runs timed in the same round-robin, as ratios to the planar default:
+Spatial core (SPATIAL.md), 20-s runs timed in the same round-robin, as ratios to the planar default,
+each with the default (coupled, MODEL.md §6.5) step and with ``scheme="frozen"`` (``*_frozen``):
 
 * ``spatial``  — :meth:`SpineLayout.seed` (one four-wire module), wire 0 at the §10.2 drive, the other
   three unpowered: the planar run on the generic core (its |Θ − Θ_reference| is reported too);
 * ``chain``    — :meth:`SpineLayout.chain` (two four-wire modules, 8 wires), wire 0 of the lower and
   wire 1 of the upper module at the drive scaled to their wire length (3.2 V × 0.5): a 3-D bend.
 
-Each is printed beside issue 11's target (≤ 2× and ≤ 4× the planar default) and split into the
-sub-step count ratio × the cost-per-sub-step ratio.
+Each is printed beside issue 11's target (≤ 2× and ≤ 4× the planar default), split into the
+sub-step count ratio × the cost-per-sub-step ratio, with its error against the spatial fine-step
+reference on the same layout (FINE_REFERENCE, run once, not timed): the maximum over the run of
+|tip bending vector − reference| [deg].
 
 Compile times: a subprocess with ``NUMBA_CACHE_DIR`` pointed at an empty temporary folder times
-``import spine_gym`` and the first ``simulate()`` call (cold: numba compiles every kernel and
-writes the cache); a second subprocess with the same folder times the same (cached: numba loads
-machine code). Compile time = first call − a warm call in the same subprocess.
+``import spine_gym``, the first planar ``simulate()`` call and then the first spatial one (a 20-s
+module run; cold: numba compiles every kernel and writes the cache); a second subprocess with the
+same folder times the same (cached: numba loads machine code). Compile time = first call − a warm
+call in the same subprocess.
 
 Writes ``benchmarks/results/physics_speed.json`` and ``benchmarks/results/physics_speed.png``.
 
@@ -96,14 +100,17 @@ LABELS = {
 }
 
 SPATIAL_LABELS = {
-    "spatial": "spatial core, one 4-wire module (wire 0 driven)",
-    "chain": "spatial core, 2-module chain (8 wires, 3-D bend)",
+    "spatial": "spatial module (4 wires), coupled (default)",
+    "spatial_frozen": "spatial module (4 wires), frozen rates",
+    "chain": "spatial 2-module chain (8 wires), coupled",
+    "chain_frozen": "spatial 2-module chain (8 wires), frozen",
 }
 SPATIAL_TARGETS = {"spatial": 2.0, "chain": 4.0}  # issue 11: run time / the planar default's
+SPATIAL_SOLVERS = {"": SolverOptions(), "_frozen": SolverOptions(scheme="frozen")}
 
 
-def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray]]:
-    """(layout, (n, W) voltages) of the spatial 20-s runs (see the module docstring)."""
+def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray, SolverOptions]]:
+    """(layout, (n, W) voltages, solver) of the spatial 20-s runs (see the module docstring)."""
     seed = SpineLayout.seed()
     v_seed = np.zeros((vr.shape[0], seed.n_wires))
     v_seed[:, 0] = vr
@@ -112,20 +119,30 @@ def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray]]:
     scale = chain.voltage_scale
     v_chain[:, 0] = vr * scale[0]
     v_chain[:, 4 + 1] = vr * scale[5]
-    return {"spatial": (seed, v_seed), "chain": (chain, v_chain)}
+    return {
+        base + suffix: (lay, v, solver)
+        for base, (lay, v) in {"spatial": (seed, v_seed), "chain": (chain, v_chain)}.items()
+        for suffix, solver in SPATIAL_SOLVERS.items()
+    }
 
 
 _COMPILE_SCRIPT = r"""
 import json, sys, time
 t0 = time.perf_counter()
 import spine_gym
-from spine_gym import simulate
+from spine_gym import SpineLayout, simulate
 t1 = time.perf_counter()
 simulate(20.0, 3.2, 0.0)
 t2 = time.perf_counter()
 simulate(20.0, 3.2, 0.0)
 t3 = time.perf_counter()
-print(json.dumps({"import_s": t1 - t0, "first_call_s": t2 - t1, "warm_call_s": t3 - t2}))
+lay = SpineLayout.seed()
+simulate(20.0, (3.2, 0.0, 0.0, 0.0), layout=lay)
+t4 = time.perf_counter()
+simulate(20.0, (3.2, 0.0, 0.0, 0.0), layout=lay)
+t5 = time.perf_counter()
+print(json.dumps({"import_s": t1 - t0, "first_call_s": t2 - t1, "warm_call_s": t3 - t2,
+                  "spatial_first_call_s": t4 - t3, "spatial_warm_call_s": t5 - t4}))
 """
 
 
@@ -142,8 +159,8 @@ def _time_interleaved(
     calls = {
         name: (lambda s=solver: simulate(duration, vr, vl, solver=s)) for name, solver in configs.items()
     }
-    for name, (layout, volts) in (spatial or {}).items():
-        calls[name] = lambda lay=layout, v=volts: simulate(duration, v, layout=lay)
+    for name, (layout, volts, solver) in (spatial or {}).items():
+        calls[name] = lambda lay=layout, v=volts, s=solver: simulate(duration, v, layout=lay, solver=s)
     times: dict[str, list[float]] = {k: [] for k in calls}
     for _ in range(repeats):
         for name, call in calls.items():
@@ -212,17 +229,23 @@ def _compile_times(repeats: int) -> dict:
     def summary(runs):
         first = [r["first_call_s"] for r in runs]
         warm = [r["warm_call_s"] for r in runs]
+        sp_first = [r["spatial_first_call_s"] for r in runs]
+        sp_warm = [r["spatial_warm_call_s"] for r in runs]
         return {
             "import_s": statistics.median(r["import_s"] for r in runs),
             "first_call_s": statistics.median(first),
             "warm_call_s": statistics.median(warm),
             "compile_or_load_s": statistics.median(f - w for f, w in zip(first, warm, strict=True)),
+            "spatial_first_call_s": statistics.median(sp_first),
+            "spatial_compile_or_load_s": statistics.median(
+                f - w for f, w in zip(sp_first, sp_warm, strict=True)
+            ),
             "runs": runs,
         }
 
     return {
-        "method": "subprocess: import spine_gym; simulate(20 s) twice; "
-        "NUMBA_CACHE_DIR = fresh empty temp dir",
+        "method": "subprocess: import spine_gym; simulate(20 s) twice, then a 20-s spatial module run "
+        "twice; NUMBA_CACHE_DIR = fresh empty temp dir",
         "cold": summary(cold),
         "cached": summary(cached),
         "cache_files": cache_files,
@@ -268,7 +291,15 @@ def main(argv=None) -> int:
     runs = {name: simulate(DURATION, vr, vl, solver=s) for name, s in CONFIGS.items()}
     ref = runs["reference"]
     spatial_runs = _spatial_runs(vr)
-    spatial_out = {name: simulate(DURATION, v, layout=lay) for name, (lay, v) in spatial_runs.items()}
+    spatial_out = {
+        name: simulate(DURATION, v, layout=lay, solver=s) for name, (lay, v, s) in spatial_runs.items()
+    }
+    print("spatial fine-step references (FINE_REFERENCE, once each) ...", flush=True)
+    spatial_ref = {
+        name: simulate(DURATION, v, layout=lay, solver=FINE_REFERENCE)
+        for name, (lay, v, _s) in spatial_runs.items()
+        if name in SPATIAL_TARGETS
+    }
 
     print(f"timing the {DURATION:g}-s hysteresis run, {args.repeats} interleaved repeats ...", flush=True)
     times = _time_interleaved(CONFIGS, vr, vl, DURATION, args.repeats, spatial_runs)
@@ -298,14 +329,20 @@ def main(argv=None) -> int:
     spatial = {}
     for name, r in spatial_out.items():
         st = _stats(times[name])
+        sref = spatial_ref[name.removesuffix("_frozen")]
         spatial[name] = {
             "label": SPATIAL_LABELS[name],
+            "scheme": spatial_runs[name][2].scheme,
             "wires": r.layout.n_wires,
             "modules": r.layout.n_modules,
             "segments": r.layout.n_seg,
             **st,
             "ratio_to_planar_default": st["median_s"] / base,
-            "target_ratio": SPATIAL_TARGETS[name],
+            "ratio_to_planar_default_by_min": st["min_s"] / results["newton"]["min_s"],
+            "target_ratio": SPATIAL_TARGETS.get(name),
+            "max_abs_bending_diff_to_spatial_reference_deg": float(
+                np.abs(r.tip_bending_deg - sref.tip_bending_deg).max()
+            ),
             "substep_ratio_to_planar_default": r.substeps / runs["newton"].substeps,
             "us_per_substep_ratio_to_planar_default": (st["median_s"] / r.substeps)
             / (base / runs["newton"].substeps),
@@ -315,8 +352,9 @@ def main(argv=None) -> int:
             "us_per_substep": st["median_s"] * 1e6 / r.substeps,
             "tip_theta_at_20s_deg": float(r.tip_theta_deg[-1]),
         }
-    seed_diff = np.abs(spatial_out["spatial"].tip_bending_deg[:, 0] - ref.angle_deg)
-    spatial["spatial"]["max_abs_angle_diff_to_planar_reference_deg"] = float(seed_diff.max())
+    for name in ("spatial", "spatial_frozen"):
+        seed_diff = np.abs(spatial_out[name].tip_bending_deg[:, 0] - ref.angle_deg)
+        spatial[name]["max_abs_angle_diff_to_planar_reference_deg"] = float(seed_diff.max())
 
     # the whole 50-s hysteresis run (heating + cooling) with the default solver
     vr50, vl50 = hysteresis_voltages()
@@ -357,10 +395,15 @@ def main(argv=None) -> int:
         "substeps": d["substeps"],
         "spatial_module_ratio_to_planar": spatial["spatial"]["ratio_to_planar_default"],
         "chain_ratio_to_planar": spatial["chain"]["ratio_to_planar_default"],
+        "spatial_module_frozen_ratio_to_planar": spatial["spatial_frozen"]["ratio_to_planar_default"],
+        "chain_frozen_ratio_to_planar": spatial["chain_frozen"]["ratio_to_planar_default"],
     }
     if compile_info:
         summary["cold_compile_s"] = compile_info["cold"]["compile_or_load_s"]
         summary["cached_load_s"] = compile_info["cached"]["compile_or_load_s"]
+        summary["spatial_cold_compile_s"] = compile_info["cold"]["spatial_compile_or_load_s"]
+        summary["spatial_cached_load_s"] = compile_info["cached"]["spatial_compile_or_load_s"]
+        summary["spatial_cached_first_call_s"] = compile_info["cached"]["spatial_first_call_s"]
     report = {
         "benchmark": "20-s hysteresis run (right wire 3.2 V, MODEL.md §10.2), dt = 10 ms output step",
         "note": (
@@ -403,7 +446,10 @@ def main(argv=None) -> int:
     for r in spatial.values():
         labels.append(r["label"])
         secs.append(r["median_s"])
-        ann.append(f"×{r['ratio_to_planar_default']:.2f} of planar")
+        ann.append(
+            f"×{r['ratio_to_planar_default']:.2f} of planar, "
+            f"max|Δ| {r['max_abs_bending_diff_to_spatial_reference_deg']:.3f}°"
+        )
     png = plot_timings(
         labels,
         secs,
@@ -420,7 +466,7 @@ def main(argv=None) -> int:
 
     print(
         f"{'config':<50} {'median ms':>9} {'min ms':>7} {'ratio':>6} {'substeps':>8} {'us/sub':>7} "
-        f"{'max|dΘ| deg':>11}"
+        f"{'max|dΘ| deg':>11}  (spatial rows: ratio to the planar default; error vs the spatial reference)"
     )
     for n in names:
         r = results[n]
@@ -433,7 +479,7 @@ def main(argv=None) -> int:
         print(
             f"{r['label']:<50} {r['median_s'] * 1e3:9.2f} {r['min_s'] * 1e3:7.2f} "
             f"{r['ratio_to_planar_default']:6.2f} {r['substeps']:8d} {r['us_per_substep']:7.2f} "
-            f"{r.get('max_abs_angle_diff_to_planar_reference_deg', float('nan')):11.4f}"
+            f"{r['max_abs_bending_diff_to_spatial_reference_deg']:11.4f}"
         )
     for k, h in hyst50.items():
         print(
@@ -447,15 +493,19 @@ def main(argv=None) -> int:
             f"§10.4 capacity worst |dev|/tol {g['capacity_worst_deviation_over_tolerance']:.2f} "
             f"-> {'pass' if g['pass'] else 'FAIL'}"
         )
-    frozen = statistics.median(times["frozen"])
-    for r in spatial.values():
+    for name, r in spatial.items():
+        if r["target_ratio"] is None:
+            continue
         met = "met" if r["ratio_to_planar_default"] <= r["target_ratio"] else "NOT met"
+        fz = spatial[name + "_frozen"]
         print(
-            f"{r['label']}: {r['ratio_to_planar_default']:.2f}x the planar default (target <= "
-            f"{r['target_ratio']:g}x, {met})"
+            f"{r['label']}: {r['ratio_to_planar_default']:.2f}x the planar default (by min "
+            f"{r['ratio_to_planar_default_by_min']:.2f}x; target <= {r['target_ratio']:g}x, {met})"
             f" = sub-steps {r['substep_ratio_to_planar_default']:.2f}x, "
-            f"cost per sub-step {r['us_per_substep_ratio_to_planar_default']:.2f}x; "
-            f"{r['median_s'] / frozen:.2f}x the planar frozen scheme (the one the spatial core runs)"
+            f"cost per sub-step {r['us_per_substep_ratio_to_planar_default']:.2f}x; frozen scheme "
+            f"{fz['ratio_to_planar_default']:.2f}x; max|d bending| to the spatial fine reference "
+            f"{r['max_abs_bending_diff_to_spatial_reference_deg']:.4f} deg (frozen "
+            f"{fz['max_abs_bending_diff_to_spatial_reference_deg']:.4f} deg)"
         )
     print(
         f"default: {summary['ms_per_simulated_s']:.3f} ms per simulated s; "
@@ -473,7 +523,10 @@ def main(argv=None) -> int:
             f"compile: cold {compile_info['cold']['compile_or_load_s']:.2f} s "
             f"(import {compile_info['cold']['import_s']:.2f} s), cached load "
             f"{compile_info['cached']['compile_or_load_s']:.3f} s "
-            f"(import {compile_info['cached']['import_s']:.2f} s)"
+            f"(import {compile_info['cached']['import_s']:.2f} s); spatial kernels: cold "
+            f"{compile_info['cold']['spatial_compile_or_load_s']:.2f} s, cached load "
+            f"{compile_info['cached']['spatial_compile_or_load_s']:.3f} s (cached first spatial call "
+            f"{compile_info['cached']['spatial_first_call_s']:.3f} s)"
         )
     print(f"wrote {js} and {png}")
     return 0

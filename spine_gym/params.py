@@ -345,8 +345,8 @@ class SolverOptions:
             and temperature, through the composite solve's sensitivity), sub-steps chosen by a
             local error estimate against ``tol_x``. ``"frozen"``: MODEL.md §6.1 as written,
             implicit Euler with the rates frozen at the start of the sub-step and the step-size
-            rule rate × h <= ``step_c``. MODEL.md §6.5. The spatial core (SPATIAL.md) implements
-            only the frozen scheme and runs it whatever this says (issue 11: its port is open).
+            rule rate × h <= ``step_c``. MODEL.md §6.5. The planar and the spatial core
+            (SPATIAL.md §8.6) both read this one field.
         tol_x: local error tolerance of the coupled scheme on the phase fractions [-].
         step_c: adaptive criterion c of §6.1 b (rate × sub-step <= c) of the frozen scheme.
             ``inf`` disables it.

@@ -94,8 +94,12 @@ SCHEMES = {"frozen": SCHEME_FROZEN, "coupled": SCHEME_COUPLED}
     X_HNEXT,  # [s] sub-step the coupled scheme's error control proposes next (0: none yet)
     X_RCACHE,  # start of RCACHE_SIZE floats: (σ_R, T_R, σ_L, T_L) and the rates and slopes there
 ) = range(20)
-RCACHE_SIZE = 4 + 9 + 24  # the coupled scheme's rates at the end of its last sub-step, keyed by
-# (σ_R, T_R, σ_L, T_L) and the 9 constants they depend on (solver.RATE_KP)
+# kp entries the rates depend on (§3.1–3.4): part of the rate caches' keys (planar X_RCACHE, the
+# spatial state's tail), so that a state advanced with other constants (the MPC's nominal model on a
+# copy of a randomised plant's state) recomputes them
+RATE_KP = (K_EA, K_EM, K_EPST, K_DSIG, K_KE, K_DETA, K_DU, K_VLKB, K_INVTAU)
+RCACHE_SIZE = 4 + len(RATE_KP) + 24  # the coupled scheme's rates at the end of its last sub-step, keyed by
+# (σ_R, T_R, σ_L, T_L) and the 9 constants they depend on (RATE_KP)
 X_HEAD = X_RCACHE + RCACHE_SIZE  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
 
 

@@ -22,6 +22,16 @@ import math
 import numpy as np
 
 from ._jit import jit
+from .coupled import (
+    T_PER_FRACTION,
+    heat_terms,
+    heating_rate,
+    kinetics,
+    linear_system,
+    quiet,
+    step_factor,
+    step_rate,
+)
 from .layout import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -31,15 +41,9 @@ from .layout import (
     K_A,
     K_ASV,
     K_AW,
-    K_DETA,
-    K_DSIG,
-    K_DU,
-    K_EA,
     K_EI,
-    K_EM,
     K_EPS0,
     K_EPST,
-    K_INVTAU,
     K_KE,
     K_L0,
     K_LREF,
@@ -48,10 +52,10 @@ from .layout import (
     K_RHOC,
     K_TE,
     K_TMAX,
-    K_VLKB,
     METHOD_BISECT,
     METHOD_NEWTON,
     OK,
+    RATE_KP,
     S_C,
     S_HMAX,
     S_HMIN,
@@ -99,17 +103,10 @@ from .sma import (
 from .stability import solve_in_place, unstable_modes
 from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, wire_lengths
 
-X_ACTIVE = 1e-6  # a phase with fraction above this takes part in the step-size rule (§6.1 b)
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
 BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
 NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
 SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
-STEP_GROW = 4.0  # largest factor by which the coupled scheme's error control lengthens a sub-step
-STEP_SHRINK = 0.2  # smallest factor by which it shortens one
-QUIET_RH = 1e-9  # fastest active transition × sub-step below which the coupled step is the frozen one
-# [K] temperature error that counts as much as an error of 1 in a fraction: 1 K moves the
-# instability stresses by ≈ 7 MPa (§3.1), as much as ≈ 0.3 % of transformation of a clamped wire
-T_PER_FRACTION = 370.0
 
 
 @jit
@@ -537,19 +534,6 @@ def needs_stability_check(vforce, kp):
 
 
 @jit
-def _step_rate(xp, xm, ppA, pAp, pmA, pAm):
-    """Fastest active transition of one wire (MODEL.md §6.1 b)."""
-    r = 0.0
-    if xp > X_ACTIVE and ppA > r:
-        r = ppA
-    if xm > X_ACTIVE and pmA > r:
-        r = pmA
-    if 1.0 - xp - xm > X_ACTIVE and pAp + pAm > r:
-        r = pAp + pAm
-    return r
-
-
-@jit
 def _heat(t, xp, xm, xp2, xm2, sigma, j_num, h, kp):
     """Heat balance of one wire over a sub-step (MODEL.md §6.1 d–f).
 
@@ -642,9 +626,7 @@ def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved,
     xmr = state[X_MR]
     xpl = state[X_PL]
     xml = state[X_ML]
-    r = max(
-        _step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), _step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l)
-    )
+    r = max(step_rate(xpr, xmr, ppA_r, pAp_r, pmA_r, pAm_r), step_rate(xpl, xml, ppA_l, pAp_l, pmA_l, pAm_l))
     h = rem  # b. step size
     if r * h > ks[S_C]:
         h = min(max(ks[S_C] / r, ks[S_HMIN]), rem)
@@ -659,68 +641,9 @@ def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved,
 
 
 @jit
-def _linear_system(xs, rt, sens, h, a_t, b_t, amat, rhs):
-    """Matrix and right-hand side of the linearly implicit Euler step of the four fractions.
-
-    With F the phase kinetics §3.5 of both wires, the implicit Euler step Δx = h F(x + Δx, σ', T')
-    is linearised at the start of the sub-step: σ' = σ + S Δx (S = ``sens``, the composite
-    equilibrium's dσ/dx) and T'_w = T_w + a_t[w] + b_t[w] · Δx_w (the discrete heat balance).
-    Then (I − h ∂F/∂x − h ∂F/∂σ S − h ∂F/∂T b_t) Δx = h (F + ∂F/∂T a_t), written into ``amat``
-    and ``rhs``; ``rt`` (2, 12) holds each wire's rates and slopes (:func:`sma.rates_and_slopes`).
-    """
-    for i in range(4):
-        for j in range(4):
-            amat[i, j] = 1.0 if i == j else 0.0
-    for w in range(2):
-        i = 2 * w
-        xp = xs[i]
-        xm = xs[i + 1]
-        xa = 1.0 - xp - xm
-        r = rt[w]
-        fs_p = -r[4] * xp + r[5] * xa  # ∂F/∂σ
-        fs_m = -r[6] * xm + r[7] * xa
-        ft_p = -r[8] * xp + r[9] * xa  # ∂F/∂T
-        ft_m = -r[10] * xm + r[11] * xa
-        amat[i, i] += h * (r[0] + r[1])
-        amat[i, i + 1] += h * r[1]
-        amat[i + 1, i] += h * r[3]
-        amat[i + 1, i + 1] += h * (r[2] + r[3])
-        for c in range(4):
-            amat[i, c] -= h * fs_p * sens[w, c]
-            amat[i + 1, c] -= h * fs_m * sens[w, c]
-        for c in range(2):
-            amat[i, i + c] -= h * ft_p * b_t[w, c]
-            amat[i + 1, i + c] -= h * ft_m * b_t[w, c]
-        rhs[i] = h * (-r[0] * xp + r[1] * xa + ft_p * a_t[w])
-        rhs[i + 1] = h * (-r[2] * xm + r[3] * xa + ft_m * a_t[w])
-
-
-@jit
-def _kinetics(xp, xm, r):
-    """dx₊/dt, dx₋/dt of MODEL.md §3.5 for the rates r[0:4] = (p₊A, p_A₊, p₋A, p_A₋)."""
-    xa = 1.0 - xp - xm
-    return -r[0] * xp + r[1] * xa, -r[2] * xm + r[3] * xa
-
-
-@jit
-def _quiet(x0, rt, h):
-    """True when no active phase of either wire transforms noticeably over h (rate · h <= QUIET_RH).
-
-    Then the rates, and their slopes with them (∂p/∂σ = −λ p ∂ΔG/∂σ), are so small that the
-    coupling terms of :func:`_linear_system` are below round-off: the frozen-rate implicit Euler
-    step of §6.1 c is the same step, at a fraction of the cost (no sensitivity, no 4 × 4 solve).
-    """
-    r = max(
-        _step_rate(x0[0], x0[1], rt[0, 0], rt[0, 1], rt[0, 2], rt[0, 3]),
-        _step_rate(x0[2], x0[3], rt[1, 0], rt[1, 1], rt[1, 2], rt[1, 3]),
-    )
-    return r * h <= QUIET_RH
-
-
-@jit
 def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_AMAT] keeps its matrix
-    (the identity for a :func:`_quiet` step).
+    (the identity for a :func:`.coupled.quiet` step).
 
     Returns False if the matrix is singular.
     """
@@ -732,7 +655,7 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     x0[1] = state[X_MR]
     x0[2] = state[X_PL]
     x0[3] = state[X_ML]
-    if _quiet(x0, cw[CW_RT], h):
+    if quiet(x0, cw[CW_RT], h):
         for w in range(2):
             i = 2 * w
             r = cw[CW_RT][w]
@@ -742,17 +665,15 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
                 cw[CW_AMAT][i, j] = 1.0 if i == j else 0.0
         return True
     stress_sensitivity(dth, s, state[X_SR], state[X_SL], x0[0], x0[1], x0[2], x0[3], kp, cw[CW_SENS])
-    inv = 1.0 / (kp[K_RHOC] + h * kp[K_ASV])
     for w in range(2):
         j_num = jr_num if w == 0 else jl_num
         t = state[X_TR] if w == 0 else state[X_TL]
         sig = state[X_SR] if w == 0 else state[X_SL]
-        j = j_num / resistivity(x0[2 * w], x0[2 * w + 1], kp)
-        cw[CW_A_T][w] = h * (j + kp[K_ASV] * (kp[K_TE] - t)) * inv
-        lp, lm = latent_heats(sig, kp)
-        cw[CW_B_T][w, 0] = lp * inv
-        cw[CW_B_T][w, 1] = lm * inv
-    _linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
+        a_t, b_p, b_m = heat_terms(t, sig, x0[2 * w], x0[2 * w + 1], j_num, h, kp)
+        cw[CW_A_T][w] = a_t
+        cw[CW_B_T][w, 0] = b_p
+        cw[CW_B_T][w, 1] = b_m
+    linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
     cw[CW_LU][:, :] = cw[CW_AMAT]
     if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
         return False
@@ -760,14 +681,6 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
         i = 2 * w
         cw[CW_XS][i], cw[CW_XS][i + 1] = clip_fractions(x0[i] + cw[CW_VEC][i], x0[i + 1] + cw[CW_VEC][i + 1])
     return True
-
-
-@jit
-def _heating_rate(t, xp, xm, fp, fm, sigma, j_num, kp):
-    """dT/dt of the heat balance §3.9 [K/s] for kinetics (fp, fm) = dx±/dt."""
-    lp, lm = latent_heats(sigma, kp)
-    j = j_num / resistivity(xp, xm, kp)
-    return (j - kp[K_ASV] * (t - kp[K_TE]) + lp * fp + lm * fm) / kp[K_RHOC]
 
 
 @jit
@@ -782,16 +695,16 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
     trunc = 0.0
     for w in range(2):
         i = 2 * w
-        f0p, f0m = _kinetics(cw[CW_X0][i], cw[CW_X0][i + 1], cw[CW_RT][w])
-        f1p, f1m = _kinetics(cw[CW_XS][i], cw[CW_XS][i + 1], cw[CW_RT_NEW][w])
+        f0p, f0m = kinetics(cw[CW_X0][i], cw[CW_X0][i + 1], cw[CW_RT][w])
+        f1p, f1m = kinetics(cw[CW_XS][i], cw[CW_XS][i + 1], cw[CW_RT_NEW][w])
         trunc = max(trunc, 0.5 * h * abs(f1p - f0p), 0.5 * h * abs(f1m - f0m))
         j_num = jr_num if w == 0 else jl_num
         t1 = state[X_TR] if w == 0 else state[X_TL]
         sig1 = state[X_SR] if w == 0 else state[X_SL]
         t0 = cw[CW_BACKUP][X_TR] if w == 0 else cw[CW_BACKUP][X_TL]
         sig0 = cw[CW_BACKUP][X_SR] if w == 0 else cw[CW_BACKUP][X_SL]
-        d0 = _heating_rate(t0, cw[CW_X0][i], cw[CW_X0][i + 1], f0p, f0m, sig0, j_num, kp)
-        d1 = _heating_rate(t1, cw[CW_XS][i], cw[CW_XS][i + 1], f1p, f1m, sig1, j_num, kp)
+        d0 = heating_rate(t0, cw[CW_X0][i], cw[CW_X0][i + 1], f0p, f0m, sig0, j_num, kp)
+        d1 = heating_rate(t1, cw[CW_XS][i], cw[CW_XS][i + 1], f1p, f1m, sig1, j_num, kp)
         trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
         cw[CW_VEC][i] = h * f1p - (cw[CW_XS][i] - cw[CW_X0][i])
         cw[CW_VEC][i + 1] = h * f1m - (cw[CW_XS][i + 1] - cw[CW_X0][i + 1])
@@ -808,7 +721,7 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
 def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw):
     """One accepted sub-step of the coupled scheme (the default ``scheme``).
 
-    The step is the linearly implicit Euler step of :func:`_linear_system`: the rates are taken at
+    The step is the linearly implicit Euler step of :func:`.coupled.linear_system`: the rates are taken at
     the end-of-step stress and temperature, predicted through the composite equilibrium's
     sensitivity, so the stiff stress → rate feedback (transforming 0.1 % of a constrained wire
     moves its stress by MPa, §6.2) is damped instead of resolved. The step size comes from a local
@@ -848,7 +761,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         rates_and_slopes(state[X_SR], state[X_TR], kp, cw[CW_RT_NEW][0])
         rates_and_slopes(state[X_SL], state[X_TL], kp, cw[CW_RT_NEW][1])
         err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
-        fac = min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
+        fac = step_factor(err)
         if err <= 1.0 or hh <= h_min:
             cw[CW_RT][:, :] = cw[CW_RT_NEW]
             h_next = hh * fac
@@ -893,9 +806,6 @@ def coupled_work(buf):
     )
 
 
-# kp entries the rates depend on (§3.1–3.4): part of the cache key, so that a state advanced with
-# other constants (the MPC's nominal model on a copy of a randomised plant's state) recomputes them
-RATE_KP = (K_EA, K_EM, K_EPST, K_DSIG, K_KE, K_DETA, K_DU, K_VLKB, K_INVTAU)
 _KEY = 4 + len(RATE_KP)  # (σ_R, T_R, σ_L, T_L) and the RATE_KP constants
 
 

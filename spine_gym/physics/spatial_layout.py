@@ -14,16 +14,21 @@ Module k owns the contiguous segments ``km[k, KM_SEG0] … km[k, KM_SEG0] + km[k
 The state of one spine is one flat float64 array (a batch of spines is a 2-D array):
 
     [time | x+ (W) | x- (W) | T (W) | σ (W) | ε (W) | Q_J (W) | Q_C (W) | Q_L (W)
-     | M_w (K, 2) | ω (N, 2) | S = dω/dM_w (2N, 2K)]
+     | M_w (K, 2) | ω (N, 2) | S = dω/dM_w (2N, 2K)
+     | h_next | RATE_KP constants | per wire (σ, T, 12 rates and slopes) (W, 14)]
 
 ω_n = (ω1, ω2) is segment n's bending rotation vector in the material axes (d1, d2) of its lower
 section (SPATIAL.md §2), M_w,k module k's wire moment in material components (§3), and S the
-secant sensitivity of the coupled Newton solve (§5).
+secant sensitivity of the coupled Newton solve (§5). The tail belongs to the coupled time step
+(MODEL.md §6.5), as the planar X_HNEXT and X_RCACHE: the sub-step its error control proposes next
+(0: none yet) and each wire's rates at the end of the last sub-step, keyed by that wire's (σ, T)
+and the constants they depend on, so that a continued run equals one run.
 """
 
 from __future__ import annotations
 
 from ._jit import jit
+from .layout import RATE_KP
 
 # ---------------------------------------------------------------- kw: wire-group table columns
 (
@@ -88,6 +93,27 @@ def sens_offset(n_wires, n_mod, n_seg):
     return omega_offset(n_wires, n_mod) + 2 * n_seg
 
 
+RCACHE_WIRE = 2 + 12  # floats per wire of the rate cache: the key (σ, T), then the rates and slopes
+
+
+@jit
+def hnext_offset(n_wires, n_mod, n_seg):
+    """Index of h_next [s], the coupled scheme's proposed next sub-step (the start of the tail)."""
+    return sens_offset(n_wires, n_mod, n_seg) + 4 * n_seg * n_mod
+
+
+@jit
+def rate_key_offset(n_wires, n_mod, n_seg):
+    """Start of the RATE_KP constants the cached rates were computed with."""
+    return hnext_offset(n_wires, n_mod, n_seg) + 1
+
+
+@jit
+def rate_cache_offset(n_wires, n_mod, n_seg):
+    """Start of the per-wire rate cache (W × RCACHE_WIRE, row-major)."""
+    return rate_key_offset(n_wires, n_mod, n_seg) + len(RATE_KP)
+
+
 def state_size(n_wires: int, n_mod: int, n_seg: int) -> int:
     """Length of the spatial state vector."""
-    return S_HEAD + N_WIRE_FIELDS * n_wires + 2 * n_mod + 2 * n_seg + 4 * n_seg * n_mod
+    return rate_cache_offset(n_wires, n_mod, n_seg) + RCACHE_WIRE * n_wires

@@ -19,9 +19,11 @@ For the planar layouts (wires at 0° and 180°, optionally unpowered ones at 90�
 quantity is exactly zero, the Newton step reduces to the planar scalar step and the secant update
 to the planar one, so the two cores agree to the solver tolerance (SPATIAL.md §7.1, tested).
 
-:func:`advance` mirrors :func:`.solver.advance` line by line over arrays of wires: the same
-sub-step rule, implicit phase and convection updates and energy bookkeeping (MODEL.md §6.1). The
-wire model is :mod:`.sma`'s, not a copy.
+:func:`advance` mirrors :func:`.solver.advance` over arrays of wires, with the scheme that
+``SolverOptions.scheme`` selects: the coupled linearly implicit step with error-controlled sub-steps
+(default, MODEL.md §6.5, SPATIAL.md §8.6; its per-wire pieces are :mod:`.coupled`'s, shared with the
+planar core) or the frozen-rate step of MODEL.md §6.1; implicit convection and exact energy
+bookkeeping in both. The wire model is :mod:`.sma`'s, not a copy.
 """
 
 from __future__ import annotations
@@ -32,6 +34,16 @@ import numba
 import numpy as np
 
 from ._jit import jit, pjit
+from .coupled import (
+    T_PER_FRACTION,
+    heat_terms,
+    heating_rate,
+    kinetics,
+    linear_system,
+    quiet,
+    step_factor,
+    step_rate,
+)
 from .layout import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -42,21 +54,35 @@ from .layout import (
     K_AW,
     K_EPS0,
     K_EPST,
+    K_KE,
     K_RHOC,
     K_TE,
     K_TMAX,
     OK,
+    RATE_KP,
     S_C,
     S_HMAX,
     S_HMIN,
     S_MAXROOT,
     S_MAXSHAPE,
     S_MAXSUB,
+    S_SCHEME,
     S_TOLM,
     S_TOLTH,
+    S_TOLX,
+    SCHEME_COUPLED,
 )
-from .sma import compliance, latent_heats, phase_step, rates, resistivity, stress
-from .solver import SECANT_MIN_DM, _step_rate
+from .sma import (
+    clip_fractions,
+    compliance,
+    latent_heats,
+    phase_step,
+    rates,
+    rates_and_slopes,
+    resistivity,
+    stress,
+)
+from .solver import SECANT_MIN_DM, _last_h
 from .spatial_layout import (
     F_EPS,
     F_QC,
@@ -68,6 +94,7 @@ from .spatial_layout import (
     F_XP,
     M_NSEG,
     M_SEG0,
+    RCACHE_WIRE,
     S_TIME,
     W_A,
     W_EX,
@@ -76,8 +103,11 @@ from .spatial_layout import (
     W_LREF,
     W_MOD,
     W_NW,
+    hnext_offset,
     moment_offset,
     omega_offset,
+    rate_cache_offset,
+    rate_key_offset,
     sens_offset,
     wire_offset,
 )
@@ -93,7 +123,7 @@ from .spatial_tube import (
     solve_shape,
     wire_length,
 )
-from .stability import solve_in_place
+from .stability import lu_factor, lu_solve, solve_in_place
 
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
 INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
@@ -150,7 +180,26 @@ def wire_block(state, field, nw):
     WK_XNEW,  # (W, 2) new fractions
     WK_POS,  # (N + 1, 3) vertex positions
     WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial_tube.gain_sums)
-) = range(17)
+    # the coupled time step (MODEL.md §6.5; x and Δx ordered (x+, x-) of wire 0, wire 1, ...)
+    WK_JNUM,  # (W,) U²/L0² of every wire [V²/m²] (Joule heating j = this / resistivity)
+    WK_X0,  # (2W,) fractions at the start of the sub-step
+    WK_XS,  # (2W,) fractions at its end
+    WK_RT,  # (W, 12) rates and slopes at the start (sma.rates_and_slopes)
+    WK_RT_NEW,  # (W, 12) rates and slopes at the end
+    WK_DSDX,  # (W, 2W) dσ/dx of the composite equilibrium
+    WK_DMDX,  # (2K, 2W) dM/dx of the composite equilibrium
+    WK_INV,  # (2K, 2K) (I − J)⁻¹
+    WK_AT,  # (W,) temperature terms a of the linearised heat balance
+    WK_BT,  # (W, 2) and b
+    WK_ACT,  # (W + 1,) int: the wires in the linear system (_active_wires), their count last
+    WK_XA,  # (2W,) their fractions (then the error's residuals)
+    WK_RTA,  # (W, 12) their rates and slopes
+    WK_SA,  # (W, 2W) their rows and columns of dσ/dx
+    WK_LU,  # (2W, 2W) the step's matrix, then its LU factors
+    WK_PIV,  # (2W,) int: their row exchanges
+    WK_VEC,  # (2W,) right-hand side, solution
+    WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
+) = range(35)
 
 
 @jit
@@ -174,6 +223,24 @@ def make_work(nw, nm, ns):
         np.empty((nw, 2)),
         np.empty((ns + 1, 3)),
         np.empty((nm, 2 * nm, 3)),
+        np.empty(nw),
+        np.empty(2 * nw),
+        np.empty(2 * nw),
+        np.empty((nw, 12)),
+        np.empty((nw, 12)),
+        np.empty((nw, 2 * nw)),
+        np.empty((2 * nm, 2 * nw)),
+        np.empty((2 * nm, 2 * nm)),
+        np.empty(nw),
+        np.empty((nw, 2)),
+        np.zeros(nw + 1, dtype=np.int64),
+        np.empty(2 * nw),
+        np.empty((nw, 12)),
+        np.empty((nw, 2 * nw)),
+        np.empty((2 * nw, 2 * nw)),
+        np.zeros(2 * nw, dtype=np.int64),
+        np.empty(2 * nw),
+        np.empty(omega_offset(nw, nm)),
     )
 
 
@@ -186,17 +253,25 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """
     sums = wk[WK_SUMS]
     eps = wk[WK_EPS]
+    chord_sums(omega, km, sums)
+    for j in range(kw.shape[0]):
+        eps[j] = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
+    strain_mechanics(xp, xm, kp, kw, wk)
+
+
+@jit
+def strain_mechanics(xp, xm, kp, kw, wk):
+    """The second half of :func:`wire_mechanics`: wk[WK_SIG] and wk[WK_G] from the strains wk[WK_EPS]
+    (e.g. those of the last converged shape, when only the fractions changed since)."""
+    eps = wk[WK_EPS]
     sig = wk[WK_SIG]
     gm = wk[WK_G]
-    chord_sums(omega, km, sums)
     for k in range(gm.shape[0]):
         gm[k, 0] = 0.0
         gm[k, 1] = 0.0
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
-        e = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
-        s = stress(e, xp[j], xm[j], kp)
-        eps[j] = e
+        s = stress(eps[j], xp[j], xm[j], kp)
         sig[j] = s
         k = int(kw[j, W_MOD])
         t = kw[j, W_NW] * aw * s * kw[j, W_A]
@@ -288,13 +363,16 @@ def _predict(omega, sens, dm, scale, out):
 
 
 @jit
-def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
+def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
     Converged when the last shape pass moved ω by less than tol_theta and either the residual
     max|G − M| or the Newton step ΔM is below tol_moment. The residual is tested first, as it needs
     no Jacobian; in the planar case |ΔM| = |G − M| / (1 − J) <= |G − M| (J <= 0), so whenever the
     residual test passes the planar step test passes too, and the decisions are the planar ones.
+
+    With ``known``, wk[WK_EPS] already holds the strains of the starting shape (the last converged
+    one: only the fractions changed), so the first iteration takes its stresses from them.
 
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
@@ -307,8 +385,11 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     ns = omega.shape[0]
     e = np.inf
     passes = 0
-    for _ in range(int(ks[S_MAXROOT])):
-        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+    for it in range(int(ks[S_MAXROOT])):
+        if known and it == 0:
+            strain_mechanics(xp, xm, kp, kw, wk)
+        else:
+            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         if e < tol_th and _residual_norm(mw, wk) < tol_m:
             return OK, passes
         big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
@@ -481,7 +562,7 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
-def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False):
+def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False):
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
     Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
@@ -490,6 +571,7 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
     state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
     reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
+    ``known``: ``eps`` are the strains of the starting shape ω (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
     saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
@@ -497,7 +579,11 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     copy_pairs(saved_m, mw)
     if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
         return ERR_BUCKLING, 0
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    if known:
+        e_start = wk[WK_EPS]
+        for j in range(eps.shape[0]):
+            e_start[j] = eps[j]
+    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known)
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
@@ -582,7 +668,7 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
                 sens[r, c] += f * (mf[c] - sf[c])
 
 
-# ---------------------------------------------------------------- time step (MODEL.md §6.1)
+# ---------------------------------------------------------------- time step (MODEL.md §6.1, §6.5)
 @jit
 def _choose_h(rem, dt, r, ks):
     """Sub-step size of MODEL.md §6.1 b, exactly as solver.advance."""
@@ -598,24 +684,21 @@ def _choose_h(rem, dt, r, ks):
 
 
 @jit
-def _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk):
-    """Phases (implicit Euler), Joule and latent heat, implicit convection for every wire (§6.1 c–f).
+def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
+    """Joule and latent heat, implicit convection of every wire for the new fractions ``xs`` (§6.1 d–f).
 
-    Writes the new temperatures and energy accumulators (the state's per-wire blocks passed in)
-    and the new fractions into wk[WK_XNEW]. Returns (status, whether any fraction moved).
+    Writes the new temperatures and energy accumulators (the state's per-wire blocks passed in).
+    Returns (status, whether any fraction moved).
     """
-    nw = kw.shape[0]
-    rt = wk[WK_RATES]
-    xnew = wk[WK_XNEW]
     rhoc = kp[K_RHOC]
     asv = kp[K_ASV]
     t_e = kp[K_TE]
     moved = False
     ok = True
-    for j in range(nw):
-        l0sq = kw[j, W_L0] * kw[j, W_L0]
-        xp2, xm2 = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
-        jj = (volts[j] * volts[j] / l0sq) / resistivity(xp2, xm2, kp)
+    for j in range(xp.shape[0]):
+        xp2 = xs[2 * j]
+        xm2 = xs[2 * j + 1]
+        jj = jnum[j] / resistivity(xp2, xm2, kp)
         lp, lm = latent_heats(sig[j], kp)
         q = lp * (xp2 - xp[j]) + lm * (xm2 - xm[j])
         t2 = (temp[j] + (h * jj + h * asv * t_e + q) / rhoc) / (1.0 + h * asv / rhoc)
@@ -623,8 +706,6 @@ def _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk):
         qc[j] += h * asv * (t2 - t_e)
         ql[j] += q
         temp[j] = t2
-        xnew[j, 0] = xp2
-        xnew[j, 1] = xm2
         if xp2 != xp[j] or xm2 != xm[j]:
             moved = True
         if not math.isfinite(t2):
@@ -637,8 +718,356 @@ def _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk):
 
 
 @jit
+def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
+    """Store the new fractions wk[WK_XS] and re-solve the composite module (§6.1 g), then the
+    Broyden update of S from the two converged shapes; wk[WK_SAVED_W], wk[WK_SAVED_M] keep the
+    starting shape and moments (:func:`solve_mechanics` saves them).
+
+    Unchecked (a failure is still classified); the output step's end is checked by the caller.
+    Returns (status, shape passes).
+    """
+    xs = wk[WK_XS]
+    for j in range(xp.shape[0]):
+        xp[j] = xs[2 * j]
+        xm[j] = xs[2 * j + 1]
+    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
+    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True)
+    if st == OK:
+        _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
+    return st, p
+
+
+@jit
+def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
+    """One sub-step of MODEL.md §6.1 as written (rates frozen at its start, r·h <= c), as
+    :func:`.solver._substep_frozen` for every wire. Returns (status, h, shape passes, solved)."""
+    xp, xm, temp, sig, eps, qj, qc, ql = wb
+    rt = wk[WK_RATES]
+    xs = wk[WK_XS]
+    r = 0.0
+    for j in range(xp.shape[0]):  # a. rates once per sub-step, b. step size
+        ppA, pAp, pmA, pAm = rates(sig[j], temp[j], kp)
+        rt[j, 0] = ppA
+        rt[j, 1] = pAp
+        rt[j, 2] = pmA
+        rt[j, 3] = pAm
+        r = max(r, step_rate(xp[j], xm[j], ppA, pAp, pmA, pAm))
+    h = _choose_h(rem, dt, r, ks)
+    for j in range(xp.shape[0]):  # c. implicit Euler on the phases
+        xs[2 * j], xs[2 * j + 1] = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
+    st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], h, xs)  # d.–f.
+    if st != OK or not moved:
+        return st, h, 0, False
+    st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)  # g.
+    return st, h, p, True
+
+
+@jit
+def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
+    """dσ/dx of the composite equilibrium under fixed loads into wk[WK_DSDX] (W, 2W) (MODEL.md §6.5).
+
+    Column 2j is x₊ of wire j, 2j + 1 its x₋. At fixed strain the constitutive law §3.6 gives
+    ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E), ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when
+    slack), which moves G by dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M)
+    then moves by dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by
+    E*_i (dL_i/dM) dM / L_ref,i. The planar layout gives :func:`.solver.stress_sensitivity`.
+    """
+    nw = kw.shape[0]
+    nm = km.shape[0]
+    wsig = wk[WK_SIG]
+    for j in range(nw):
+        wsig[j] = sig[j]
+    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)  # J into wk[WK_JAC], length sums into wk[WK_GAIN]
+    inv = wk[WK_INV]
+    lu = wk[WK_LU][: 2 * nm, : 2 * nm]
+    col = wk[WK_DM]
+    jac = wk[WK_JAC]
+    for c in range(2 * nm):  # (I − J)⁻¹ column by column
+        for r in range(2 * nm):
+            for q in range(2 * nm):
+                lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
+            col[r] = 1.0 if r == c else 0.0
+        if not solve_in_place(lu, col):
+            return False
+        for r in range(2 * nm):
+            inv[r, c] = col[r]
+    dsdx = wk[WK_DSDX]
+    dmdx = wk[WK_DMDX]
+    gs = wk[WK_GAIN]
+    eps_t = kp[K_EPST]
+    k_e = kp[K_KE]
+    aw = kp[K_AW]
+    for r in range(2 * nm):
+        for c in range(2 * nw):
+            dmdx[r, c] = 0.0
+    for j in range(nw):
+        for c in range(2 * nw):
+            dsdx[j, c] = 0.0
+        if sig[j] <= 0.0:
+            continue
+        e_star = 1.0 / compliance(xp[j], xm[j], kp)
+        d_p = -e_star * (eps_t + sig[j] * k_e)
+        d_m = e_star * (eps_t - sig[j] * k_e)
+        dsdx[j, 2 * j] = d_p
+        dsdx[j, 2 * j + 1] = d_m
+        k = int(kw[j, W_MOD])
+        t = kw[j, W_NW] * aw * kw[j, W_A]
+        for r in range(2 * nm):  # dM/dx_j = (I − J)⁻¹ dG/dx_j, dG_k = t e_j dσ_j
+            f = inv[r, 2 * k] * kw[j, W_EX] + inv[r, 2 * k + 1] * kw[j, W_EY]
+            dmdx[r, 2 * j] += t * f * d_p
+            dmdx[r, 2 * j + 1] += t * f * d_m
+    for i in range(nw):
+        if sig[i] <= 0.0:
+            continue
+        g = 1.0 / (compliance(xp[i], xm[i], kp) * kw[i, W_LREF])
+        for r in range(2 * nm):
+            dl = g * length_slope(i, gs, r, kw, km)
+            if dl == 0.0:
+                continue
+            for c in range(2 * nw):
+                dsdx[i, c] += dl * dmdx[r, c]
+    return True
+
+
+@jit
+def _active_wires(x0, rt, h, act):
+    """Indices of the wires that transform over h into ``act`` (W + 1; the count in act[W]).
+
+    A wire for which :func:`.coupled.quiet` holds on its own (every active transition · h <=
+    QUIET_RH) moves its fractions by less than 1e-9 over the step: its coupling terms in the step's
+    matrix are below round-off (as for the planar core's quiet step), and through dσ/dx it moves the
+    other wires' stresses by Pa. It takes the frozen-rate step and leaves the linear system, so
+    unpowered wires away from their transformation cost no sensitivity column and no matrix rows.
+    """
+    nw = rt.shape[0]
+    na = 0
+    for j in range(nw):
+        if not quiet(x0[2 * j : 2 * j + 2], rt[j : j + 1], h):
+            act[na] = j
+            na += 1
+    act[nw] = na
+    return na
+
+
+@jit
+def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
+    """Linearly implicit Euler step of every wire's fractions over h into wk[WK_XS] (MODEL.md §6.5;
+    cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires` through the coupled
+    system, whose LU factors stay in wk[WK_LU] for the error estimate, the quiet ones by the
+    frozen-rate step. Returns False if the system is singular."""
+    nw = kw.shape[0]
+    x0 = wk[WK_X0]
+    xs = wk[WK_XS]
+    rt = wk[WK_RT]
+    act = wk[WK_ACT]
+    for j in range(nw):
+        x0[2 * j] = xp[j]
+        x0[2 * j + 1] = xm[j]
+        xs[2 * j], xs[2 * j + 1] = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
+    na = _active_wires(x0, rt, h, act)
+    if na == 0:
+        return True
+    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
+        return False
+    dsdx = wk[WK_DSDX]
+    jnum = wk[WK_JNUM]
+    xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
+    for a in range(na):  # the active wires' rows and columns
+        j = act[a]
+        xa[2 * a] = xp[j]
+        xa[2 * a + 1] = xm[j]
+        rta[a, :] = rt[j]
+        for b in range(na):
+            q = act[b]
+            sa[a, 2 * b] = dsdx[j, 2 * q]
+            sa[a, 2 * b + 1] = dsdx[j, 2 * q + 1]
+        a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
+    m = 2 * na
+    lu = wk[WK_LU][:m, :m]
+    vec = wk[WK_VEC][:m]
+    linear_system(xa[:m], rta[:na], sa[:na, :m], h, a_t[:na], b_t[:na], lu, vec)
+    if not lu_factor(lu, wk[WK_PIV]):
+        return False
+    lu_solve(lu, wk[WK_PIV], vec)
+    for a in range(na):
+        j = act[a]
+        xs[2 * j], xs[2 * j + 1] = clip_fractions(xp[j] + vec[2 * a], xm[j] + vec[2 * a + 1])
+    return True
+
+
+@jit
+def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
+    """One wire's share of the coupled step's error estimate (cf. :func:`.solver._coupled_error`).
+
+    Returns (the larger of ½ h |F₁ − F₀| of each fraction and ½ h |Ṫ₁ − Ṫ₀| / T_PER_FRACTION, and the
+    residual h F₁ − Δx of x₊ and x₋ of the exact implicit Euler equations), F = kinetics §3.5.
+    """
+    f0p, f0m = kinetics(x0p, x0m, r0)
+    f1p, f1m = kinetics(x1p, x1m, r1)
+    trunc = max(0.5 * h * abs(f1p - f0p), 0.5 * h * abs(f1m - f0m))
+    d0 = heating_rate(t0, x0p, x0m, f0p, f0m, sig0, j_num, kp)
+    d1 = heating_rate(t1, x1p, x1m, f1p, f1m, sig1, j_num, kp)
+    trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
+    return trunc, h * f1p - (x1p - x0p), h * f1m - (x1m - x0m)
+
+
+@jit
+def _coupled_error(temp, sig, kp, kw, h, wk):
+    """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
+    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix that of the active wires
+    (the identity for the quiet ones); wk[WK_X0]/wk[WK_RT]/wk[WK_BACKUP] hold the start,
+    wk[WK_XS]/wk[WK_RT_NEW] and ``temp``, ``sig`` the end of the step."""
+    nw = kw.shape[0]
+    x0 = wk[WK_X0]
+    xs = wk[WK_XS]
+    rt = wk[WK_RT]
+    rt1 = wk[WK_RT_NEW]
+    back = wk[WK_BACKUP]
+    jnum = wk[WK_JNUM]
+    vec = wk[WK_VEC]
+    o_t = wire_offset(F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    act = wk[WK_ACT]
+    na = act[nw]
+    e = 0.0
+    for j in range(nw):
+        i = 2 * j
+        tw, vec[i], vec[i + 1] = wire_error(
+            h, x0[i], x0[i + 1], xs[i], xs[i + 1], rt[j], rt1[j], back[o_t + j], temp[j],
+            back[o_s + j], sig[j], jnum[j], kp,
+        )  # fmt: skip
+        e = max(e, tw)
+    if na == 0:  # the filter is the identity
+        for i in range(2 * nw):
+            e = max(e, abs(vec[i]))
+        return e
+    ra = wk[WK_XA]  # the active wires' residuals through the step's own matrix
+    for a in range(na):
+        j = act[a]
+        ra[2 * a] = vec[2 * j]
+        ra[2 * a + 1] = vec[2 * j + 1]
+        vec[2 * j] = 0.0
+        vec[2 * j + 1] = 0.0
+    m = 2 * na
+    lu_solve(wk[WK_LU][:m, :m], wk[WK_PIV], ra[:m])
+    for i in range(m):
+        e = max(e, abs(ra[i]))
+    for i in range(2 * nw):  # the quiet wires' (identity rows)
+        e = max(e, abs(vec[i]))
+    return e
+
+
+@jit
+def _end_rates(sig, temp, kp, wk):
+    """Rates and slopes at the end of a sub-step into wk[WK_RT_NEW]; a wire whose (σ, T) did not
+    change over it (an unpowered slack wire) keeps its start-of-step row, computed once."""
+    nw = sig.shape[0]
+    back = wk[WK_BACKUP]
+    o_t = wire_offset(F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    rt = wk[WK_RT]
+    rt1 = wk[WK_RT_NEW]
+    for j in range(nw):
+        if sig[j] == back[o_s + j] and temp[j] == back[o_t + j]:
+            for q in range(12):
+                rt1[j, q] = rt[j, q]
+        else:
+            rates_and_slopes(sig[j], temp[j], kp, rt1[j])
+
+
+@jit
+def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
+    """One accepted sub-step of the coupled scheme (default), as :func:`.solver._substep_coupled`
+    for every wire: the linearly implicit Euler step with the rates at the end-of-step stress
+    (through the composite equilibrium's dσ/dx) and temperature, a local error estimate against
+    tol_x, rejection and retry shorter, the next step proposed as h · 0.9 (tol/err)^½ (kept in
+    the state). Returns (status, h taken, shape passes, whether the mechanics were solved)."""
+    xp, xm, temp, sig, eps, qj, qc, ql = wb
+    nw, nm, ns = kw.shape[0], km.shape[0], omega.shape[0]
+    io = hnext_offset(nw, nm, ns)
+    back = wk[WK_BACKUP]
+    saved_w = wk[WK_SAVED_W]
+    tol = ks[S_TOLX]
+    h_min = ks[S_HMIN]
+    h = state[io]
+    if not h > 0.0:
+        h = rem
+    h = min(h, ks[S_HMAX])
+    nb = back.shape[0]
+    for i in range(nb):
+        back[i] = state[i]
+    passes = 0
+    while True:
+        hh = _last_h(rem, dt, h)
+        if not _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk):
+            return ERR_NONFINITE, hh, passes, False
+        st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], hh, wk[WK_XS])
+        solved = False
+        if st == OK and moved:
+            st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+            passes += p
+            solved = True
+        if st != OK:
+            return st, hh, passes, solved
+        _end_rates(sig, temp, kp, wk)
+        err = _coupled_error(temp, sig, kp, kw, hh, wk) / tol
+        fac = step_factor(err)
+        if err <= 1.0 or hh <= h_min:
+            wk[WK_RT][:, :] = wk[WK_RT_NEW]
+            h_next = hh * fac
+            if hh < h:  # truncated at the end of the output step: keep the larger proposal
+                h_next = max(h_next, h)
+            state[io] = h_next
+            return OK, hh, passes, solved
+        for i in range(nb):  # rejected: back to the start of the sub-step
+            state[i] = back[i]
+        if solved:
+            copy_pairs(omega, saved_w)
+        h = max(hh * min(fac, 0.5), h_min)
+
+
+@jit
+def _load_rates(state, kp, kw, km, ns, rt):
+    """Every wire's rates and slopes at its (σ, T) into ``rt`` (W, 12): from the state's rate cache
+    where it was filled at exactly this (σ, T) and these constants, else computed."""
+    nw, nm = kw.shape[0], km.shape[0]
+    ko = rate_key_offset(nw, nm, ns)
+    co = rate_cache_offset(nw, nm, ns)
+    sig = wire_block(state, F_SIG, nw)
+    temp = wire_block(state, F_T, nw)
+    same_kp = True
+    for k in range(len(RATE_KP)):
+        same_kp = same_kp and state[ko + k] == kp[RATE_KP[k]]
+    for j in range(nw):
+        c = co + RCACHE_WIRE * j
+        if same_kp and state[c] == sig[j] and state[c + 1] == temp[j]:
+            for q in range(12):
+                rt[j, q] = state[c + 2 + q]
+        else:
+            rates_and_slopes(sig[j], temp[j], kp, rt[j])
+
+
+@jit
+def _store_rates(state, kp, kw, km, ns, rt):
+    """Keep the rates ``rt`` at every wire's (σ, T) and the constants for the next output step."""
+    nw, nm = kw.shape[0], km.shape[0]
+    ko = rate_key_offset(nw, nm, ns)
+    co = rate_cache_offset(nw, nm, ns)
+    sig = wire_block(state, F_SIG, nw)
+    temp = wire_block(state, F_T, nw)
+    for k in range(len(RATE_KP)):
+        state[ko + k] = kp[RATE_KP[k]]
+    for j in range(nw):
+        c = co + RCACHE_WIRE * j
+        state[c] = sig[j]
+        state[c + 1] = temp[j]
+        for q in range(12):
+            state[c + 2 + q] = rt[j, q]
+
+
+@jit
 def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
-    """Advance one spatial spine by one output step ``dt`` (MODEL.md §6.1; cf. solver.advance).
+    """Advance one spatial spine by one output step ``dt`` (MODEL.md §6.1, §6.5; cf. solver.advance).
 
     Args:
         state: spatial state (see :mod:`.spatial_layout`), updated in place.
@@ -649,70 +1078,69 @@ def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
         dt: output step [s].
         resolve: solve the mechanics first (the loads changed since the last call).
 
-    Under loads that might buckle the spine (:func:`.spatial_stability.needs_stability_check`)
-    the re-solve and the shape the step ends on are checked for stability, as in the planar
-    core; an unstable equilibrium ends the step with ERR_BUCKLING.
+    Allocates its work arrays; a time loop passes them to :func:`advance_in`, the same step.
 
     Returns:
         (status, sub-steps, shape passes).
     """
     nw, nm, ns = sizes(kw, km)
-    wk = make_work(nw, nm, ns)
+    return advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, make_work(nw, nm, ns))
+
+
+@jit
+def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
+    """:func:`advance` with the work arrays ``wk`` of :func:`make_work` (no allocation).
+
+    The sub-steps are those of the option ``scheme``: :func:`_substep_coupled` (default) or
+    :func:`_substep_frozen`. Under loads that might buckle the spine
+    (:func:`.spatial_stability.needs_stability_check`) the re-solve and the shape the step ends on
+    are checked for stability, as in the planar core; an unstable equilibrium ends the step with
+    ERR_BUCKLING.
+    """
+    nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
-    xp = wire_block(state, F_XP, nw)
-    xm = wire_block(state, F_XM, nw)
-    temp = wire_block(state, F_T, nw)
-    sig = wire_block(state, F_SIG, nw)
-    eps = wire_block(state, F_EPS, nw)
-    qj = wire_block(state, F_QJ, nw)
-    qc = wire_block(state, F_QC, nw)
-    ql = wire_block(state, F_QL, nw)
-    rt = wk[WK_RATES]
-    xnew = wk[WK_XNEW]
-    saved_w = np.empty((ns, 2))
-    saved_m = np.empty((nm, 2))
+    wb = (
+        wire_block(state, F_XP, nw),
+        wire_block(state, F_XM, nw),
+        wire_block(state, F_T, nw),
+        wire_block(state, F_SIG, nw),
+        wire_block(state, F_EPS, nw),
+        wire_block(state, F_QJ, nw),
+        wire_block(state, F_QC, nw),
+        wire_block(state, F_QL, nw),
+    )
+    xp, xm, sig, eps = wb[0], wb[1], wb[3], wb[4]
     passes = 0
     check = needs_stability_check(vforce, kp, km)
     if resolve:
         st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check)
         if st != OK:
             return st, 0, passes
+    jnum = wk[WK_JNUM]
+    for j in range(nw):
+        jnum[j] = volts[j] * volts[j] / (kw[j, W_L0] * kw[j, W_L0])
+    coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
+    if coupled:
+        _load_rates(state, kp, kw, km, ns, wk[WK_RT])
     solved = False
     max_sub = int(ks[S_MAXSUB])
     rem = dt
     nsub = 0
     while rem > 0.0:
-        # a. rates once per sub-step, b. step size from the fastest active transition
-        r = 0.0
-        for j in range(nw):
-            ppA, pAp, pmA, pAm = rates(sig[j], temp[j], kp)
-            rt[j, 0] = ppA
-            rt[j, 1] = pAp
-            rt[j, 2] = pmA
-            rt[j, 3] = pAm
-            r = max(r, _step_rate(xp[j], xm[j], ppA, pAp, pmA, pAm))
-        h = _choose_h(rem, dt, r, ks)
-        # c.–f. phases, heat balance, energy bookkeeping
-        st, moved = _thermal_update(xp, xm, temp, sig, qj, qc, ql, kp, kw, volts, h, wk)
+        if coupled:
+            st, h, p, sol = _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
+        else:
+            st, h, p, sol = _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
+        passes += p
+        solved = solved or sol
         if st != OK:
             return st, nsub, passes
-        # g. composite solve only when a fraction moved
-        if moved:
-            for j in range(nw):
-                xp[j] = xnew[j, 0]
-                xm[j] = xnew[j, 1]
-            copy_pairs(saved_w, omega)
-            copy_pairs(saved_m, mw)
-            st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
-            passes += p
-            solved = True
-            if st != OK:  # unchecked (a failure is still classified); the step's end is checked below
-                return st, nsub, passes
-            _secant_update(sens, omega, saved_w, mw, saved_m)
         rem -= h
         nsub += 1
         if nsub > max_sub:
             return ERR_SUBSTEPS, nsub, passes
+    if coupled:
+        _store_rates(state, kp, kw, km, ns, wk[WK_RT])
     # h. stability of the shape the step ends on (once per output step, as solver.advance)
     if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
         return ERR_BUCKLING, nsub, passes
@@ -833,7 +1261,7 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
     for k in range(n):
         vf = loads[k] if varying else loads[0]
         resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
-        st, a, b = advance(state, kp, ks, kw, km, volts[k], vf, dt, resolve)
+        st, a, b = advance_in(state, kp, ks, kw, km, volts[k], vf, dt, resolve, wk)
         nsub += a
         npass += b
         if st != OK:
@@ -853,10 +1281,12 @@ def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
         status: (B,) output, the first failure of each spine (a failed spine stops there).
     """
     b = states.shape[0]
+    nw, nm, ns = sizes(kw, km)
     for i in numba.prange(b):
         status[i] = OK
+        wk = make_work(nw, nm, ns)
         for _ in range(n_steps):
-            st, _a, _c = advance(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt)
+            st, _a, _c = advance_in(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt, True, wk)
             if st != OK:
                 status[i] = st
                 break

@@ -131,3 +131,57 @@ def solve_in_place(a, b):
             acc -= a[k, j] * b[j]
         b[k] = acc / a[k, k]
     return True
+
+
+@jit
+def lu_factor(a, piv):
+    """LU factorisation with partial pivoting of ``a`` in place (L below the diagonal, unit
+    diagonal implied; U on and above), row exchanges into ``piv``: for one matrix and several
+    right-hand sides (:func:`lu_solve`) where :func:`solve_in_place` would eliminate again.
+
+    Returns:
+        False if ``a`` is singular to working precision.
+    """
+    n = a.shape[0]
+    for k in range(n):
+        p = k
+        big = abs(a[k, k])
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > big:
+                big = abs(a[i, k])
+                p = i
+        if big == 0.0 or not math.isfinite(big):
+            return False
+        piv[k] = p
+        if p != k:
+            for j in range(n):
+                t = a[k, j]
+                a[k, j] = a[p, j]
+                a[p, j] = t
+        for i in range(k + 1, n):
+            f = a[i, k] / a[k, k]
+            a[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    a[i, j] -= f * a[k, j]
+    return True
+
+
+@jit
+def lu_solve(lu, piv, b):
+    """Solve a x = b in place (x → ``b``) with the factors of :func:`lu_factor`."""
+    n = lu.shape[0]
+    for k in range(n):  # P b (the exchanges swapped whole rows, multipliers included: P A = L U)
+        p = piv[k]
+        if p != k:
+            t = b[k]
+            b[k] = b[p]
+            b[p] = t
+    for k in range(n):
+        for i in range(k + 1, n):
+            b[i] -= lu[i, k] * b[k]
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for j in range(k + 1, n):
+            acc -= lu[k, j] * b[j]
+        b[k] = acc / lu[k, k]
