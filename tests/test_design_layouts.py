@@ -121,7 +121,7 @@ def test_cli_sweeps_layouts(tmp_path):
     cmd = [sys.executable, "-m", "spine_gym.design", "sweep", "--param", "n_modules=1,2", "--param",
            "a=8e-3,12e-3", "--protocol", "t_stable=10,t_respond=6,t_load=4", "--no-progress",
            "--out", str(out)]  # fmt: skip
-    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)  # a cold spatial compile alone takes 1.5-3 min
     assert r.returncode == 0, r.stderr
     assert "4 designs" in r.stdout and (out / "curves_n_modules.png").exists()
     bad = subprocess.run(cmd[:5] + ["n_modules=0,1"], cwd=ROOT, capture_output=True, text=True, timeout=120)

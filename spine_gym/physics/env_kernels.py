@@ -29,7 +29,7 @@ from ._jit import jit, pjit
 from .batch import record
 from .layout import ERR_NONFINITE, OK
 from .solver import advance
-from .spatial_solver import advance as spatial_advance
+from .spatial_solver import advance_in as spatial_advance_in
 from .spatial_solver import make_work, sizes
 from .spatial_solver import record as spatial_record
 
@@ -112,9 +112,11 @@ def _step_many_spatial(
         status[i] = OK
         for q in range(s):
             backup[i, q] = states[i, q]
+        nw, nm, ns = sizes(kws[i], kms[i])
+        wk = make_work(nw, nm, ns)  # once per spine and env step, shared by its sub-steps and record
         for j in range(n_sub):
-            st, _, _ = spatial_advance(
-                states[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], dt, resolve[i] and j == 0
+            st, _, _ = spatial_advance_in(
+                states[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], dt, resolve[i] and j == 0, wk
             )
             if st == OK and not _all_finite(states[i]):
                 st = ERR_NONFINITE
@@ -123,8 +125,7 @@ def _step_many_spatial(
                 for q in range(s):
                     states[i, q] = backup[i, q]
                 break
-        nw, nm, ns = sizes(kws[i], kms[i])
-        spatial_record(states[i], kps[i], kws[i], kms[i], make_work(nw, nm, ns), rec[i])
+        spatial_record(states[i], kps[i], kws[i], kms[i], wk, rec[i])
 
 
 step_many_spatial = pjit(_step_many_spatial)
