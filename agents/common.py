@@ -39,6 +39,9 @@ SPECIAL_KEYS = (
     "lagrangian_init",
     "lagrangian_lr",
     "budget_episodes",
+    "budget_window",
+    "obs_integral",
+    "obs_integral_limit",
 )
 
 
@@ -127,6 +130,11 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("lagrangian_init", 0.5)
     special.setdefault("lagrangian_lr", 0.5)
     special.setdefault("budget_episodes", 16)
+    special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
+    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of agents.integral
+    special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
     if special["residual"] in (None, "none", "None", False):
         special["residual"] = None
+    if special["obs_integral"] in (None, "none", "None", False):
+        special["obs_integral"] = None
     return hp, special

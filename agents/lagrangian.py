@@ -11,7 +11,10 @@ than the tuned PID* is only found by trial. Here the energy term becomes a Lagra
 
     λ ← clip(λ · exp(η · (Ē / budget − 1)), λ_min, λ_max)
 
-with Ē the mean energy of the episodes finished in the last rollouts. The budget is the tuned PID's
+with Ē the mean energy of the episodes finished in the last rollouts: the last ``window`` of them,
+or (``window = 0``) only those finished since the previous dual step. A long window lags: from a
+random initial policy the mean stayed ~1.75 × the budget for ~20 rollouts while λ climbed to its
+cap (a run of this session), and then needs as long to come down; ``window = 0`` reacts at once. The budget is the tuned PID's
 mean episode energy on the training distribution (validation reset seeds, never the evaluation
 suite): :func:`agents.runtime.validation_scores`.
 
@@ -56,19 +59,23 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
         budget_J: the energy budget per episode [J].
         energy_ref_J: the env's energy normaliser E_ref [J] (one control period at full power).
         lam0: initial λ (the env's default energy weight is 0.5).
-        window: how many finished episodes the mean energy Ē is taken over.
+        window: how many finished episodes the mean energy Ē is taken over (>= 0; 0: those
+            finished since the previous :meth:`dual_ratio`).
     """
 
     def __init__(
         self, venv: VecEnv, budget_J: float, energy_ref_J: float, lam0: float = 0.5, window: int = 32
     ):
         check_budget_args(budget_J, energy_ref_J, lam0, 1.0)
+        if isinstance(window, bool) or int(window) != window or window < 0:
+            raise ValueError(f"budget_window must be an integer >= 0 (0: since the last dual step), got {window!r}")
         super().__init__(venv)
         self.budget = float(budget_J)
         self.energy_ref = float(energy_ref_J)
         self.lam = float(lam0)
         self._episode_energy = np.zeros(self.num_envs)
-        self.finished = deque(maxlen=int(window))
+        self.window = int(window)
+        self.finished = deque(maxlen=self.window or None)
 
     def reset(self) -> np.ndarray:
         self._episode_energy[:] = 0.0
@@ -89,6 +96,13 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
         """Mean finished-episode energy / budget (``None`` before the first episode ends)."""
         return float(np.mean(self.finished)) / self.budget if self.finished else None
 
+    def dual_ratio(self) -> float | None:
+        """:meth:`energy_ratio` for the dual step; with ``window = 0`` it starts a new window."""
+        ratio = self.energy_ratio()
+        if self.window == 0:
+            self.finished.clear()
+        return ratio
+
 
 class LagrangianCallback(BaseCallback):
     """Dual ascent on λ of an :class:`EnergyBudgetVecEnv` after each rollout (multiplicative)."""
@@ -106,7 +120,7 @@ class LagrangianCallback(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        ratio = self.budget_env.energy_ratio()
+        ratio = self.budget_env.dual_ratio()
         if ratio is None:
             return
         self.budget_env.lam = dual_step(self.budget_env.lam, ratio, self.eta, self.lam_range)

@@ -152,6 +152,8 @@ class ResidualPolicy:
 
     def reset(self) -> None:
         self.base.reset()
+        if hasattr(self.model, "reset"):
+            self.model.reset()
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
         # the baseline checks shape and type, the model (SavedPolicy) that every entry is finite
@@ -159,7 +161,7 @@ class ResidualPolicy:
         single = np.ndim(observation) == 1
         obs2 = np.atleast_2d(np.asarray(observation, dtype=np.float32))
         base_a = np.asarray(base_a, dtype=np.float32).reshape(obs2.shape[0], -1)
-        res, _ = self.model.predict(np.concatenate([obs2, base_a], axis=1), None, None, deterministic)
+        res, _ = self.model.predict(np.concatenate([obs2, base_a], axis=1), None, episode_start, deterministic)
         action = combine(base_a, np.asarray(res).reshape(base_a.shape), self.scale)
         return (action[0] if single else action), None
 

@@ -6,7 +6,8 @@
   (its v_max, control period, temperature guard, tuned settings from :func:`load_tuned`).
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
-  :class:`agents.residual.ResidualPolicy`), so the evaluation treats it like any controller.
+  :class:`agents.residual.ResidualPolicy`, one trained with the integral-of-error observation
+  wrapped in :class:`agents.integral.IntegralObsPolicy`), so the evaluation treats it like any controller.
 * :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`;
   :func:`validation_scores` — mean RMSE and energy over the validation episodes.
 
@@ -28,6 +29,7 @@ import yaml
 import spine_gym  # noqa: F401 - registers the env
 
 from .common import ENV_ID
+from .integral import IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .residual import ResidualPolicy
@@ -249,7 +251,8 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
 
     A folder must hold ``model.zip`` (or ``best_model.zip``/``<env id>.zip``), optionally
     ``vecnormalize.pkl`` and ``meta.json``. For a ``.zip`` file the ``VecNormalize`` statistics
-    are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``).
+    are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``), and
+    a checkpoint in a run's ``checkpoints/`` reads the run's ``meta.json``.
     """
     from stable_baselines3 import PPO, SAC
 
@@ -266,6 +269,8 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     else:
         folder = path.parent
         model_path = path
+    if folder.name == "checkpoints" and not (folder / "meta.json").exists():
+        folder = folder.parent  # a checkpoint of agents.train: the run's meta.json (wrappers) is there
     meta = {}
     if (folder / "meta.json").exists():
         meta = json.loads((folder / "meta.json").read_text())
@@ -288,6 +293,8 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
             break
     meta.setdefault("algo", algo)
     policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
+    if meta.get("obs_integral"):  # the integral is appended last: after the residual's base action
+        policy = IntegralObsPolicy(policy, IntegralSpec.from_dict(meta["obs_integral"]), name=policy.name)
     if meta.get("residual"):
         return ResidualPolicy(policy, meta["residual"], name=policy.name)
     return policy

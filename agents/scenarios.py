@@ -144,6 +144,16 @@ HARD_PAYLOAD_KG = (0.05, 0.09)  # [kg]; the issue asked for up to 0.15 kg, which
 HARD_PUSH_N = (0.3, 1.0)  # [N] magnitude of each tip push
 HARD_TILT_DEG = 20.0  # [deg] largest tilt of a push from the horizontal (up or down)
 HARD_PUSHES = 3
+# the hard group's plants and loads as a *training/validation distribution* of the env's own
+# samplers (env kwargs): randomised plant, payload 0-90 g, 0-3 tip forces up to 0.8 N in any
+# direction (the env draws the direction globally, so the cap stays below HARD_PUSH_N's 1 N to keep
+# a downward push plus the heaviest payload off the buckling load); it contains the light loads too
+HARD_LIKE_KWARGS = {
+    "domain_randomization": True,
+    "payload_range": (0.0, HARD_PAYLOAD_KG[1]),
+    "tip_force_range": (0.0, 0.8),
+    "tip_force_count": (0, HARD_PUSHES),
+}
 
 
 def _hard(k: int, duration: float):

@@ -13,8 +13,8 @@ energy [J] per model, and the ratio of both to the PID's.
 
 ``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
 model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
-default observation (``agents.runtime.OBSERVATION_KWARGS`` such as ``target_preview`` are the
-policy's, not the reference's).
+default observation, each model with its own (``agents.runtime.OBSERVATION_KWARGS`` such as
+``target_preview`` are the policy's, not the reference's: a model's own value wins over a given one).
 
 Selecting the shipped policies this way keeps the evaluation suite a test set: the suite's numbers
 are not what the models were picked by.
@@ -67,9 +67,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
         for t in targets:
             pol = load_policy(t)
-            kw = args.env_kwargs
-            if kw is None:
-                kw = {k: v for k, v in getattr(pol, "env_kwargs", {}).items() if k != "episode_duration"}
+            own = getattr(pol, "env_kwargs", {})
+            if args.env_kwargs is None:
+                kw = {k: v for k, v in own.items() if k != "episode_duration"}
+            else:  # the given distribution, observed as the model was trained to (its preview)
+                kw = {**args.env_kwargs, **{k: own[k] for k in OBSERVATION_KWARGS if k in own}}
             r, e = validation_scores(pol, args.episodes, kw)
             rows.append(
                 {

@@ -29,7 +29,13 @@ Lagrange multiplier that dual ascent adjusts after every rollout so that the mea
 meets the budget (:mod:`agents.lagrangian`); ``pid`` is the tuned PID's mean energy on
 ``budget_episodes`` validation episodes of the training distribution (with the env's default
 observation: a longer ``target_preview`` of the policy is not given to the PID). ``lagrangian_init`` and
-``lagrangian_lr`` set the initial multiplier and its step; the budget goes into ``meta.json``.
+``lagrangian_lr`` set the initial multiplier and its step, ``budget_window`` how many finished
+episodes the mean energy of the dual step is taken over (default 32; 0: the episodes finished
+since the previous dual step); the budget goes into ``meta.json``.
+
+``obs_integral: <τ [s] or inf>`` appends the (leaky) integral of the tracking error to the
+observation (:mod:`agents.integral`; ``obs_integral_limit`` its clip, default 300 deg s); its
+settings go into ``meta.json``, so :func:`agents.runtime.load_policy` rebuilds it for evaluation.
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ import yaml
 
 from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
+from .integral import IntegralObsVecEnv, IntegralSpec
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
@@ -198,12 +205,25 @@ def train(argv: list[str] | None = None) -> Path:
         env = ResidualVecEnv(env, spec)
         if eval_env is not None:
             eval_env = ResidualVecEnv(eval_env, spec)
+    if special["obs_integral"] is not None:
+        # the integral-of-error observation (agents.integral), above the residual's baseline
+        probe = make_env(env_kwargs, env_id=args.env)
+        ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
+        probe.close()
+        meta["obs_integral"] = ispec.to_dict()
+        env = IntegralObsVecEnv(env, ispec)
+        if eval_env is not None:
+            eval_env = IntegralObsVecEnv(eval_env, ispec)
     budget_env = None
     if special["energy_budget"] is not None:
         budget = energy_budget(special["energy_budget"], env_kwargs, int(special["budget_episodes"]))
         probe = make_env(env_kwargs)
         budget_env = EnergyBudgetVecEnv(
-            env, budget, probe.config.energy_reference, lam0=float(special["lagrangian_init"])
+            env,
+            budget,
+            probe.config.energy_reference,
+            lam0=float(special["lagrangian_init"]),
+            window=int(special["budget_window"]),
         )
         probe.close()
         env = budget_env
@@ -284,7 +304,7 @@ def train(argv: list[str] | None = None) -> Path:
             )
         )
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
-    t0 = time.time()
+    t0, c0 = time.time(), time.process_time()
     model.learn(
         total_timesteps=n_timesteps,
         callback=CallbackList(callbacks),
@@ -292,11 +312,17 @@ def train(argv: list[str] | None = None) -> Path:
         reset_num_timesteps=not args.trained_agent,
         tb_log_name=args.algo,
     )
-    wall = time.time() - t0
+    wall, cpu = time.time() - t0, time.process_time() - c0
     model.save(run / "model.zip")
     if norm is not None:
         env.save(str(run / "vecnormalize.pkl"))
-    meta.update({"train_wall_time_s": round(wall, 1), "total_timesteps": int(model.num_timesteps)})
+    meta.update(
+        {
+            "train_wall_time_s": round(wall, 1),
+            "train_cpu_time_s": round(cpu, 1),
+            "total_timesteps": int(model.num_timesteps),
+        }
+    )
     if budget_env is not None:
         meta["lagrangian_final"] = budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))

@@ -1,0 +1,131 @@
+"""Is issue 10's target physically reachable? The oracle MPC's RMSE–energy trade-off on validation episodes.
+
+Example::
+
+    python -m agents.ceiling --episodes 4 --w-energy 0.05 0.3 1 3 --out results/ceiling
+
+The privileged ``mpc_oracle`` (true state, parameters, future targets and loads) runs the
+validation episodes (reset seeds ``VALIDATION_SEED_BASE + i``, never the evaluation suite) of the
+default training distribution and of the hard-like one (:data:`agents.scenarios.HARD_LIKE_KWARGS`)
+at several energy weights ``w_energy`` of its cost; the tuned PID runs the same episodes. If no
+weight reaches RMSE ≤ ``--target`` × the PID's at ≤ the PID's energy, no controller that plans
+with this model and horizon does, and a learned policy (which sees less) is not expected to.
+
+Written to ``--out``: ``ceiling.csv`` (one row per distribution and controller) and
+``ceiling.png`` (RMSE / PID against energy / PID, the target's corner shaded).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from tqdm import tqdm  # noqa: E402
+
+from spine_gym.controllers import MPPIConfig, MPPIController  # noqa: E402
+
+from .registry import GUARD_MARGIN_K  # noqa: E402
+from .runtime import build_controller, env_temperature_limit, make_env, validation_scores  # noqa: E402
+from .scenarios import HARD_LIKE_KWARGS  # noqa: E402
+
+DISTRIBUTIONS = {"default": {}, "hard_like": HARD_LIKE_KWARGS}
+
+
+def oracle(env, w_energy: float) -> MPPIController:
+    """``mpc_oracle`` (registry defaults) with the energy weight ``w_energy`` [1/J] of its cost."""
+    return MPPIController(
+        env.config,
+        "oracle",
+        env=env,
+        settings=MPPIConfig(w_energy=float(w_energy)),
+        temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
+    )
+
+
+def ceiling_rows(
+    episodes: int, weights: list[float], distributions: list[str], duration: float | None = None
+) -> list[dict]:
+    """PID and oracle-MPC scores (mean RMSE [deg], energy [J], ratios to the PID) per distribution
+    (``duration``: episode length [s], default the env's 60 s)."""
+    rows = []
+    jobs = [(d, w) for d in distributions for w in [None, *weights]]
+    ref = {}
+    for dist, w in tqdm(jobs, desc="ceiling", unit="run"):
+        kw = dict(DISTRIBUTIONS[dist]) | ({} if duration is None else {"episode_duration": float(duration)})
+        env = make_env(kw)
+        ctrl = build_controller("pid", env) if w is None else oracle(env, w)
+        rmse, energy = validation_scores(ctrl, episodes, kw)
+        env.close()
+        if w is None:
+            ref[dist] = (rmse, energy)
+        r0, e0 = ref[dist]
+        name = "pid" if w is None else f"mpc_oracle w_energy={w:g}"
+        rows.append(
+            {
+                "distribution": dist,
+                "controller": name,
+                "w_energy": "" if w is None else w,
+                "rmse_deg": round(rmse, 3),
+                "energy_J": round(energy, 1),
+                "rmse_ratio": round(rmse / r0, 3),
+                "energy_ratio": round(energy / e0, 3),
+            }
+        )
+        tqdm.write(f"{dist:<10s} {name:<28s} RMSE {rmse:6.2f} ({rmse / r0:4.2f} x PID)  energy {energy:6.1f} J ({energy / e0:4.2f} x PID)")
+    return rows
+
+
+def plot(rows: list[dict], target: float, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    ax.fill_between([0.0, 1.0], 0.0, target, color="tab:green", alpha=0.15, label=f"target (≤ {target} × RMSE, ≤ 1 × energy)")
+    for dist, marker in zip(DISTRIBUTIONS, "os"):
+        pts = [r for r in rows if r["distribution"] == dist and r["controller"] != "pid"]
+        if not pts:
+            continue
+        ax.plot([r["energy_ratio"] for r in pts], [r["rmse_ratio"] for r in pts], marker=marker, label=f"mpc_oracle, {dist}")
+        for r in pts:
+            ax.annotate(f"w={r['w_energy']:g}", (r["energy_ratio"], r["rmse_ratio"]), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax.plot([1.0], [1.0], "k*", ms=10, label="tuned PID")
+    ax.set_xlabel("energy / PID's")
+    ax.set_ylabel("RMSE / PID's")
+    ax.set_xlim(0.5, 1.5)
+    ax.set_ylim(0.4, 1.3)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Oracle MPC on validation episodes (privileged ceiling)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    p = argparse.ArgumentParser(prog="python -m agents.ceiling", description=__doc__.split("\n")[0])
+    p.add_argument("--episodes", type=int, default=4, help="validation episodes per run (default: %(default)s)")
+    p.add_argument("--w-energy", type=float, nargs="+", default=[0.05, 0.3, 1.0, 3.0], help="oracle energy weights [1/J]")
+    p.add_argument("--distributions", nargs="+", choices=list(DISTRIBUTIONS), default=list(DISTRIBUTIONS))
+    p.add_argument("--target", type=float, default=0.7, help="RMSE ratio of the target (default: %(default)s)")
+    p.add_argument("--out", default="results/ceiling", help="output folder (default: %(default)s)")
+    args = p.parse_args(argv)
+    for w in args.w_energy:
+        if not w >= 0.0:
+            raise SystemExit(f"--w-energy must be >= 0, got {w}")
+    rows = ceiling_rows(args.episodes, args.w_energy, args.distributions)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "ceiling.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    plot(rows, args.target, out / "ceiling.png")
+    print(f"wrote {out / 'ceiling.csv'} and {out / 'ceiling.png'}")
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
