@@ -332,7 +332,8 @@ def test_planning_sub_step_settings_are_validated_and_reach_the_rollout_solver()
     with pytest.raises(ValueError, match="plan_h_min"):
         MPPIConfig(plan_h_min=0.2)  # longer than the 0.1-s planning step
     with pytest.raises(ValueError, match="plan_h_min"):
-        MPPIController(env.config, settings=MPPIConfig(plan_physics_dt=None, plan_h_min=0.05))
+        fine = _env(physics_dt=0.01).config  # the rollouts take the env's 0.01-s step
+        MPPIController(fine, settings=MPPIConfig(plan_physics_dt=None, plan_h_min=0.05))
 
 
 def test_estimator_identifies_ambient_temperature_and_martensite_resistivity_of_a_randomised_plant():

@@ -146,7 +146,7 @@ class BaseEnvConfig:
 
     v_max: float = 5.0
     control_period: float = 0.1
-    physics_dt: float = 0.01
+    physics_dt: float | None = None  # None: the control period (one model output step per env step)
     episode_duration: float = 60.0
     target_preview: float = 1.0
     tip_force_range: tuple[float, float] | None = (0.0, 0.5)
@@ -185,8 +185,9 @@ class BaseEnvConfig:
         s(self, "params", params)
         s(self, "solver", solver)
         s(self, "v_max", _real("v_max", self.v_max, 0.0, V_MAX_LIMIT, lo_open=True))
-        s(self, "physics_dt", _real("physics_dt", self.physics_dt, 0.0, 1.0, lo_open=True))
-        s(self, "control_period", _real("control_period", self.control_period, self.physics_dt, 10.0))
+        s(self, "control_period", _real("control_period", self.control_period, 0.0, 10.0, lo_open=True))
+        dt = self.control_period if self.physics_dt is None else self.physics_dt
+        s(self, "physics_dt", _real("physics_dt", dt, 0.0, self.control_period, lo_open=True))
         _multiple("control_period", self.control_period, self.physics_dt, "physics_dt")
         s(
             self,
