@@ -66,7 +66,17 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     for j in numba.prange(rows.shape[0]):
         i = rows[j]
         status[i] = step_spine(
-            states[i], backup[i], kps[i], ks, volts[i, 0], volts[i, 1], loads[i], resolve[i], dt, n_sub, meas[i]
+            states[i],
+            backup[i],
+            kps[i],
+            ks,
+            volts[i, 0],
+            volts[i, 1],
+            loads[i],
+            resolve[i],
+            dt,
+            n_sub,
+            meas[i],
         )
     bk.planar_probe(rows, meas, ohm, wvol, sp.probe_cols, st.probe)
     bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)
@@ -84,7 +94,18 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     for j in numba.prange(rows.shape[0]):
         i = rows[j]
         status[i] = step_spine_spatial(
-            states[i], backup[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], resolve[i], dt, n_sub, meas[i]
+            states[i],
+            backup[i],
+            kps[i],
+            ks,
+            kws[i],
+            kms[i],
+            volts[i],
+            loads[i],
+            resolve[i],
+            dt,
+            n_sub,
+            meas[i],
         )
     bk.spatial_probe(rows, meas, record_cols, ohm, wvol, sp.probe_cols, st.probe)
     bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)

@@ -315,7 +315,9 @@ class TableBatch:
             for i in rows:
                 self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
         kernel = self._step_kernel()
-        if not kernel(rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out):
+        if not kernel(
+            rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out
+        ):
             validate_actions(actions, actions.shape)  # raises the documented ValueError
         return rows
 

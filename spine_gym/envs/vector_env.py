@@ -24,6 +24,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ._infos import VectorInfo, row_infos, vector_info_keys
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -149,6 +150,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._no_seeds: list[int | None] = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
+        self._info_keys = vector_info_keys(self._core.table)
 
     # ------------------------------------------------------------------ facts (as the single env)
     @property
@@ -325,13 +327,20 @@ class SmaSpineVectorEnv(VectorEnv):
         )
 
     def row_infos(
-        self, rows: np.ndarray | None = None, status: np.ndarray | None = None
+        self,
+        rows: np.ndarray | None = None,
+        status: np.ndarray | None = None,
+        truncated: list[bool] | None = None,
     ) -> list[dict[str, Any]]:
         """One info dict per row, as the single env gives it, of table ``rows`` and ``status`` from
-        :meth:`step_arrays` (default: every sub-env's last step or reset)."""
+        :meth:`step_arrays` (default: every sub-env's last step or reset). With ``truncated`` (one
+        ``TimeLimit.truncated`` flag per row, SB3's key) the dicts carry that key and fill
+        themselves on first use (:func:`spine_gym.envs._infos.row_infos`)."""
         if rows is None:
             rows, status = self._core.last_row.copy(), self._core.status.copy()
-        return self._core.row_infos(rows, status)
+        if truncated is None:
+            return self._core.row_infos(rows, status)
+        return row_infos(self._core.table, rows, status, truncated)
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as a float array of the batch's shape (the batch checks finiteness)."""
@@ -351,15 +360,12 @@ class SmaSpineVectorEnv(VectorEnv):
 
     def _infos(self, rows: np.ndarray, status: np.ndarray) -> dict[str, Any]:
         """Gymnasium's info dict of a step in which every sub-env has every key (views of the fresh
-        ``rows``, one block of all-True ``_key`` masks) plus ``status_text`` on failed rows."""
-        arrays = self._info_arrays(rows, status)
-        masks = np.ones((len(arrays), self.num_envs), dtype=np.bool_)
-        infos: dict[str, Any] = {}
-        for (key, v), m in zip(arrays.items(), masks, strict=True):
-            infos[key] = v
-            infos["_" + key] = m
-        failed, texts = status_texts(status)
-        self._merge(infos, {"status_text": texts}, failed)
+        ``rows``, all-True ``_key`` masks), filled on first use (:class:`~._infos.VectorInfo`),
+        or at once with ``status_text`` on the failed rows if a step failed."""
+        infos = VectorInfo((self._info_keys, rows, status))
+        if status.any():  # some step failed (layout.OK is 0)
+            failed, texts = status_texts(status)
+            self._merge(infos, {"status_text": texts}, failed)
         return infos
 
     def _merge_step(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:

@@ -152,7 +152,18 @@ def _step_many_spatial(
     for i in numba.prange(states.shape[0]):
         if active[i]:
             status[i] = step_spine_spatial(
-                states[i], backup[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], resolve[i], dt, n_sub, rec[i]
+                states[i],
+                backup[i],
+                kps[i],
+                ks,
+                kws[i],
+                kms[i],
+                volts[i],
+                loads[i],
+                resolve[i],
+                dt,
+                n_sub,
+                rec[i],
             )
 
 
