@@ -3,13 +3,13 @@
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
-``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the kernel
-:func:`spine_gym.physics.env_kernels.step_many` (or its serial twin) per step. Row i therefore
-equals ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for
-bit). A step writes the batch's preallocated buffers (observations, table rows, flags) in four
-jitted calls and hands out fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the
-Gymnasium info dict holds views of the copied rows, and the SB3 adapter builds its per-env dicts
-from the same rows.
+``seed + i`` like ``SyncVectorEnv``; the physics and bookkeeping of all N spines is one jitted call
+per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``). Row i therefore equals
+``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
+A step writes the batch's preallocated buffers (observations, table rows, flags) and hands out
+fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the Gymnasium info dict fills
+itself from the copied rows on first use (:class:`~spine_gym.envs._infos.VectorInfo`), and the SB3
+adapter builds its per-env dicts from the same rows.
 """
 
 from __future__ import annotations
