@@ -85,7 +85,9 @@ class SmaSpineVectorEnv(VectorEnv):
       also use: every parallel step waits for its slowest thread, and GNU OpenMP's idle workers
       spin after each step, competing with the Python work in between (measured on the shared
       2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
-      at N = 256 at 0.6-0.7x; on an idle machine 1.7-1.8x at N >= 256; benchmarks/README.md).
+      at N = 256 at 0.6-0.7x, and never beat it at N = 8 ... 256 with the one-call step either;
+      on an idle machine 1.4-1.9x from N = 8 on with the previous 0.01-s physics step;
+      benchmarks/README.md).
       The serial default also never starts OpenMP's threads. With the parallel kernel on a
       shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once)
       or ``NUMBA_THREADING_LAYER=workqueue`` (no spinning; one parallel call at a time).
