@@ -36,12 +36,13 @@ import numpy as np
 from ._jit import jit, pjit
 from .coupled import (
     T_PER_FRACTION,
+    accept_or_retry,
+    first_try,
     heat_terms,
     heating_rate,
     kinetics,
     linear_system,
     quiet,
-    step_factor,
     step_rate,
 )
 from .layout import (
@@ -186,20 +187,19 @@ def wire_block(state, field, nw):
     WK_XS,  # (2W,) fractions at its end
     WK_RT,  # (W, 12) rates and slopes at the start (sma.rates_and_slopes)
     WK_RT_NEW,  # (W, 12) rates and slopes at the end
-    WK_DSDX,  # (W, 2W) dσ/dx of the composite equilibrium
-    WK_DMDX,  # (2K, 2W) dM/dx of the composite equilibrium
+    WK_DMDX,  # (2K, 2W) dM/dx of the composite equilibrium (the active wires' columns)
     WK_INV,  # (2K, 2K) (I − J)⁻¹
     WK_AT,  # (W,) temperature terms a of the linearised heat balance
     WK_BT,  # (W, 2) and b
     WK_ACT,  # (W + 1,) int: the wires in the linear system (_active_wires), their count last
     WK_XA,  # (2W,) their fractions (then the error's residuals)
     WK_RTA,  # (W, 12) their rates and slopes
-    WK_SA,  # (W, 2W) their rows and columns of dσ/dx
+    WK_SA,  # (W, 2W) their rows and columns of dσ/dx (stress_sensitivity)
     WK_LU,  # (2W, 2W) the step's matrix, then its LU factors
     WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(35)
+) = range(34)
 
 
 @jit
@@ -228,7 +228,6 @@ def make_work(nw, nm, ns):
         np.empty(2 * nw),
         np.empty((nw, 12)),
         np.empty((nw, 12)),
-        np.empty((nw, 2 * nw)),
         np.empty((2 * nm, 2 * nw)),
         np.empty((2 * nm, 2 * nm)),
         np.empty(nw),
@@ -280,10 +279,12 @@ def strain_mechanics(xp, xm, kp, kw, wk):
 
 
 @jit
-def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
+def loop_gain(omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
 
-    ∂L/∂ω · S of every wire from its module's sums (:func:`.spatial_tube.length_slope`).
+    ∂L/∂ω · S of every wire from its module's sums (:func:`.spatial_tube.length_slope`) in
+    wk[WK_GAIN], computed here unless ``sums_known`` (they depend on ω and S only: the coupled
+    step's dσ/dx computed them at the same ω and S).
     """
     jac = wk[WK_JAC]
     gs = wk[WK_GAIN]
@@ -292,7 +293,8 @@ def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
     for r in range(ncol):
         for c in range(ncol):
             jac[r, c] = 0.0
-    gain_sums(omega, sens, km, gs)
+    if not sums_known:
+        gain_sums(omega, sens, km, gs)
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
         if sig[j] <= 0.0:
@@ -308,14 +310,14 @@ def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
 
 
 @jit
-def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
+def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
-    :func:`wire_mechanics` in ``wk``.
+    :func:`wire_mechanics` in ``wk`` (``sums_known``: see :func:`loop_gain`).
 
     Returns:
         max |ΔM| [N m] (inf if I − J is singular or the step is not finite).
     """
-    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)
+    loop_gain(omega, sens, xp, xm, kp, kw, km, wk, sums_known)
     a = wk[WK_JAC]
     dm = wk[WK_DM]
     gm = wk[WK_G]
@@ -363,7 +365,7 @@ def _predict(omega, sens, dm, scale, out):
 
 
 @jit
-def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False):
+def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False, sums_known=False):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
     Converged when the last shape pass moved ω by less than tol_theta and either the residual
@@ -372,7 +374,8 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
     residual test passes the planar step test passes too, and the decisions are the planar ones.
 
     With ``known``, wk[WK_EPS] already holds the strains of the starting shape (the last converged
-    one: only the fractions changed), so the first iteration takes its stresses from them.
+    one: only the fractions changed), so the first iteration takes its stresses from them; with
+    ``sums_known`` also wk[WK_GAIN] its loop-gain sums (:func:`loop_gain`).
 
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
@@ -392,7 +395,7 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
             wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         if e < tol_th and _residual_norm(mw, wk) < tol_m:
             return OK, passes
-        big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
+        big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known and it == 0)
         if e < tol_th and big < tol_m:
             return OK, passes
         if not math.isfinite(big):
@@ -562,7 +565,9 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
-def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False):
+def solve_mechanics(
+    mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False, sums_known=False
+):
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
     Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
@@ -571,7 +576,8 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
     state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
     reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
-    ``known``: ``eps`` are the strains of the starting shape ω (see :func:`composite_newton`).
+    ``known``: ``eps`` are the strains of the starting shape ω, ``sums_known``: wk[WK_GAIN] its
+    loop-gain sums (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
     saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
@@ -583,7 +589,7 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
         e_start = wk[WK_EPS]
         for j in range(eps.shape[0]):
             e_start[j] = eps[j]
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known)
+    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known, sums_known)
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
@@ -718,10 +724,11 @@ def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
 
 
 @jit
-def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
+def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums_known=False):
     """Store the new fractions wk[WK_XS] and re-solve the composite module (§6.1 g), then the
     Broyden update of S from the two converged shapes; wk[WK_SAVED_W], wk[WK_SAVED_M] keep the
-    starting shape and moments (:func:`solve_mechanics` saves them).
+    starting shape and moments (:func:`solve_mechanics` saves them). ``sums_known``: wk[WK_GAIN]
+    holds the loop-gain sums of this ω and S (:func:`stress_sensitivity` ran on them).
 
     Unchecked (a failure is still classified); the output step's end is checked by the caller.
     Returns (status, shape passes).
@@ -731,7 +738,7 @@ def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km,
         xp[j] = xs[2 * j]
         xm[j] = xs[2 * j + 1]
     # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
-    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True)
+    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True, sums_known)
     if st == OK:
         _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
     return st, p
@@ -763,14 +770,18 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
 
 
 @jit
-def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
-    """dσ/dx of the composite equilibrium under fixed loads into wk[WK_DSDX] (W, 2W) (MODEL.md §6.5).
+def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
+    """dσ/dx of the composite equilibrium under fixed loads (MODEL.md §6.5), the rows and columns of
+    the wires ``act[:na]`` only, into wk[WK_SA] (na, 2na): row a, columns 2b, 2b + 1 are ∂σ_{act[a]}
+    over x₊, x₋ of wire act[b].
 
-    Column 2j is x₊ of wire j, 2j + 1 its x₋. At fixed strain the constitutive law §3.6 gives
-    ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E), ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when
-    slack), which moves G by dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M)
-    then moves by dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by
-    E*_i (dL_i/dM) dM / L_ref,i. The planar layout gives :func:`.solver.stress_sensitivity`.
+    At fixed strain the constitutive law §3.6 gives ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E),
+    ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when slack), which moves G by
+    dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M) then moves by
+    dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by E*_i (dL_i/dM) dM / L_ref,i. The
+    planar layout gives :func:`.solver.stress_sensitivity`. The other wires' rows and columns are
+    not needed (:func:`_active_wires`); each entry is computed as over all wires.
+    The loop-gain sums stay in wk[WK_GAIN] for the composite solve's first Newton step.
     """
     nw = kw.shape[0]
     nm = km.shape[0]
@@ -780,43 +791,39 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
     loop_gain(omega, sens, xp, xm, kp, kw, km, wk)  # J into wk[WK_JAC], length sums into wk[WK_GAIN]
     inv = wk[WK_INV]
     lu = wk[WK_LU][: 2 * nm, : 2 * nm]
+    piv = wk[WK_PIV][: 2 * nm]
     col = wk[WK_DM]
     jac = wk[WK_JAC]
-    for c in range(2 * nm):  # (I − J)⁻¹ column by column
-        for r in range(2 * nm):
-            for q in range(2 * nm):
-                lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
-            col[r] = 1.0 if r == c else 0.0
-        if not solve_in_place(lu, col):
-            return False
-        for r in range(2 * nm):
-            inv[r, c] = col[r]
-    dsdx = wk[WK_DSDX]
-    dmdx = wk[WK_DMDX]
+    for r in range(2 * nm):
+        for q in range(2 * nm):
+            lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
+    if not _inverse(lu, piv, col, inv):
+        return False
+    dmdx = wk[WK_DMDX]  # (2K, 2 na): dM over x₊, x₋ of each listed wire
+    sa = wk[WK_SA]
     gs = wk[WK_GAIN]
     eps_t = kp[K_EPST]
     k_e = kp[K_KE]
     aw = kp[K_AW]
-    for r in range(2 * nm):
-        for c in range(2 * nw):
-            dmdx[r, c] = 0.0
-    for j in range(nw):
-        for c in range(2 * nw):
-            dsdx[j, c] = 0.0
-        if sig[j] <= 0.0:
-            continue
-        e_star = 1.0 / compliance(xp[j], xm[j], kp)
-        d_p = -e_star * (eps_t + sig[j] * k_e)
-        d_m = e_star * (eps_t - sig[j] * k_e)
-        dsdx[j, 2 * j] = d_p
-        dsdx[j, 2 * j + 1] = d_m
+    for b in range(na):
+        j = act[b]
+        d_p = 0.0
+        d_m = 0.0
+        if sig[j] > 0.0:
+            e_star = 1.0 / compliance(xp[j], xm[j], kp)
+            d_p = -e_star * (eps_t + sig[j] * k_e)
+            d_m = e_star * (eps_t - sig[j] * k_e)
         k = int(kw[j, W_MOD])
         t = kw[j, W_NW] * aw * kw[j, W_A]
         for r in range(2 * nm):  # dM/dx_j = (I − J)⁻¹ dG/dx_j, dG_k = t e_j dσ_j
             f = inv[r, 2 * k] * kw[j, W_EX] + inv[r, 2 * k + 1] * kw[j, W_EY]
-            dmdx[r, 2 * j] += t * f * d_p
-            dmdx[r, 2 * j + 1] += t * f * d_m
-    for i in range(nw):
+            dmdx[r, 2 * b] = 0.0 + t * f * d_p
+            dmdx[r, 2 * b + 1] = 0.0 + t * f * d_m
+        for a in range(na):  # its own (fixed-strain) column of its row
+            sa[a, 2 * b] = d_p if act[a] == j else 0.0
+            sa[a, 2 * b + 1] = d_m if act[a] == j else 0.0
+    for a in range(na):
+        i = act[a]
         if sig[i] <= 0.0:
             continue
         g = 1.0 / (compliance(xp[i], xm[i], kp) * kw[i, W_LREF])
@@ -824,8 +831,33 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
             dl = g * length_slope(i, gs, r, kw, km)
             if dl == 0.0:
                 continue
-            for c in range(2 * nw):
-                dsdx[i, c] += dl * dmdx[r, c]
+            for c in range(2 * na):
+                sa[a, c] += dl * dmdx[r, c]
+    return True
+
+
+@jit
+def _inverse(a, piv, col, inv):
+    """inv = a⁻¹ column by column (a overwritten: Cramer's rule for 2 × 2 as
+    :func:`.stability.solve_in_place`, else one LU factorisation). Returns False if a is singular."""
+    n = a.shape[0]
+    if n == 2:
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        if det == 0.0 or not math.isfinite(det):
+            return False
+        inv[0, 0] = a[1, 1] / det
+        inv[1, 0] = -a[1, 0] / det
+        inv[0, 1] = -a[0, 1] / det
+        inv[1, 1] = a[0, 0] / det
+        return True
+    if not lu_factor(a, piv):
+        return False
+    for c in range(n):
+        for r in range(n):
+            col[r] = 1.0 if r == c else 0.0
+        lu_solve(a, piv, col[:n])
+        for r in range(n):
+            inv[r, c] = col[r]
     return True
 
 
@@ -867,20 +899,16 @@ def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
     na = _active_wires(x0, rt, h, act)
     if na == 0:
         return True
-    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
+    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
         return False
-    dsdx = wk[WK_DSDX]
     jnum = wk[WK_JNUM]
     xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
-    for a in range(na):  # the active wires' rows and columns
+    for a in range(na):  # the active wires' rows (their dσ/dx block is already in wk[WK_SA])
         j = act[a]
         xa[2 * a] = xp[j]
         xa[2 * a + 1] = xm[j]
-        rta[a, :] = rt[j]
-        for b in range(na):
-            q = act[b]
-            sa[a, 2 * b] = dsdx[j, 2 * q]
-            sa[a, 2 * b + 1] = dsdx[j, 2 * q + 1]
+        for q in range(12):
+            rta[a, q] = rt[j, q]
         a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
     m = 2 * na
     lu = wk[WK_LU][:m, :m]
@@ -958,9 +986,19 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
 
 
 @jit
+def _copy_rows(dst, src):
+    """dst[:, :] = src for (W, 12) rate rows (an explicit loop: cheaper than a 2-D slice assignment)."""
+    for j in range(src.shape[0]):
+        for q in range(src.shape[1]):
+            dst[j, q] = src[j, q]
+
+
+@jit
 def _end_rates(sig, temp, kp, wk):
-    """Rates and slopes at the end of a sub-step into wk[WK_RT_NEW]; a wire whose (σ, T) did not
-    change over it (an unpowered slack wire) keeps its start-of-step row, computed once."""
+    """Rates and slopes at the end of a sub-step into wk[WK_RT_NEW]. They are a function of (σ, T)
+    only: a wire whose (σ, T) did not change over the step (an unpowered slack wire) keeps its
+    start-of-step row, and one at exactly another wire's (σ, T) (the mirror-image neutral wires of a
+    bend in one plane) copies that wire's row; the others are computed."""
     nw = sig.shape[0]
     back = wk[WK_BACKUP]
     o_t = wire_offset(F_T, nw)
@@ -971,6 +1009,15 @@ def _end_rates(sig, temp, kp, wk):
         if sig[j] == back[o_s + j] and temp[j] == back[o_t + j]:
             for q in range(12):
                 rt1[j, q] = rt[j, q]
+            continue
+        twin = -1
+        for i in range(j):
+            if sig[i] == sig[j] and temp[i] == temp[j]:
+                twin = i
+                break
+        if twin >= 0:
+            for q in range(12):
+                rt1[j, q] = rt1[twin, q]
         else:
             rates_and_slopes(sig[j], temp[j], kp, rt1[j])
 
@@ -989,10 +1036,7 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
     saved_w = wk[WK_SAVED_W]
     tol = ks[S_TOLX]
     h_min = ks[S_HMIN]
-    h = state[io]
-    if not h > 0.0:
-        h = rem
-    h = min(h, ks[S_HMAX])
+    h = first_try(state[io], rem, ks[S_HMAX])
     nb = back.shape[0]
     for i in range(nb):
         back[i] = state[i]
@@ -1004,26 +1048,23 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], hh, wk[WK_XS])
         solved = False
         if st == OK and moved:
-            st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+            sums = wk[WK_ACT][nw] > 0  # _predict_coupled's dσ/dx left the loop-gain sums of ω and S
+            st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums)
             passes += p
             solved = True
         if st != OK:
             return st, hh, passes, solved
         _end_rates(sig, temp, kp, wk)
         err = _coupled_error(temp, sig, kp, kw, hh, wk) / tol
-        fac = step_factor(err)
-        if err <= 1.0 or hh <= h_min:
-            wk[WK_RT][:, :] = wk[WK_RT_NEW]
-            h_next = hh * fac
-            if hh < h:  # truncated at the end of the output step: keep the larger proposal
-                h_next = max(h_next, h)
-            state[io] = h_next
+        accepted, h = accept_or_retry(err, hh, h, h_min)
+        if accepted:
+            _copy_rows(wk[WK_RT], wk[WK_RT_NEW])
+            state[io] = h
             return OK, hh, passes, solved
         for i in range(nb):  # rejected: back to the start of the sub-step
             state[i] = back[i]
         if solved:
             copy_pairs(omega, saved_w)
-        h = max(hh * min(fac, 0.5), h_min)
 
 
 @jit
