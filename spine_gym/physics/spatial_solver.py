@@ -244,27 +244,32 @@ def make_work(nw, nm, ns):
 
 
 # ---------------------------------------------------------------- mechanics
+# The kernels called on every sub-step take the work arrays they use, not the work tuple: passing
+# the 34-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
+# reference-counted one by one), about as much as the arithmetic of a whole shape pass.
 @jit
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
 
-    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
+    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m]
+    (:func:`shape_mechanics` on the work tuple).
     """
-    sums = wk[WK_SUMS]
-    eps = wk[WK_EPS]
-    chord_sums(omega, km, sums)
-    for j in range(kw.shape[0]):
-        eps[j] = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
-    strain_mechanics(xp, xm, kp, kw, wk)
+    shape_mechanics(omega, xp, xm, kp, kw, km, wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G])
 
 
 @jit
-def strain_mechanics(xp, xm, kp, kw, wk):
-    """The second half of :func:`wire_mechanics`: wk[WK_SIG] and wk[WK_G] from the strains wk[WK_EPS]
+def shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm):
+    """:func:`wire_mechanics` into the arrays ``sums`` (chord sums), ``eps``, ``sig`` and ``gm``."""
+    chord_sums(omega, km, sums)
+    for j in range(kw.shape[0]):
+        eps[j] = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
+    strain_mechanics(xp, xm, kp, kw, eps, sig, gm)
+
+
+@jit
+def strain_mechanics(xp, xm, kp, kw, eps, sig, gm):
+    """The second half of :func:`shape_mechanics`: ``sig`` and ``gm`` = G from the strains ``eps``
     (e.g. those of the last converged shape, when only the fractions changed since)."""
-    eps = wk[WK_EPS]
-    sig = wk[WK_SIG]
-    gm = wk[WK_G]
     for k in range(gm.shape[0]):
         gm[k, 0] = 0.0
         gm[k, 1] = 0.0
@@ -279,16 +284,14 @@ def strain_mechanics(xp, xm, kp, kw, wk):
 
 
 @jit
-def loop_gain(omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
-    """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
+def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
+    """J = dG/dM = ∂G/∂ω · S into ``jac`` (2K × 2K) at the stresses ``sig``; a slack wire (σ = 0)
+    adds nothing.
 
-    ∂L/∂ω · S of every wire from its module's sums (:func:`.spatial_tube.length_slope`) in
-    wk[WK_GAIN], computed here unless ``sums_known`` (they depend on ω and S only: the coupled
-    step's dσ/dx computed them at the same ω and S).
+    ∂L/∂ω · S of every wire from its module's sums ``gs`` (:func:`.spatial_tube.gain_sums`,
+    :func:`.spatial_tube.length_slope`), computed here unless ``sums_known`` (they depend on ω and
+    S only: the coupled step's dσ/dx computed them at the same ω and S).
     """
-    jac = wk[WK_JAC]
-    gs = wk[WK_GAIN]
-    sig = wk[WK_SIG]
     ncol = jac.shape[1]
     for r in range(ncol):
         for c in range(ncol):
@@ -312,15 +315,21 @@ def loop_gain(omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
 @jit
 def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
-    :func:`wire_mechanics` in ``wk`` (``sums_known``: see :func:`loop_gain`).
+    :func:`wire_mechanics` in ``wk`` (:func:`newton_update` on the work tuple).
 
     Returns:
         max |ΔM| [N m] (inf if I − J is singular or the step is not finite).
     """
-    loop_gain(omega, sens, xp, xm, kp, kw, km, wk, sums_known)
-    a = wk[WK_JAC]
-    dm = wk[WK_DM]
-    gm = wk[WK_G]
+    return newton_update(
+        mw, omega, sens, xp, xm, kp, kw, km, wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], sums_known
+    )
+
+
+@jit
+def newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, a, gs, dm, sums_known):
+    """:func:`newton_step` on the arrays: stresses ``sig`` and G ``gm`` of the shape, the Jacobian
+    ``a`` and gain sums ``gs`` (:func:`loop_gain`, ``sums_known`` there), ΔM into ``dm``."""
+    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, a, gs, sums_known)
     nm = mw.shape[0]
     for k in range(nm):
         dm[2 * k] = gm[k, 0] - mw[k, 0]
@@ -340,9 +349,8 @@ def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
 
 
 @jit
-def _residual_norm(mw, wk):
-    """max |G(M) − M| after :func:`wire_mechanics` (inf if any component is not finite)."""
-    gm = wk[WK_G]
+def _residual_norm(mw, gm):
+    """max |G(M) − M| for G = ``gm`` of :func:`wire_mechanics` (inf if any component is not finite)."""
     r = 0.0
     for k in range(mw.shape[0]):
         for b in range(2):
@@ -383,19 +391,20 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
     frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
-    dm = wk[WK_DM]
+    sums, eps, sig, gm = wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G]
+    jac, gs, dm = wk[WK_JAC], wk[WK_GAIN], wk[WK_DM]
     nm = mw.shape[0]
     ns = omega.shape[0]
     e = np.inf
     passes = 0
     for it in range(int(ks[S_MAXROOT])):
         if known and it == 0:
-            strain_mechanics(xp, xm, kp, kw, wk)
+            strain_mechanics(xp, xm, kp, kw, eps, sig, gm)
         else:
-            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
-        if e < tol_th and _residual_norm(mw, wk) < tol_m:
+            shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm)
+        if e < tol_th and _residual_norm(mw, gm) < tol_m:
             return OK, passes
-        big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known and it == 0)
+        big = newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, jac, gs, dm, sums_known and it == 0)
         if e < tol_th and big < tol_m:
             return OK, passes
         if not math.isfinite(big):
@@ -462,7 +471,7 @@ def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
         passes += it
         if st == OK:
             wire_mechanics(trial, xp, xm, kp, kw, km, wk)
-            if _residual_norm(mt, wk) < (1.0 - 1e-4 * lam) * norm:
+            if _residual_norm(mt, wk[WK_G]) < (1.0 - 1e-4 * lam) * norm:
                 copy_pairs(mw, mt)
                 copy_pairs(omega, trial)
                 return True, passes
@@ -491,7 +500,7 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
         if st != OK:
             return st, passes
         wire_mechanics(omega, xp, xm, kp, kw, km, wk)
-        norm = _residual_norm(mw, wk)
+        norm = _residual_norm(mw, wk[WK_G])
         if norm <= tol_m:
             return OK, passes
         if not math.isfinite(newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)):
@@ -783,12 +792,8 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
     not needed (:func:`_active_wires`); each entry is computed as over all wires.
     The loop-gain sums stay in wk[WK_GAIN] for the composite solve's first Newton step.
     """
-    nw = kw.shape[0]
     nm = km.shape[0]
-    wsig = wk[WK_SIG]
-    for j in range(nw):
-        wsig[j] = sig[j]
-    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)  # J into wk[WK_JAC], length sums into wk[WK_GAIN]
+    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, wk[WK_JAC], wk[WK_GAIN])  # J, and the length sums
     inv = wk[WK_INV]
     lu = wk[WK_LU][: 2 * nm, : 2 * nm]
     piv = wk[WK_PIV][: 2 * nm]
@@ -994,17 +999,14 @@ def _copy_rows(dst, src):
 
 
 @jit
-def _end_rates(sig, temp, kp, wk):
-    """Rates and slopes at the end of a sub-step into wk[WK_RT_NEW]. They are a function of (σ, T)
-    only: a wire whose (σ, T) did not change over the step (an unpowered slack wire) keeps its
-    start-of-step row, and one at exactly another wire's (σ, T) (the mirror-image neutral wires of a
+def _end_rates(sig, temp, kp, back, rt, rt1):
+    """Rates and slopes at the end of a sub-step into ``rt1`` (``rt``: at its start, ``back``: the
+    state's head at its start). They are a function of (σ, T) only: a wire whose (σ, T) did not
+    change over the step (an unpowered slack wire) keeps its start-of-step row, and one at exactly another wire's (σ, T) (the mirror-image neutral wires of a
     bend in one plane) copies that wire's row; the others are computed."""
     nw = sig.shape[0]
-    back = wk[WK_BACKUP]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
-    rt = wk[WK_RT]
-    rt1 = wk[WK_RT_NEW]
     for j in range(nw):
         if sig[j] == back[o_s + j] and temp[j] == back[o_t + j]:
             for q in range(12):
@@ -1054,7 +1056,7 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
             solved = True
         if st != OK:
             return st, hh, passes, solved
-        _end_rates(sig, temp, kp, wk)
+        _end_rates(sig, temp, kp, back, wk[WK_RT], wk[WK_RT_NEW])
         err = _coupled_error(temp, sig, kp, kw, hh, wk) / tol
         accepted, h = accept_or_retry(err, hh, h, h_min)
         if accepted:
