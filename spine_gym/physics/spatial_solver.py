@@ -388,11 +388,20 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
+    return _newton_solve(
+        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS],
+        wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], known, sums_known,
+    )  # fmt: skip
+
+
+@jit
+def _newton_solve(
+    mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, frames, chords, new, sums, eps, sig, gm, jac, gs, dm, known,
+    sums_known,
+):  # fmt: skip
+    """:func:`composite_newton` on its work arrays (frames, chords, new ω, chord sums, ε, σ, G, J, gain sums, ΔM)."""
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
-    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
-    sums, eps, sig, gm = wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G]
-    jac, gs, dm = wk[WK_JAC], wk[WK_GAIN], wk[WK_DM]
     nm = mw.shape[0]
     ns = omega.shape[0]
     e = np.inf
@@ -598,7 +607,10 @@ def solve_mechanics(
         e_start = wk[WK_EPS]
         for j in range(eps.shape[0]):
             e_start[j] = eps[j]
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known, sums_known)
+    st, passes = _newton_solve(
+        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS],
+        wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], known, sums_known,
+    )  # fmt: skip
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
@@ -779,10 +791,11 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
 
 
 @jit
-def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
+def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, inv, lu, piv, col, dmdx, sa):
     """dσ/dx of the composite equilibrium under fixed loads (MODEL.md §6.5), the rows and columns of
     the wires ``act[:na]`` only, into wk[WK_SA] (na, 2na): row a, columns 2b, 2b + 1 are ∂σ_{act[a]}
-    over x₊, x₋ of wire act[b].
+    over x₊, x₋ of wire act[b]. Work: the loop gain ``jac`` and its sums ``gs`` (2K × 2K, K × 2K × 3),
+    ``inv`` = (I − J)⁻¹, ``lu`` (>= 2K × 2K), ``piv``, ``col`` (2K), ``dmdx`` (2K, >= 2 na).
 
     At fixed strain the constitutive law §3.6 gives ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E),
     ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when slack), which moves G by
@@ -793,20 +806,14 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
     The loop-gain sums stay in wk[WK_GAIN] for the composite solve's first Newton step.
     """
     nm = km.shape[0]
-    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, wk[WK_JAC], wk[WK_GAIN])  # J, and the length sums
-    inv = wk[WK_INV]
-    lu = wk[WK_LU][: 2 * nm, : 2 * nm]
-    piv = wk[WK_PIV][: 2 * nm]
-    col = wk[WK_DM]
-    jac = wk[WK_JAC]
+    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs)  # J, and the length sums
+    lu = lu[: 2 * nm, : 2 * nm]
+    piv = piv[: 2 * nm]
     for r in range(2 * nm):
         for q in range(2 * nm):
             lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
     if not _inverse(lu, piv, col, inv):
         return False
-    dmdx = wk[WK_DMDX]  # (2K, 2 na): dM over x₊, x₋ of each listed wire
-    sa = wk[WK_SA]
-    gs = wk[WK_GAIN]
     eps_t = kp[K_EPST]
     k_e = kp[K_KE]
     aw = kp[K_AW]
@@ -904,7 +911,10 @@ def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
     na = _active_wires(x0, rt, h, act)
     if na == 0:
         return True
-    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, wk):
+    if not stress_sensitivity(
+        omega, sens, xp, xm, sig, kp, kw, km, act, na, wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_LU],
+        wk[WK_PIV], wk[WK_DM], wk[WK_DMDX], wk[WK_SA],
+    ):  # fmt: skip
         return False
     jnum = wk[WK_JNUM]
     xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
@@ -945,22 +955,15 @@ def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
 
 
 @jit
-def _coupled_error(temp, sig, kp, kw, h, wk):
+def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, ra, lu, piv):
     """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
-    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix that of the active wires
-    (the identity for the quiet ones); wk[WK_X0]/wk[WK_RT]/wk[WK_BACKUP] hold the start,
-    wk[WK_XS]/wk[WK_RT_NEW] and ``temp``, ``sig`` the end of the step."""
+    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix (LU factors ``lu``,
+    ``piv``) that of the active wires ``act`` (the identity for the quiet ones); ``x0``, ``rt``,
+    ``back`` (the state's head) hold the start, ``xs``, ``rt1`` and ``temp``, ``sig`` the end of
+    the step (wk[WK_X0], wk[WK_RT], wk[WK_BACKUP], wk[WK_XS], wk[WK_RT_NEW]); ``vec``, ``ra``: work."""
     nw = kw.shape[0]
-    x0 = wk[WK_X0]
-    xs = wk[WK_XS]
-    rt = wk[WK_RT]
-    rt1 = wk[WK_RT_NEW]
-    back = wk[WK_BACKUP]
-    jnum = wk[WK_JNUM]
-    vec = wk[WK_VEC]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
-    act = wk[WK_ACT]
     na = act[nw]
     e = 0.0
     for j in range(nw):
@@ -974,7 +977,7 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
         for i in range(2 * nw):
             e = max(e, abs(vec[i]))
         return e
-    ra = wk[WK_XA]  # the active wires' residuals through the step's own matrix
+    # ra: the active wires' residuals through the step's own matrix
     for a in range(na):
         j = act[a]
         ra[2 * a] = vec[2 * j]
@@ -982,7 +985,7 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
         vec[2 * j] = 0.0
         vec[2 * j + 1] = 0.0
     m = 2 * na
-    lu_solve(wk[WK_LU][:m, :m], wk[WK_PIV], ra[:m])
+    lu_solve(lu[:m, :m], piv, ra[:m])
     for i in range(m):
         e = max(e, abs(ra[i]))
     for i in range(2 * nw):  # the quiet wires' (identity rows)
@@ -1057,7 +1060,11 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         if st != OK:
             return st, hh, passes, solved
         _end_rates(sig, temp, kp, back, wk[WK_RT], wk[WK_RT_NEW])
-        err = _coupled_error(temp, sig, kp, kw, hh, wk) / tol
+        err = _coupled_error(
+            temp, sig, kp, kw, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_RT_NEW], back, wk[WK_JNUM], wk[WK_VEC],
+            wk[WK_ACT], wk[WK_XA], wk[WK_LU], wk[WK_PIV],
+        )  # fmt: skip
+        err /= tol
         accepted, h = accept_or_retry(err, hh, h, h_min)
         if accepted:
             _copy_rows(wk[WK_RT], wk[WK_RT_NEW])
