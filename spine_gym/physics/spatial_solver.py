@@ -598,45 +598,74 @@ def solve_mechanics(
     loop-gain sums (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
-    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
-    copy_pairs(saved_w, omega)
-    copy_pairs(saved_m, mw)
     if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
         return ERR_BUCKLING, 0
-    if known:
-        e_start = wk[WK_EPS]
-        for j in range(eps.shape[0]):
-            e_start[j] = eps[j]
-    st, passes = _newton_solve(
-        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS],
-        wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], known, sums_known,
+    st, passes = _newton_attempt(
+        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_FRAMES],
+        wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN],
+        wk[WK_DM], known, sums_known,
     )  # fmt: skip
     if st != OK:
-        copy_pairs(omega, saved_w)
-        copy_pairs(mw, saved_m)
-        st, p2 = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
+        st, p2 = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
         passes += p2
+        if st != OK:
+            return st, passes
+    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        copy_pairs(omega, wk[WK_SAVED_W])
+        copy_pairs(mw, wk[WK_SAVED_M])
+        return ERR_BUCKLING, passes
+    _store_strains(eps, sig, wk[WK_EPS], wk[WK_SIG])
+    return OK, passes
+
+
+@jit
+def _newton_attempt(
+    mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, frames, chords, new, sums, e_new,
+    s_new, gm, jac, gs, dm, known, sums_known,
+):  # fmt: skip
+    """The first try of :func:`solve_mechanics` on its work arrays: keep the starting shape and
+    moments (``saved_w``, ``saved_m``), then the coupled Newton (:func:`_newton_solve`; ``known``:
+    the strains ``eps`` of the start are copied to ``e_new`` for it). Returns (status, passes)."""
+    copy_pairs(saved_w, omega)
+    copy_pairs(saved_m, mw)
+    if known:
+        for j in range(eps.shape[0]):
+            e_new[j] = eps[j]
+    return _newton_solve(
+        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, frames, chords, new, sums, e_new, s_new, gm, jac, gs, dm,
+        known, sums_known,
+    )  # fmt: skip
+
+
+@jit
+def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check):
+    """After a failed coupled Newton, from the untouched start (wk[WK_SAVED_W], wk[WK_SAVED_M]): the
+    whole-shape Newton, then the safeguard. If both fail the start is restored and the failure
+    reported (as ERR_BUCKLING if, unchecked so far, the start is unstable). Returns (status, passes)."""
+    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
+    copy_pairs(omega, saved_w)
+    copy_pairs(mw, saved_m)
+    st, passes = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
+    if st == OK:
+        return st, passes
+    copy_pairs(omega, saved_w)
+    copy_pairs(mw, saved_m)
+    st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    passes += p2
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
-        st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
-        passes += p2
-        if st != OK:
-            copy_pairs(omega, saved_w)
-            copy_pairs(mw, saved_m)
-            if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
-                return ERR_BUCKLING, passes
-            return st, passes
-    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
-        copy_pairs(omega, saved_w)
-        copy_pairs(mw, saved_m)
-        return ERR_BUCKLING, passes
-    e_new = wk[WK_EPS]
-    s_new = wk[WK_SIG]
+        if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+            return ERR_BUCKLING, passes
+    return st, passes
+
+
+@jit
+def _store_strains(eps, sig, e_new, s_new):
+    """The converged strains and stresses into the state's blocks."""
     for j in range(eps.shape[0]):
         eps[j] = e_new[j]
         sig[j] = s_new[j]
-    return OK, passes
 
 
 @jit
@@ -758,10 +787,19 @@ def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km,
     for j in range(xp.shape[0]):
         xp[j] = xs[2 * j]
         xm[j] = xs[2 * j + 1]
-    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
-    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True, sums_known)
+    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both);
+    # solve_mechanics unchecked, its first try called here with the work arrays (no tuple)
+    saved_w, saved_m, e_new, s_new = wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_EPS], wk[WK_SIG]
+    st, p = _newton_attempt(
+        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, wk[WK_FRAMES], wk[WK_CHORDS],
+        wk[WK_NEW], wk[WK_SUMS], e_new, s_new, wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], True, sums_known,
+    )  # fmt: skip
+    if st != OK:
+        st, p2 = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, False)
+        p += p2
     if st == OK:
-        _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
+        _store_strains(eps, sig, e_new, s_new)
+        _secant_update(sens, omega, saved_w, mw, saved_m)
     return st, p
 
 
@@ -894,16 +932,18 @@ def _active_wires(x0, rt, h, act):
 
 
 @jit
-def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
-    """Linearly implicit Euler step of every wire's fractions over h into wk[WK_XS] (MODEL.md §6.5;
-    cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires` through the coupled
-    system, whose LU factors stay in wk[WK_LU] for the error estimate, the quiet ones by the
-    frozen-rate step. Returns False if the system is singular."""
+def _predict_coupled(
+    omega, sens, xp, xm, temp, sig, kp, kw, km, h, x0, xs, rt, act, jnum, xa, rta, sa, a_t, b_t, lu, piv, vec,
+    jac, gs, inv, dm, dmdx,
+):  # fmt: skip
+    """Linearly implicit Euler step of every wire's fractions over h into ``xs`` = wk[WK_XS]
+    (MODEL.md §6.5; cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires`
+    through the coupled system, whose LU factors stay in ``lu``, ``piv`` = wk[WK_LU], wk[WK_PIV] for
+    the error estimate, the quiet ones by the frozen-rate step. The other arrays are the work
+    arrays of the same names in :func:`make_work` (wk[WK_X0], wk[WK_RT], wk[WK_ACT], wk[WK_JNUM],
+    wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_VEC], and those of
+    :func:`stress_sensitivity`). Returns False if the system is singular."""
     nw = kw.shape[0]
-    x0 = wk[WK_X0]
-    xs = wk[WK_XS]
-    rt = wk[WK_RT]
-    act = wk[WK_ACT]
     for j in range(nw):
         x0[2 * j] = xp[j]
         x0[2 * j + 1] = xm[j]
@@ -911,14 +951,9 @@ def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
     na = _active_wires(x0, rt, h, act)
     if na == 0:
         return True
-    if not stress_sensitivity(
-        omega, sens, xp, xm, sig, kp, kw, km, act, na, wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_LU],
-        wk[WK_PIV], wk[WK_DM], wk[WK_DMDX], wk[WK_SA],
-    ):  # fmt: skip
+    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, inv, lu, piv, dm, dmdx, sa):
         return False
-    jnum = wk[WK_JNUM]
-    xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
-    for a in range(na):  # the active wires' rows (their dσ/dx block is already in wk[WK_SA])
+    for a in range(na):  # the active wires' rows (their dσ/dx block is already in sa)
         j = act[a]
         xa[2 * a] = xp[j]
         xa[2 * a + 1] = xm[j]
@@ -926,12 +961,12 @@ def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
             rta[a, q] = rt[j, q]
         a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
     m = 2 * na
-    lu = wk[WK_LU][:m, :m]
-    vec = wk[WK_VEC][:m]
+    lu = lu[:m, :m]
+    vec = vec[:m]
     linear_system(xa[:m], rta[:na], sa[:na, :m], h, a_t[:na], b_t[:na], lu, vec)
-    if not lu_factor(lu, wk[WK_PIV]):
+    if not lu_factor(lu, piv):
         return False
-    lu_solve(lu, wk[WK_PIV], vec)
+    lu_solve(lu, piv, vec)
     for a in range(na):
         j = act[a]
         xs[2 * j], xs[2 * j + 1] = clip_fractions(xp[j] + vec[2 * a], xm[j] + vec[2 * a + 1])
@@ -1048,7 +1083,11 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
     passes = 0
     while True:
         hh = _last_h(rem, dt, h)
-        if not _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk):
+        if not _predict_coupled(
+            omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_ACT],
+            wk[WK_JNUM], wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_LU], wk[WK_PIV], wk[WK_VEC],
+            wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_DM], wk[WK_DMDX],
+        ):  # fmt: skip
             return ERR_NONFINITE, hh, passes, False
         st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], hh, wk[WK_XS])
         solved = False
