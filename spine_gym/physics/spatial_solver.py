@@ -774,32 +774,54 @@ def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
 
 
 @jit
-def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums_known=False):
-    """Store the new fractions wk[WK_XS] and re-solve the composite module (§6.1 g), then the
-    Broyden update of S from the two converged shapes; wk[WK_SAVED_W], wk[WK_SAVED_M] keep the
-    starting shape and moments (:func:`solve_mechanics` saves them). ``sums_known``: wk[WK_GAIN]
-    holds the loop-gain sums of this ω and S (:func:`stress_sensitivity` ran on them).
+def _mechanics_update(
+    mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, xs, saved_w, saved_m, frames, chords, new, sums,
+    e_new, s_new, gm, jac, gs, dm, sums_known,
+):  # fmt: skip
+    """Store the new fractions ``xs`` = wk[WK_XS] and re-solve the composite module (§6.1 g) by the
+    first try of :func:`solve_mechanics` (unchecked; the work arrays of :func:`_newton_attempt`),
+    then the Broyden update of S from the two converged shapes (``saved_w``, ``saved_m``: the
+    start). ``sums_known``: ``gs`` holds the loop-gain sums of this ω and S (:func:`stress_sensitivity`
+    ran on them). If it fails, the caller runs :func:`_mechanics_fallback` (it needs the work tuple).
 
-    Unchecked (a failure is still classified); the output step's end is checked by the caller.
     Returns (status, shape passes).
     """
-    xs = wk[WK_XS]
     for j in range(xp.shape[0]):
         xp[j] = xs[2 * j]
         xm[j] = xs[2 * j + 1]
-    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both);
-    # solve_mechanics unchecked, its first try called here with the work arrays (no tuple)
-    saved_w, saved_m, e_new, s_new = wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_EPS], wk[WK_SIG]
+    # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
     st, p = _newton_attempt(
-        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, wk[WK_FRAMES], wk[WK_CHORDS],
-        wk[WK_NEW], wk[WK_SUMS], e_new, s_new, wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], True, sums_known,
+        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, frames, chords, new, sums, e_new,
+        s_new, gm, jac, gs, dm, True, sums_known,
     )  # fmt: skip
-    if st != OK:
-        st, p2 = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, False)
-        p += p2
     if st == OK:
         _store_strains(eps, sig, e_new, s_new)
         _secant_update(sens, omega, saved_w, mw, saved_m)
+    return st, p
+
+
+@jit
+def _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, passes):
+    """:func:`_mechanics_update` after its coupled Newton failed: the fallbacks of
+    :func:`solve_mechanics` (unchecked, a failure is still classified), then as there.
+    Returns (status, shape passes including ``passes`` so far)."""
+    st, p = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, False)
+    if st == OK:
+        _store_strains(eps, sig, wk[WK_EPS], wk[WK_SIG])
+        _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
+    return st, passes + p
+
+
+@jit
+def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums_known):
+    """:func:`_mechanics_update`, then :func:`_mechanics_fallback` if needed (the frozen sub-step's call)."""
+    st, p = _mechanics_update(
+        mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk[WK_XS], wk[WK_SAVED_W], wk[WK_SAVED_M],
+        wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC],
+        wk[WK_GAIN], wk[WK_DM], sums_known,
+    )  # fmt: skip
+    if st != OK:
+        st, p = _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, p)
     return st, p
 
 
@@ -824,7 +846,7 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
     st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], h, xs)  # d.–f.
     if st != OK or not moved:
         return st, h, 0, False
-    st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)  # g.
+    st, p = _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False)  # g.
     return st, h, p, True
 
 
@@ -1093,7 +1115,13 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         solved = False
         if st == OK and moved:
             sums = wk[WK_ACT][nw] > 0  # _predict_coupled's dσ/dx left the loop-gain sums of ω and S
-            st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums)
+            st, p = _mechanics_update(
+                mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk[WK_XS], saved_w, wk[WK_SAVED_M],
+                wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G],
+                wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], sums,
+            )  # fmt: skip
+            if st != OK:
+                st, p = _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, p)
             passes += p
             solved = True
         if st != OK:
@@ -1295,11 +1323,16 @@ def record_size(nw, nm, ns):
 def record(state, kp, kw, km, wk, row):
     """Write state (without S) | module bending vectors (K, 2) [rad] | tip bending vector (2) [rad]
     | tip position (3) [m] | tip frame (rows d1, d2, t) (9) | resistivity per wire (W) [Ω m]."""
+    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], row)
+
+
+@jit
+def _record(state, kp, kw, km, frames, chords, pos, row):
+    """:func:`record` with its work arrays (frames, chords, vertex positions), as the time loop calls it."""
     nw, nm, ns = sizes(kw, km)
     head = sens_offset(nw, nm, ns)
     row[:head] = state[:head]
     mw, omega, sens = views(state, nw, nm, ns)
-    frames, chords, pos = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS]
     kinematics(omega, km, frames, chords)
     positions(chords, pos)
     o = head
@@ -1355,7 +1388,7 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
         npass += b
         if st != OK:
             return st, k, nsub, npass
-        record(state, kp, kw, km, wk, out[k + 1])
+        _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out[k + 1])
     return OK, n, nsub, npass
 
 
