@@ -33,7 +33,7 @@ import math
 import numba
 import numpy as np
 
-from ._jit import jit, pjit
+from ._jit import hot, jit, pjit
 from .coupled import (
     T_PER_FRACTION,
     accept_or_retry,
@@ -257,7 +257,7 @@ def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     shape_mechanics(omega, xp, xm, kp, kw, km, wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G])
 
 
-@jit
+@hot
 def shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm):
     """:func:`wire_mechanics` into the arrays ``sums`` (chord sums), ``eps``, ``sig`` and ``gm``."""
     chord_sums(omega, km, sums)
@@ -266,7 +266,7 @@ def shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm):
     strain_mechanics(xp, xm, kp, kw, eps, sig, gm)
 
 
-@jit
+@hot
 def strain_mechanics(xp, xm, kp, kw, eps, sig, gm):
     """The second half of :func:`shape_mechanics`: ``sig`` and ``gm`` = G from the strains ``eps``
     (e.g. those of the last converged shape, when only the fractions changed since)."""
@@ -283,7 +283,7 @@ def strain_mechanics(xp, xm, kp, kw, eps, sig, gm):
         gm[k, 1] += t * kw[j, W_EY]
 
 
-@jit
+@hot
 def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
     """J = dG/dM = ∂G/∂ω · S into ``jac`` (2K × 2K) at the stresses ``sig``; a slack wire (σ = 0)
     adds nothing.
@@ -325,7 +325,7 @@ def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     )
 
 
-@jit
+@hot
 def newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, a, gs, dm, sums_known):
     """:func:`newton_step` on the arrays: stresses ``sig`` and G ``gm`` of the shape, the Jacobian
     ``a`` and gain sums ``gs`` (:func:`loop_gain`, ``sums_known`` there), ΔM into ``dm``."""
@@ -348,7 +348,7 @@ def newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, a, gs, dm, sums_
     return big
 
 
-@jit
+@hot
 def _residual_norm(mw, gm):
     """max |G(M) − M| for G = ``gm`` of :func:`wire_mechanics` (inf if any component is not finite)."""
     r = 0.0
@@ -361,7 +361,7 @@ def _residual_norm(mw, gm):
     return r
 
 
-@jit
+@hot
 def _predict(omega, sens, dm, scale, out):
     """out = ω + scale · S ΔM (the shape predicted for the moment change)."""
     for i in range(omega.shape[0]):
@@ -394,7 +394,7 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
     )  # fmt: skip
 
 
-@jit
+@hot
 def _newton_solve(
     mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, frames, chords, new, sums, eps, sig, gm, jac, gs, dm, known,
     sums_known,
@@ -528,7 +528,7 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     return ERR_ROOT, passes
 
 
-@jit
+@hot
 def copy_pairs(dst, src):
     """dst[:, :] = src for (n, 2) arrays (an explicit loop: cheaper than a 2-D slice assignment)."""
     for i in range(src.shape[0]):
@@ -618,7 +618,7 @@ def solve_mechanics(
     return OK, passes
 
 
-@jit
+@hot
 def _newton_attempt(
     mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, frames, chords, new, sums, e_new,
     s_new, gm, jac, gs, dm, known, sums_known,
@@ -660,7 +660,7 @@ def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
     return st, passes
 
 
-@jit
+@hot
 def _store_strains(eps, sig, e_new, s_new):
     """The converged strains and stresses into the state's blocks."""
     for j in range(eps.shape[0]):
@@ -695,7 +695,7 @@ def composite(state, vforce, kp, ks, kw, km, wk, check=False):
     )
 
 
-@jit
+@hot
 def _secant_update(sens, omega, saved_w, mw, saved_m):
     """Broyden update S += (Δω − S ΔM) ΔMᵀ / |ΔM|² from two converged shapes (same loads).
 
@@ -739,7 +739,7 @@ def _choose_h(rem, dt, r, ks):
     return h
 
 
-@jit
+@hot
 def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
     """Joule and latent heat, implicit convection of every wire for the new fractions ``xs`` (§6.1 d–f).
 
@@ -773,7 +773,7 @@ def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
     return OK, moved
 
 
-@jit
+@hot
 def _mechanics_update(
     mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, xs, saved_w, saved_m, frames, chords, new, sums,
     e_new, s_new, gm, jac, gs, dm, sums_known,
@@ -800,7 +800,7 @@ def _mechanics_update(
     return st, p
 
 
-@jit
+@hot
 def _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, passes):
     """:func:`_mechanics_update` after its coupled Newton failed: the fallbacks of
     :func:`solve_mechanics` (unchecked, a failure is still classified), then as there.
@@ -812,7 +812,7 @@ def _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, k
     return st, passes + p
 
 
-@jit
+@hot
 def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums_known):
     """:func:`_mechanics_update`, then :func:`_mechanics_fallback` if needed (the frozen sub-step's call)."""
     st, p = _mechanics_update(
@@ -850,7 +850,7 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
     return st, h, p, True
 
 
-@jit
+@hot
 def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, inv, lu, piv, col, dmdx, sa):
     """dσ/dx of the composite equilibrium under fixed loads (MODEL.md §6.5), the rows and columns of
     the wires ``act[:na]`` only, into wk[WK_SA] (na, 2na): row a, columns 2b, 2b + 1 are ∂σ_{act[a]}
@@ -908,7 +908,7 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, i
     return True
 
 
-@jit
+@hot
 def _inverse(a, piv, col, inv):
     """inv = a⁻¹ column by column (a overwritten: Cramer's rule for 2 × 2 as
     :func:`.stability.solve_in_place`, else one LU factorisation). Returns False if a is singular."""
@@ -933,7 +933,7 @@ def _inverse(a, piv, col, inv):
     return True
 
 
-@jit
+@hot
 def _active_wires(x0, rt, h, act):
     """Indices of the wires that transform over h into ``act`` (W + 1; the count in act[W]).
 
@@ -953,7 +953,7 @@ def _active_wires(x0, rt, h, act):
     return na
 
 
-@jit
+@hot
 def _predict_coupled(
     omega, sens, xp, xm, temp, sig, kp, kw, km, h, x0, xs, rt, act, jnum, xa, rta, sa, a_t, b_t, lu, piv, vec,
     jac, gs, inv, dm, dmdx,
@@ -995,7 +995,7 @@ def _predict_coupled(
     return True
 
 
-@jit
+@hot
 def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
     """One wire's share of the coupled step's error estimate (cf. :func:`.solver._coupled_error`).
 
@@ -1011,7 +1011,7 @@ def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
     return trunc, h * f1p - (x1p - x0p), h * f1m - (x1m - x0m)
 
 
-@jit
+@hot
 def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, ra, lu, piv):
     """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
     larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix (LU factors ``lu``,
@@ -1050,7 +1050,7 @@ def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, 
     return e
 
 
-@jit
+@hot
 def _copy_rows(dst, src):
     """dst[:, :] = src for (W, 12) rate rows (an explicit loop: cheaper than a 2-D slice assignment)."""
     for j in range(src.shape[0]):
@@ -1058,7 +1058,7 @@ def _copy_rows(dst, src):
             dst[j, q] = src[j, q]
 
 
-@jit
+@hot
 def _end_rates(sig, temp, kp, back, rt, rt1):
     """Rates and slopes at the end of a sub-step into ``rt1`` (``rt``: at its start, ``back``: the
     state's head at its start). They are a function of (σ, T) only: a wire whose (σ, T) did not
@@ -1084,7 +1084,7 @@ def _end_rates(sig, temp, kp, back, rt, rt1):
             rates_and_slopes(sig[j], temp[j], kp, rt1[j])
 
 
-@jit
+@hot
 def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
     """One accepted sub-step of the coupled scheme (default), as :func:`.solver._substep_coupled`
     for every wire: the linearly implicit Euler step with the rates at the end-of-step stress
