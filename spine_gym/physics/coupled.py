@@ -4,7 +4,8 @@ The planar core (:mod:`.solver`, two wires) and the spatial core (:mod:`.spatial
 number of wires) build the same step from these: the kinetics F of §3.5, the quiet-step test, the
 matrix of the linearly implicit Euler step of all wires' fractions (coupled through the composite
 equilibrium's dσ/dx), the heating rate of §3.9 for the error estimate and the step-size factor of
-the error control. Rates and slopes come from :func:`.sma.rates_and_slopes` as (W, 12) rows.
+the error control, and the error control's first try and accept/retry decision of a sub-step.
+Rates and slopes come from :func:`.sma.rates_and_slopes` as (W, 12) rows.
 """
 
 from __future__ import annotations
@@ -121,3 +122,32 @@ def step_factor(err):
     """Factor h_next / h of the error control for err = local error / tol_x: 0.9 err^−½ in
     [STEP_SHRINK, STEP_GROW]."""
     return min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
+
+
+@jit
+def first_try(h_proposed, rem, h_max):
+    """The sub-step the coupled scheme tries first: the error control's last proposal (kept in the
+    state; none yet: ``rem``, what is left of the output step), at most h_max."""
+    h = h_proposed
+    if not h > 0.0:
+        h = rem
+    return min(h, h_max)
+
+
+@jit
+def accept_or_retry(err, hh, h, h_min):
+    """The error control's decision on a tried sub-step ``hh`` (``h`` before it was clipped to the
+    output step), err = local error / tol_x (MODEL.md §6.5).
+
+    Returns:
+        (True, the next sub-step proposed: hh · :func:`step_factor`, kept at h if hh was only
+        truncated at the end of the output step) if err <= 1 or hh is already h_min, else
+        (False, the shorter sub-step to retry, >= h_min).
+    """
+    fac = step_factor(err)
+    if err <= 1.0 or hh <= h_min:
+        h_next = hh * fac
+        if hh < h:  # truncated at the end of the output step: keep the larger proposal
+            h_next = max(h_next, h)
+        return True, h_next
+    return False, max(hh * min(fac, 0.5), h_min)

@@ -24,12 +24,13 @@ import numpy as np
 from ._jit import jit
 from .coupled import (
     T_PER_FRACTION,
+    accept_or_retry,
+    first_try,
     heat_terms,
     heating_rate,
     kinetics,
     linear_system,
     quiet,
-    step_factor,
     step_rate,
 )
 from .layout import (
@@ -740,10 +741,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
     dth = state[X_HEAD : X_HEAD + n]
     tol = ks[S_TOLX]
     h_min = ks[S_HMIN]
-    h = state[X_HNEXT]
-    if not h > 0.0:
-        h = rem
-    h = min(h, ks[S_HMAX])
+    h = first_try(state[X_HNEXT], rem, ks[S_HMAX])
     for i in range(X_RCACHE):
         cw[CW_BACKUP][i] = state[i]
     passes = 0
@@ -761,20 +759,16 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         rates_and_slopes(state[X_SR], state[X_TR], kp, cw[CW_RT_NEW][0])
         rates_and_slopes(state[X_SL], state[X_TL], kp, cw[CW_RT_NEW][1])
         err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
-        fac = step_factor(err)
-        if err <= 1.0 or hh <= h_min:
+        accepted, h = accept_or_retry(err, hh, h, h_min)
+        if accepted:
             cw[CW_RT][:, :] = cw[CW_RT_NEW]
-            h_next = hh * fac
-            if hh < h:  # truncated at the end of the output step: keep the larger proposal
-                h_next = max(h_next, h)
-            state[X_HNEXT] = h_next
+            state[X_HNEXT] = h
             return OK, hh, passes, solved
         for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
             state[i] = cw[CW_BACKUP][i]
         if solved:
             for i in range(n):
                 dth[i] = saved[i]
-        h = max(hh * min(fac, 0.5), h_min)
 
 
 # the coupled sub-step's scratch arrays: a tuple indexed by these (compile-time) constants

@@ -33,15 +33,16 @@ import math
 import numba
 import numpy as np
 
-from ._jit import jit, pjit
+from ._jit import hot, jit, pjit
 from .coupled import (
     T_PER_FRACTION,
+    accept_or_retry,
+    first_try,
     heat_terms,
     heating_rate,
     kinetics,
     linear_system,
     quiet,
-    step_factor,
     step_rate,
 )
 from .layout import (
@@ -186,20 +187,19 @@ def wire_block(state, field, nw):
     WK_XS,  # (2W,) fractions at its end
     WK_RT,  # (W, 12) rates and slopes at the start (sma.rates_and_slopes)
     WK_RT_NEW,  # (W, 12) rates and slopes at the end
-    WK_DSDX,  # (W, 2W) dσ/dx of the composite equilibrium
-    WK_DMDX,  # (2K, 2W) dM/dx of the composite equilibrium
+    WK_DMDX,  # (2K, 2W) dM/dx of the composite equilibrium (the active wires' columns)
     WK_INV,  # (2K, 2K) (I − J)⁻¹
     WK_AT,  # (W,) temperature terms a of the linearised heat balance
     WK_BT,  # (W, 2) and b
     WK_ACT,  # (W + 1,) int: the wires in the linear system (_active_wires), their count last
     WK_XA,  # (2W,) their fractions (then the error's residuals)
     WK_RTA,  # (W, 12) their rates and slopes
-    WK_SA,  # (W, 2W) their rows and columns of dσ/dx
+    WK_SA,  # (W, 2W) their rows and columns of dσ/dx (stress_sensitivity)
     WK_LU,  # (2W, 2W) the step's matrix, then its LU factors
     WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(35)
+) = range(34)
 
 
 @jit
@@ -228,7 +228,6 @@ def make_work(nw, nm, ns):
         np.empty(2 * nw),
         np.empty((nw, 12)),
         np.empty((nw, 12)),
-        np.empty((nw, 2 * nw)),
         np.empty((2 * nm, 2 * nw)),
         np.empty((2 * nm, 2 * nm)),
         np.empty(nw),
@@ -245,27 +244,32 @@ def make_work(nw, nm, ns):
 
 
 # ---------------------------------------------------------------- mechanics
+# The kernels called on every sub-step take the work arrays they use, not the work tuple: passing
+# the 34-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
+# reference-counted one by one), about as much as the arithmetic of a whole shape pass.
 @jit
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
 
-    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m].
+    Writes wk[WK_EPS] = ε, wk[WK_SIG] = σ [Pa], wk[WK_G] = G = Σ_i n_w,i A_w σ_i a_i e_i per module [N m]
+    (:func:`shape_mechanics` on the work tuple).
     """
-    sums = wk[WK_SUMS]
-    eps = wk[WK_EPS]
+    shape_mechanics(omega, xp, xm, kp, kw, km, wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G])
+
+
+@hot
+def shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm):
+    """:func:`wire_mechanics` into the arrays ``sums`` (chord sums), ``eps``, ``sig`` and ``gm``."""
     chord_sums(omega, km, sums)
     for j in range(kw.shape[0]):
         eps[j] = wire_length(j, sums, kw, km) / kw[j, W_LREF] - 1.0
-    strain_mechanics(xp, xm, kp, kw, wk)
+    strain_mechanics(xp, xm, kp, kw, eps, sig, gm)
 
 
-@jit
-def strain_mechanics(xp, xm, kp, kw, wk):
-    """The second half of :func:`wire_mechanics`: wk[WK_SIG] and wk[WK_G] from the strains wk[WK_EPS]
+@hot
+def strain_mechanics(xp, xm, kp, kw, eps, sig, gm):
+    """The second half of :func:`shape_mechanics`: ``sig`` and ``gm`` = G from the strains ``eps``
     (e.g. those of the last converged shape, when only the fractions changed since)."""
-    eps = wk[WK_EPS]
-    sig = wk[WK_SIG]
-    gm = wk[WK_G]
     for k in range(gm.shape[0]):
         gm[k, 0] = 0.0
         gm[k, 1] = 0.0
@@ -279,20 +283,21 @@ def strain_mechanics(xp, xm, kp, kw, wk):
         gm[k, 1] += t * kw[j, W_EY]
 
 
-@jit
-def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
-    """J = dG/dM = ∂G/∂ω · S into wk[WK_JAC] (2K × 2K); a slack wire (σ = 0) adds nothing.
+@hot
+def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
+    """J = dG/dM = ∂G/∂ω · S into ``jac`` (2K × 2K) at the stresses ``sig``; a slack wire (σ = 0)
+    adds nothing.
 
-    ∂L/∂ω · S of every wire from its module's sums (:func:`.spatial_tube.length_slope`).
+    ∂L/∂ω · S of every wire from its module's sums ``gs`` (:func:`.spatial_tube.gain_sums`,
+    :func:`.spatial_tube.length_slope`), computed here unless ``sums_known`` (they depend on ω and
+    S only: the coupled step's dσ/dx computed them at the same ω and S).
     """
-    jac = wk[WK_JAC]
-    gs = wk[WK_GAIN]
-    sig = wk[WK_SIG]
     ncol = jac.shape[1]
     for r in range(ncol):
         for c in range(ncol):
             jac[r, c] = 0.0
-    gain_sums(omega, sens, km, gs)
+    if not sums_known:
+        gain_sums(omega, sens, km, gs)
     aw = kp[K_AW]
     for j in range(kw.shape[0]):
         if sig[j] <= 0.0:
@@ -308,17 +313,23 @@ def loop_gain(omega, sens, xp, xm, kp, kw, km, wk):
 
 
 @jit
-def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
+def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
-    :func:`wire_mechanics` in ``wk``.
+    :func:`wire_mechanics` in ``wk`` (:func:`newton_update` on the work tuple).
 
     Returns:
         max |ΔM| [N m] (inf if I − J is singular or the step is not finite).
     """
-    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)
-    a = wk[WK_JAC]
-    dm = wk[WK_DM]
-    gm = wk[WK_G]
+    return newton_update(
+        mw, omega, sens, xp, xm, kp, kw, km, wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], sums_known
+    )
+
+
+@hot
+def newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, a, gs, dm, sums_known):
+    """:func:`newton_step` on the arrays: stresses ``sig`` and G ``gm`` of the shape, the Jacobian
+    ``a`` and gain sums ``gs`` (:func:`loop_gain`, ``sums_known`` there), ΔM into ``dm``."""
+    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, a, gs, sums_known)
     nm = mw.shape[0]
     for k in range(nm):
         dm[2 * k] = gm[k, 0] - mw[k, 0]
@@ -337,10 +348,9 @@ def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk):
     return big
 
 
-@jit
-def _residual_norm(mw, wk):
-    """max |G(M) − M| after :func:`wire_mechanics` (inf if any component is not finite)."""
-    gm = wk[WK_G]
+@hot
+def _residual_norm(mw, gm):
+    """max |G(M) − M| for G = ``gm`` of :func:`wire_mechanics` (inf if any component is not finite)."""
     r = 0.0
     for k in range(mw.shape[0]):
         for b in range(2):
@@ -351,7 +361,7 @@ def _residual_norm(mw, wk):
     return r
 
 
-@jit
+@hot
 def _predict(omega, sens, dm, scale, out):
     """out = ω + scale · S ΔM (the shape predicted for the moment change)."""
     for i in range(omega.shape[0]):
@@ -363,7 +373,7 @@ def _predict(omega, sens, dm, scale, out):
 
 
 @jit
-def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False):
+def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False, sums_known=False):
     """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
 
     Converged when the last shape pass moved ω by less than tol_theta and either the residual
@@ -372,27 +382,38 @@ def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=
     residual test passes the planar step test passes too, and the decisions are the planar ones.
 
     With ``known``, wk[WK_EPS] already holds the strains of the starting shape (the last converged
-    one: only the fractions changed), so the first iteration takes its stresses from them.
+    one: only the fractions changed), so the first iteration takes its stresses from them; with
+    ``sums_known`` also wk[WK_GAIN] its loop-gain sums (:func:`loop_gain`).
 
     Returns:
         (status, shape passes); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
+    return _newton_solve(
+        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS],
+        wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], known, sums_known,
+    )  # fmt: skip
+
+
+@hot
+def _newton_solve(
+    mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, frames, chords, new, sums, eps, sig, gm, jac, gs, dm, known,
+    sums_known,
+):  # fmt: skip
+    """:func:`composite_newton` on its work arrays (frames, chords, new ω, chord sums, ε, σ, G, J, gain sums, ΔM)."""
     tol_m = ks[S_TOLM]
     tol_th = ks[S_TOLTH]
-    frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
-    dm = wk[WK_DM]
     nm = mw.shape[0]
     ns = omega.shape[0]
     e = np.inf
     passes = 0
     for it in range(int(ks[S_MAXROOT])):
         if known and it == 0:
-            strain_mechanics(xp, xm, kp, kw, wk)
+            strain_mechanics(xp, xm, kp, kw, eps, sig, gm)
         else:
-            wire_mechanics(omega, xp, xm, kp, kw, km, wk)
-        if e < tol_th and _residual_norm(mw, wk) < tol_m:
+            shape_mechanics(omega, xp, xm, kp, kw, km, sums, eps, sig, gm)
+        if e < tol_th and _residual_norm(mw, gm) < tol_m:
             return OK, passes
-        big = newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)
+        big = newton_update(mw, omega, sens, xp, xm, kp, kw, km, sig, gm, jac, gs, dm, sums_known and it == 0)
         if e < tol_th and big < tol_m:
             return OK, passes
         if not math.isfinite(big):
@@ -459,7 +480,7 @@ def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
         passes += it
         if st == OK:
             wire_mechanics(trial, xp, xm, kp, kw, km, wk)
-            if _residual_norm(mt, wk) < (1.0 - 1e-4 * lam) * norm:
+            if _residual_norm(mt, wk[WK_G]) < (1.0 - 1e-4 * lam) * norm:
                 copy_pairs(mw, mt)
                 copy_pairs(omega, trial)
                 return True, passes
@@ -488,7 +509,7 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
         if st != OK:
             return st, passes
         wire_mechanics(omega, xp, xm, kp, kw, km, wk)
-        norm = _residual_norm(mw, wk)
+        norm = _residual_norm(mw, wk[WK_G])
         if norm <= tol_m:
             return OK, passes
         if not math.isfinite(newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk)):
@@ -507,7 +528,7 @@ def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     return ERR_ROOT, passes
 
 
-@jit
+@hot
 def copy_pairs(dst, src):
     """dst[:, :] = src for (n, 2) arrays (an explicit loop: cheaper than a 2-D slice assignment)."""
     for i in range(src.shape[0]):
@@ -562,7 +583,9 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
 
 
 @jit
-def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False):
+def solve_mechanics(
+    mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False, sums_known=False
+):
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
     Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
@@ -571,45 +594,78 @@ def solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, w
     the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
     state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
     reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
-    ``known``: ``eps`` are the strains of the starting shape ω (see :func:`composite_newton`).
+    ``known``: ``eps`` are the strains of the starting shape ω, ``sums_known``: wk[WK_GAIN] its
+    loop-gain sums (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
-    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
-    copy_pairs(saved_w, omega)
-    copy_pairs(saved_m, mw)
     if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
         return ERR_BUCKLING, 0
-    if known:
-        e_start = wk[WK_EPS]
-        for j in range(eps.shape[0]):
-            e_start[j] = eps[j]
-    st, passes = composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known)
+    st, passes = _newton_attempt(
+        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_FRAMES],
+        wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC], wk[WK_GAIN],
+        wk[WK_DM], known, sums_known,
+    )  # fmt: skip
     if st != OK:
-        copy_pairs(omega, saved_w)
-        copy_pairs(mw, saved_m)
-        st, p2 = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
-        passes += p2
-    if st != OK:
-        copy_pairs(omega, saved_w)
-        copy_pairs(mw, saved_m)
-        st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+        st, p2 = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
         passes += p2
         if st != OK:
-            copy_pairs(omega, saved_w)
-            copy_pairs(mw, saved_m)
-            if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
-                return ERR_BUCKLING, passes
             return st, passes
     if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        copy_pairs(omega, wk[WK_SAVED_W])
+        copy_pairs(mw, wk[WK_SAVED_M])
+        return ERR_BUCKLING, passes
+    _store_strains(eps, sig, wk[WK_EPS], wk[WK_SIG])
+    return OK, passes
+
+
+@hot
+def _newton_attempt(
+    mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, frames, chords, new, sums, e_new,
+    s_new, gm, jac, gs, dm, known, sums_known,
+):  # fmt: skip
+    """The first try of :func:`solve_mechanics` on its work arrays: keep the starting shape and
+    moments (``saved_w``, ``saved_m``), then the coupled Newton (:func:`_newton_solve`; ``known``:
+    the strains ``eps`` of the start are copied to ``e_new`` for it). Returns (status, passes)."""
+    copy_pairs(saved_w, omega)
+    copy_pairs(saved_m, mw)
+    if known:
+        for j in range(eps.shape[0]):
+            e_new[j] = eps[j]
+    return _newton_solve(
+        mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, frames, chords, new, sums, e_new, s_new, gm, jac, gs, dm,
+        known, sums_known,
+    )  # fmt: skip
+
+
+@jit
+def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check):
+    """After a failed coupled Newton, from the untouched start (wk[WK_SAVED_W], wk[WK_SAVED_M]): the
+    whole-shape Newton, then the safeguard. If both fail the start is restored and the failure
+    reported (as ERR_BUCKLING if, unchecked so far, the start is unstable). Returns (status, passes)."""
+    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
+    copy_pairs(omega, saved_w)
+    copy_pairs(mw, saved_m)
+    st, passes = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
+    if st == OK:
+        return st, passes
+    copy_pairs(omega, saved_w)
+    copy_pairs(mw, saved_m)
+    st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
+    passes += p2
+    if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
-        return ERR_BUCKLING, passes
-    e_new = wk[WK_EPS]
-    s_new = wk[WK_SIG]
+        if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+            return ERR_BUCKLING, passes
+    return st, passes
+
+
+@hot
+def _store_strains(eps, sig, e_new, s_new):
+    """The converged strains and stresses into the state's blocks."""
     for j in range(eps.shape[0]):
         eps[j] = e_new[j]
         sig[j] = s_new[j]
-    return OK, passes
 
 
 @jit
@@ -639,7 +695,7 @@ def composite(state, vforce, kp, ks, kw, km, wk, check=False):
     )
 
 
-@jit
+@hot
 def _secant_update(sens, omega, saved_w, mw, saved_m):
     """Broyden update S += (Δω − S ΔM) ΔMᵀ / |ΔM|² from two converged shapes (same loads).
 
@@ -683,7 +739,7 @@ def _choose_h(rem, dt, r, ks):
     return h
 
 
-@jit
+@hot
 def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
     """Joule and latent heat, implicit convection of every wire for the new fractions ``xs`` (§6.1 d–f).
 
@@ -717,23 +773,55 @@ def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
     return OK, moved
 
 
-@jit
-def _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk):
-    """Store the new fractions wk[WK_XS] and re-solve the composite module (§6.1 g), then the
-    Broyden update of S from the two converged shapes; wk[WK_SAVED_W], wk[WK_SAVED_M] keep the
-    starting shape and moments (:func:`solve_mechanics` saves them).
+@hot
+def _mechanics_update(
+    mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, xs, saved_w, saved_m, frames, chords, new, sums,
+    e_new, s_new, gm, jac, gs, dm, sums_known,
+):  # fmt: skip
+    """Store the new fractions ``xs`` = wk[WK_XS] and re-solve the composite module (§6.1 g) by the
+    first try of :func:`solve_mechanics` (unchecked; the work arrays of :func:`_newton_attempt`),
+    then the Broyden update of S from the two converged shapes (``saved_w``, ``saved_m``: the
+    start). ``sums_known``: ``gs`` holds the loop-gain sums of this ω and S (:func:`stress_sensitivity`
+    ran on them). If it fails, the caller runs :func:`_mechanics_fallback` (it needs the work tuple).
 
-    Unchecked (a failure is still classified); the output step's end is checked by the caller.
     Returns (status, shape passes).
     """
-    xs = wk[WK_XS]
     for j in range(xp.shape[0]):
         xp[j] = xs[2 * j]
         xm[j] = xs[2 * j + 1]
     # ω is the last converged shape, so eps are its strains (a rejected sub-step restores both)
-    st, p = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False, True)
+    st, p = _newton_attempt(
+        mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, saved_w, saved_m, frames, chords, new, sums, e_new,
+        s_new, gm, jac, gs, dm, True, sums_known,
+    )  # fmt: skip
     if st == OK:
+        _store_strains(eps, sig, e_new, s_new)
+        _secant_update(sens, omega, saved_w, mw, saved_m)
+    return st, p
+
+
+@hot
+def _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, passes):
+    """:func:`_mechanics_update` after its coupled Newton failed: the fallbacks of
+    :func:`solve_mechanics` (unchecked, a failure is still classified), then as there.
+    Returns (status, shape passes including ``passes`` so far)."""
+    st, p = _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, False)
+    if st == OK:
+        _store_strains(eps, sig, wk[WK_EPS], wk[WK_SIG])
         _secant_update(sens, omega, wk[WK_SAVED_W], mw, wk[WK_SAVED_M])
+    return st, passes + p
+
+
+@hot
+def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, sums_known):
+    """:func:`_mechanics_update`, then :func:`_mechanics_fallback` if needed (the frozen sub-step's call)."""
+    st, p = _mechanics_update(
+        mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk[WK_XS], wk[WK_SAVED_W], wk[WK_SAVED_M],
+        wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G], wk[WK_JAC],
+        wk[WK_GAIN], wk[WK_DM], sums_known,
+    )  # fmt: skip
+    if st != OK:
+        st, p = _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, p)
     return st, p
 
 
@@ -758,65 +846,56 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
     st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], h, xs)  # d.–f.
     if st != OK or not moved:
         return st, h, 0, False
-    st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)  # g.
+    st, p = _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False)  # g.
     return st, h, p, True
 
 
-@jit
-def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
-    """dσ/dx of the composite equilibrium under fixed loads into wk[WK_DSDX] (W, 2W) (MODEL.md §6.5).
+@hot
+def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, inv, lu, piv, col, dmdx, sa):
+    """dσ/dx of the composite equilibrium under fixed loads (MODEL.md §6.5), the rows and columns of
+    the wires ``act[:na]`` only, into wk[WK_SA] (na, 2na): row a, columns 2b, 2b + 1 are ∂σ_{act[a]}
+    over x₊, x₋ of wire act[b]. Work: the loop gain ``jac`` and its sums ``gs`` (2K × 2K, K × 2K × 3),
+    ``inv`` = (I − J)⁻¹, ``lu`` (>= 2K × 2K), ``piv``, ``col`` (2K), ``dmdx`` (2K, >= 2 na).
 
-    Column 2j is x₊ of wire j, 2j + 1 its x₋. At fixed strain the constitutive law §3.6 gives
-    ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E), ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when
-    slack), which moves G by dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M)
-    then moves by dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by
-    E*_i (dL_i/dM) dM / L_ref,i. The planar layout gives :func:`.solver.stress_sensitivity`.
+    At fixed strain the constitutive law §3.6 gives ∂σ_j/∂x₊ = −E*_j (ε_T + σ_j k_E),
+    ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when slack), which moves G by
+    dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M) then moves by
+    dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by E*_i (dL_i/dM) dM / L_ref,i. The
+    planar layout gives :func:`.solver.stress_sensitivity`. The other wires' rows and columns are
+    not needed (:func:`_active_wires`); each entry is computed as over all wires.
+    The loop-gain sums stay in wk[WK_GAIN] for the composite solve's first Newton step.
     """
-    nw = kw.shape[0]
     nm = km.shape[0]
-    wsig = wk[WK_SIG]
-    for j in range(nw):
-        wsig[j] = sig[j]
-    loop_gain(omega, sens, xp, xm, kp, kw, km, wk)  # J into wk[WK_JAC], length sums into wk[WK_GAIN]
-    inv = wk[WK_INV]
-    lu = wk[WK_LU][: 2 * nm, : 2 * nm]
-    col = wk[WK_DM]
-    jac = wk[WK_JAC]
-    for c in range(2 * nm):  # (I − J)⁻¹ column by column
-        for r in range(2 * nm):
-            for q in range(2 * nm):
-                lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
-            col[r] = 1.0 if r == c else 0.0
-        if not solve_in_place(lu, col):
-            return False
-        for r in range(2 * nm):
-            inv[r, c] = col[r]
-    dsdx = wk[WK_DSDX]
-    dmdx = wk[WK_DMDX]
-    gs = wk[WK_GAIN]
+    loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs)  # J, and the length sums
+    lu = lu[: 2 * nm, : 2 * nm]
+    piv = piv[: 2 * nm]
+    for r in range(2 * nm):
+        for q in range(2 * nm):
+            lu[r, q] = (1.0 if r == q else 0.0) - jac[r, q]
+    if not _inverse(lu, piv, col, inv):
+        return False
     eps_t = kp[K_EPST]
     k_e = kp[K_KE]
     aw = kp[K_AW]
-    for r in range(2 * nm):
-        for c in range(2 * nw):
-            dmdx[r, c] = 0.0
-    for j in range(nw):
-        for c in range(2 * nw):
-            dsdx[j, c] = 0.0
-        if sig[j] <= 0.0:
-            continue
-        e_star = 1.0 / compliance(xp[j], xm[j], kp)
-        d_p = -e_star * (eps_t + sig[j] * k_e)
-        d_m = e_star * (eps_t - sig[j] * k_e)
-        dsdx[j, 2 * j] = d_p
-        dsdx[j, 2 * j + 1] = d_m
+    for b in range(na):
+        j = act[b]
+        d_p = 0.0
+        d_m = 0.0
+        if sig[j] > 0.0:
+            e_star = 1.0 / compliance(xp[j], xm[j], kp)
+            d_p = -e_star * (eps_t + sig[j] * k_e)
+            d_m = e_star * (eps_t - sig[j] * k_e)
         k = int(kw[j, W_MOD])
         t = kw[j, W_NW] * aw * kw[j, W_A]
         for r in range(2 * nm):  # dM/dx_j = (I − J)⁻¹ dG/dx_j, dG_k = t e_j dσ_j
             f = inv[r, 2 * k] * kw[j, W_EX] + inv[r, 2 * k + 1] * kw[j, W_EY]
-            dmdx[r, 2 * j] += t * f * d_p
-            dmdx[r, 2 * j + 1] += t * f * d_m
-    for i in range(nw):
+            dmdx[r, 2 * b] = 0.0 + t * f * d_p
+            dmdx[r, 2 * b + 1] = 0.0 + t * f * d_m
+        for a in range(na):  # its own (fixed-strain) column of its row
+            sa[a, 2 * b] = d_p if act[a] == j else 0.0
+            sa[a, 2 * b + 1] = d_m if act[a] == j else 0.0
+    for a in range(na):
+        i = act[a]
         if sig[i] <= 0.0:
             continue
         g = 1.0 / (compliance(xp[i], xm[i], kp) * kw[i, W_LREF])
@@ -824,12 +903,37 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
             dl = g * length_slope(i, gs, r, kw, km)
             if dl == 0.0:
                 continue
-            for c in range(2 * nw):
-                dsdx[i, c] += dl * dmdx[r, c]
+            for c in range(2 * na):
+                sa[a, c] += dl * dmdx[r, c]
     return True
 
 
-@jit
+@hot
+def _inverse(a, piv, col, inv):
+    """inv = a⁻¹ column by column (a overwritten: Cramer's rule for 2 × 2 as
+    :func:`.stability.solve_in_place`, else one LU factorisation). Returns False if a is singular."""
+    n = a.shape[0]
+    if n == 2:
+        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+        if det == 0.0 or not math.isfinite(det):
+            return False
+        inv[0, 0] = a[1, 1] / det
+        inv[1, 0] = -a[1, 0] / det
+        inv[0, 1] = -a[0, 1] / det
+        inv[1, 1] = a[0, 0] / det
+        return True
+    if not lu_factor(a, piv):
+        return False
+    for c in range(n):
+        for r in range(n):
+            col[r] = 1.0 if r == c else 0.0
+        lu_solve(a, piv, col[:n])
+        for r in range(n):
+            inv[r, c] = col[r]
+    return True
+
+
+@hot
 def _active_wires(x0, rt, h, act):
     """Indices of the wires that transform over h into ``act`` (W + 1; the count in act[W]).
 
@@ -849,17 +953,19 @@ def _active_wires(x0, rt, h, act):
     return na
 
 
-@jit
-def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
-    """Linearly implicit Euler step of every wire's fractions over h into wk[WK_XS] (MODEL.md §6.5;
-    cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires` through the coupled
-    system, whose LU factors stay in wk[WK_LU] for the error estimate, the quiet ones by the
-    frozen-rate step. Returns False if the system is singular."""
+@hot
+def _predict_coupled(
+    omega, sens, xp, xm, temp, sig, kp, kw, km, h, x0, xs, rt, act, jnum, xa, rta, sa, a_t, b_t, lu, piv, vec,
+    jac, gs, inv, dm, dmdx,
+):  # fmt: skip
+    """Linearly implicit Euler step of every wire's fractions over h into ``xs`` = wk[WK_XS]
+    (MODEL.md §6.5; cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires`
+    through the coupled system, whose LU factors stay in ``lu``, ``piv`` = wk[WK_LU], wk[WK_PIV] for
+    the error estimate, the quiet ones by the frozen-rate step. The other arrays are the work
+    arrays of the same names in :func:`make_work` (wk[WK_X0], wk[WK_RT], wk[WK_ACT], wk[WK_JNUM],
+    wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_VEC], and those of
+    :func:`stress_sensitivity`). Returns False if the system is singular."""
     nw = kw.shape[0]
-    x0 = wk[WK_X0]
-    xs = wk[WK_XS]
-    rt = wk[WK_RT]
-    act = wk[WK_ACT]
     for j in range(nw):
         x0[2 * j] = xp[j]
         x0[2 * j + 1] = xm[j]
@@ -867,35 +973,29 @@ def _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, h, wk):
     na = _active_wires(x0, rt, h, act)
     if na == 0:
         return True
-    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, wk):
+    if not stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, inv, lu, piv, dm, dmdx, sa):
         return False
-    dsdx = wk[WK_DSDX]
-    jnum = wk[WK_JNUM]
-    xa, rta, sa, a_t, b_t = wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT]
-    for a in range(na):  # the active wires' rows and columns
+    for a in range(na):  # the active wires' rows (their dσ/dx block is already in sa)
         j = act[a]
         xa[2 * a] = xp[j]
         xa[2 * a + 1] = xm[j]
-        rta[a, :] = rt[j]
-        for b in range(na):
-            q = act[b]
-            sa[a, 2 * b] = dsdx[j, 2 * q]
-            sa[a, 2 * b + 1] = dsdx[j, 2 * q + 1]
+        for q in range(12):
+            rta[a, q] = rt[j, q]
         a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
     m = 2 * na
-    lu = wk[WK_LU][:m, :m]
-    vec = wk[WK_VEC][:m]
+    lu = lu[:m, :m]
+    vec = vec[:m]
     linear_system(xa[:m], rta[:na], sa[:na, :m], h, a_t[:na], b_t[:na], lu, vec)
-    if not lu_factor(lu, wk[WK_PIV]):
+    if not lu_factor(lu, piv):
         return False
-    lu_solve(lu, wk[WK_PIV], vec)
+    lu_solve(lu, piv, vec)
     for a in range(na):
         j = act[a]
         xs[2 * j], xs[2 * j + 1] = clip_fractions(xp[j] + vec[2 * a], xm[j] + vec[2 * a + 1])
     return True
 
 
-@jit
+@hot
 def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
     """One wire's share of the coupled step's error estimate (cf. :func:`.solver._coupled_error`).
 
@@ -911,23 +1011,16 @@ def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
     return trunc, h * f1p - (x1p - x0p), h * f1m - (x1m - x0m)
 
 
-@jit
-def _coupled_error(temp, sig, kp, kw, h, wk):
+@hot
+def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, ra, lu, piv):
     """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
-    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix that of the active wires
-    (the identity for the quiet ones); wk[WK_X0]/wk[WK_RT]/wk[WK_BACKUP] hold the start,
-    wk[WK_XS]/wk[WK_RT_NEW] and ``temp``, ``sig`` the end of the step."""
+    larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix (LU factors ``lu``,
+    ``piv``) that of the active wires ``act`` (the identity for the quiet ones); ``x0``, ``rt``,
+    ``back`` (the state's head) hold the start, ``xs``, ``rt1`` and ``temp``, ``sig`` the end of
+    the step (wk[WK_X0], wk[WK_RT], wk[WK_BACKUP], wk[WK_XS], wk[WK_RT_NEW]); ``vec``, ``ra``: work."""
     nw = kw.shape[0]
-    x0 = wk[WK_X0]
-    xs = wk[WK_XS]
-    rt = wk[WK_RT]
-    rt1 = wk[WK_RT_NEW]
-    back = wk[WK_BACKUP]
-    jnum = wk[WK_JNUM]
-    vec = wk[WK_VEC]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
-    act = wk[WK_ACT]
     na = act[nw]
     e = 0.0
     for j in range(nw):
@@ -941,7 +1034,7 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
         for i in range(2 * nw):
             e = max(e, abs(vec[i]))
         return e
-    ra = wk[WK_XA]  # the active wires' residuals through the step's own matrix
+    # ra: the active wires' residuals through the step's own matrix
     for a in range(na):
         j = act[a]
         ra[2 * a] = vec[2 * j]
@@ -949,7 +1042,7 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
         vec[2 * j] = 0.0
         vec[2 * j + 1] = 0.0
     m = 2 * na
-    lu_solve(wk[WK_LU][:m, :m], wk[WK_PIV], ra[:m])
+    lu_solve(lu[:m, :m], piv, ra[:m])
     for i in range(m):
         e = max(e, abs(ra[i]))
     for i in range(2 * nw):  # the quiet wires' (identity rows)
@@ -957,25 +1050,41 @@ def _coupled_error(temp, sig, kp, kw, h, wk):
     return e
 
 
-@jit
-def _end_rates(sig, temp, kp, wk):
-    """Rates and slopes at the end of a sub-step into wk[WK_RT_NEW]; a wire whose (σ, T) did not
-    change over it (an unpowered slack wire) keeps its start-of-step row, computed once."""
+@hot
+def _copy_rows(dst, src):
+    """dst[:, :] = src for (W, 12) rate rows (an explicit loop: cheaper than a 2-D slice assignment)."""
+    for j in range(src.shape[0]):
+        for q in range(src.shape[1]):
+            dst[j, q] = src[j, q]
+
+
+@hot
+def _end_rates(sig, temp, kp, back, rt, rt1):
+    """Rates and slopes at the end of a sub-step into ``rt1`` (``rt``: at its start, ``back``: the
+    state's head at its start). They are a function of (σ, T) only: a wire whose (σ, T) did not
+    change over the step (an unpowered slack wire) keeps its start-of-step row, and one at exactly another wire's (σ, T) (the mirror-image neutral wires of a
+    bend in one plane) copies that wire's row; the others are computed."""
     nw = sig.shape[0]
-    back = wk[WK_BACKUP]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
-    rt = wk[WK_RT]
-    rt1 = wk[WK_RT_NEW]
     for j in range(nw):
         if sig[j] == back[o_s + j] and temp[j] == back[o_t + j]:
             for q in range(12):
                 rt1[j, q] = rt[j, q]
+            continue
+        twin = -1
+        for i in range(j):
+            if sig[i] == sig[j] and temp[i] == temp[j]:
+                twin = i
+                break
+        if twin >= 0:
+            for q in range(12):
+                rt1[j, q] = rt1[twin, q]
         else:
             rates_and_slopes(sig[j], temp[j], kp, rt1[j])
 
 
-@jit
+@hot
 def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
     """One accepted sub-step of the coupled scheme (default), as :func:`.solver._substep_coupled`
     for every wire: the linearly implicit Euler step with the rates at the end-of-step stress
@@ -989,41 +1098,49 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
     saved_w = wk[WK_SAVED_W]
     tol = ks[S_TOLX]
     h_min = ks[S_HMIN]
-    h = state[io]
-    if not h > 0.0:
-        h = rem
-    h = min(h, ks[S_HMAX])
+    h = first_try(state[io], rem, ks[S_HMAX])
     nb = back.shape[0]
     for i in range(nb):
         back[i] = state[i]
     passes = 0
     while True:
         hh = _last_h(rem, dt, h)
-        if not _predict_coupled(omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk):
+        if not _predict_coupled(
+            omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_ACT],
+            wk[WK_JNUM], wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_LU], wk[WK_PIV], wk[WK_VEC],
+            wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_DM], wk[WK_DMDX],
+        ):  # fmt: skip
             return ERR_NONFINITE, hh, passes, False
         st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], hh, wk[WK_XS])
         solved = False
         if st == OK and moved:
-            st, p = _mechanics_update(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk)
+            sums = wk[WK_ACT][nw] > 0  # _predict_coupled's dσ/dx left the loop-gain sums of ω and S
+            st, p = _mechanics_update(
+                mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk[WK_XS], saved_w, wk[WK_SAVED_M],
+                wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW], wk[WK_SUMS], wk[WK_EPS], wk[WK_SIG], wk[WK_G],
+                wk[WK_JAC], wk[WK_GAIN], wk[WK_DM], sums,
+            )  # fmt: skip
+            if st != OK:
+                st, p = _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, p)
             passes += p
             solved = True
         if st != OK:
             return st, hh, passes, solved
-        _end_rates(sig, temp, kp, wk)
-        err = _coupled_error(temp, sig, kp, kw, hh, wk) / tol
-        fac = step_factor(err)
-        if err <= 1.0 or hh <= h_min:
-            wk[WK_RT][:, :] = wk[WK_RT_NEW]
-            h_next = hh * fac
-            if hh < h:  # truncated at the end of the output step: keep the larger proposal
-                h_next = max(h_next, h)
-            state[io] = h_next
+        _end_rates(sig, temp, kp, back, wk[WK_RT], wk[WK_RT_NEW])
+        err = _coupled_error(
+            temp, sig, kp, kw, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_RT_NEW], back, wk[WK_JNUM], wk[WK_VEC],
+            wk[WK_ACT], wk[WK_XA], wk[WK_LU], wk[WK_PIV],
+        )  # fmt: skip
+        err /= tol
+        accepted, h = accept_or_retry(err, hh, h, h_min)
+        if accepted:
+            _copy_rows(wk[WK_RT], wk[WK_RT_NEW])
+            state[io] = h
             return OK, hh, passes, solved
         for i in range(nb):  # rejected: back to the start of the sub-step
             state[i] = back[i]
         if solved:
             copy_pairs(omega, saved_w)
-        h = max(hh * min(fac, 0.5), h_min)
 
 
 @jit
@@ -1206,11 +1323,16 @@ def record_size(nw, nm, ns):
 def record(state, kp, kw, km, wk, row):
     """Write state (without S) | module bending vectors (K, 2) [rad] | tip bending vector (2) [rad]
     | tip position (3) [m] | tip frame (rows d1, d2, t) (9) | resistivity per wire (W) [Ω m]."""
+    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], row)
+
+
+@jit
+def _record(state, kp, kw, km, frames, chords, pos, row):
+    """:func:`record` with its work arrays (frames, chords, vertex positions), as the time loop calls it."""
     nw, nm, ns = sizes(kw, km)
     head = sens_offset(nw, nm, ns)
     row[:head] = state[:head]
     mw, omega, sens = views(state, nw, nm, ns)
-    frames, chords, pos = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS]
     kinematics(omega, km, frames, chords)
     positions(chords, pos)
     o = head
@@ -1266,7 +1388,7 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
         npass += b
         if st != OK:
             return st, k, nsub, npass
-        record(state, kp, kw, km, wk, out[k + 1])
+        _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out[k + 1])
     return OK, n, nsub, npass
 
 

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import hot, jit
 from .layout import ERR_SHAPE, K_EI, K_G, OK
 from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_L0, W_MOD
 
@@ -67,7 +67,7 @@ def rot_coeffs(th2):
     return f * c, 0.5 * f * f, f
 
 
-@jit
+@hot
 def kinematics(omega, km, frames, chords):
     """Bottom-up frames and chord vectors of every segment (SPATIAL.md §2).
 
@@ -114,7 +114,7 @@ def _project(frame, mx, my, mz):
     )
 
 
-@jit
+@hot
 def loads_pass(omega, mw, vforce, kp, km, frames, chords, out):
     """Top-down forces and moments, new segment rotations (SPATIAL.md §3), given the kinematics.
 
@@ -166,7 +166,7 @@ def loads_pass(omega, mw, vforce, kp, km, frames, chords, out):
     return err
 
 
-@jit
+@hot
 def shape_pass(omega, mw, vforce, kp, km, frames, chords, out):
     """One pass of the shape algorithm (MODEL.md §4.9 in 3-D): kinematics, then loads."""
     kinematics(omega, km, frames, chords)
@@ -200,7 +200,7 @@ def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
     return ERR_SHAPE, max_iter
 
 
-@jit
+@hot
 def chord_sums(omega, km, sums):
     """Per module k: sums[k] = (Σ f_n, Σ f_n ω1_n, Σ f_n ω2_n) over its segments, f_n = 2 sin(Δθ_n/2)/Δθ_n.
 
@@ -238,7 +238,7 @@ def wire_length(j, sums, kw, km):
     return kw[j, W_L0] - km[k, M_NSEG] * ls + ls * sums[k, 0] - a * lever
 
 
-@jit
+@hot
 def gain_sums(omega, sens, km, out):
     """Per module k and column c of S = dω/dM: the sums over the module's segments n of
 
@@ -284,7 +284,7 @@ def length_slope(j, gs, c, kw, km):
     return -km[k, M_LS] * _TWELFTH * gs[k, c, 0] + kw[j, W_A] * along
 
 
-@jit
+@hot
 def positions(chords, out):
     """Vertex positions P_0 … P_N (rows, global x, y, z in m) from the chords; P_N = 0."""
     n = chords.shape[0]
