@@ -12,8 +12,8 @@ import numba
 import numpy as np
 
 from ._jit import jit, pjit
-from .dense import held_steps, span_options
-from .layout import OK, S_DENSE
+from .dense import held_steps, span_options, spans_outputs
+from .layout import OK
 from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
 from .solver import advance, advance_held
 
@@ -56,7 +56,7 @@ def run(state, kp, ks, v_r, v_l, loads, dt, out):
     volts = np.empty((n, 2))
     volts[:, 0] = v_r
     volts[:, 1] = v_l
-    dense = ks[S_DENSE] != 0.0
+    dense = spans_outputs(ks)
     ks_span = span_options(ks, dt)
     nsub = 0
     npass = 0

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import jit
-from .layout import S_DENSE, S_HMAX
+from .layout import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
 
 OUTPUT_TOL = 1e-9  # an output within this fraction of dt after a sub-step's end counts as at the end
 
@@ -49,6 +49,14 @@ def held_steps(volts, loads, k):
             return m
         m += 1
     return m
+
+
+@jit
+def spans_outputs(ks):
+    """True if the time loop hands runs of held output steps to one span call: ``dense_output``
+    on (ks[S_DENSE] > 0) and the coupled scheme, whose error control chooses the sub-steps. The
+    frozen scheme is MODEL.md §6.1 as written, per output step (and so is the fine reference)."""
+    return ks[S_DENSE] > 0.0 and int(ks[S_SCHEME]) == SCHEME_COUPLED
 
 
 @jit
@@ -80,6 +88,7 @@ def output_fraction(j, n_out, dt, e0, e1, at_end):
 
 @jit
 def interpolate(start, end, theta, out):
-    """out = (1 − θ) · start + θ · end, elementwise (θ = 1 gives ``end`` exactly)."""
+    """out = start + θ (end − start), elementwise: a quantity that did not change over the sub-step
+    (a wire at rest, Joule heat after switch-off) stays exactly what it was."""
     for i in range(out.shape[0]):
-        out[i] = (1.0 - theta) * start[i] + theta * end[i]
+        out[i] = start[i] + theta * (end[i] - start[i])

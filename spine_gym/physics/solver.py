@@ -967,6 +967,8 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
         if since > max_sub:
             return ERR_SUBSTEPS, done, nsub, passes
         sub = (e0, span - rem, rem <= 0.0)
+        if coupled and rem <= 0.0:
+            _cache_rates(state, kp, cw[CW_RT])
         if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
             # h. the sub-step reached an output: stability of the shape it ends on (once per output
             # step at most: the O(N³) test on every sub-step would triple the cost of a heavily
@@ -981,8 +983,6 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
             done = _complete_outputs(state, start, mid, kp, out, row0, dt, n_out, done, sub)
             since = 0
             solved = False
-    if coupled:
-        _cache_rates(state, kp, cw[CW_RT])
     return OK, done, nsub, passes
 
 

@@ -44,7 +44,7 @@ from .coupled import (
     step_factor,
     step_rate,
 )
-from .dense import held_steps, interpolate, output_fraction, span_options
+from .dense import held_steps, interpolate, output_fraction, span_options, spans_outputs
 from .layout import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -62,7 +62,6 @@ from .layout import (
     OK,
     RATE_KP,
     S_C,
-    S_DENSE,
     S_HMAX,
     S_HMIN,
     S_MAXROOT,
@@ -1194,6 +1193,8 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
         if since > max_sub:
             return ERR_SUBSTEPS, done, nsub, passes
         sub = (e0, span - rem, rem <= 0.0)
+        if coupled and rem <= 0.0:
+            _store_rates(state, kp, kw, km, ns, wk[WK_RT])
         if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
             # h. the sub-step reached an output: stability of the shape it ends on (once per output
             # step at most, as solver.advance)
@@ -1202,8 +1203,6 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
             done = _complete_outputs(state, start, mid, kp, kw, km, wk, out, row0, dt, n_out, done, sub)
             since = 0
             solved = False
-    if coupled:
-        _store_rates(state, kp, kw, km, ns, wk[WK_RT])
     return OK, done, nsub, passes
 
 
@@ -1317,7 +1316,7 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
     wk = make_work(nw, nm, ns)
     n = volts.shape[0]
     record(state, kp, kw, km, wk, out[0])
-    dense = ks[S_DENSE] != 0.0
+    dense = spans_outputs(ks)
     ks_span = span_options(ks, dt)
     nsub = 0
     npass = 0
