@@ -213,7 +213,7 @@ def _gates(solver: SolverOptions) -> dict:
         "alternate_worst_deviation_over_tolerance": worst_alt,
         "capacity_worst_deviation_over_tolerance": worst_cap,
         "capacity_values": rows,
-        "pass": worst_alt <= 1.0 and worst_cap <= 1.0,
+        "pass": bool(worst_alt <= 1.0 and worst_cap <= 1.0),
     }
 
 
