@@ -9,20 +9,28 @@ Measured in one process, interleaved round-robin so that machine load hits every
 (median and minimum of ``--repeats`` runs, ``time.perf_counter``):
 
 * ``newton``    — default :class:`SolverOptions` (coupled Newton composite solve, coupled linearly
-  implicit phase step with error-controlled sub-steps, tol_x = 1e-4);
-* ``frozen``    — ``SolverOptions(scheme="frozen")``: the previous default, MODEL.md §6.1 as
-  written (rates frozen over a sub-step, r·h <= c = 0.01): the "before" of issue 11;
+  implicit phase step with error-controlled sub-steps, tol_x = 1e-4, sub-steps across the held
+  output steps with dense output, dense_h_max = 50 ms: MODEL.md §6.5);
+* ``stepped``   — ``SolverOptions(dense_output=False)``: the same step cut at every 10-ms output
+  (the default before dense output);
+* ``dense_h*``  — the default with another ``dense_h_max`` (0.1 s, 0.02 s, inf: only tol_x limits
+  the sub-steps across outputs): the accuracy/speed trade-off of the cap;
+* ``frozen``    — ``SolverOptions(scheme="frozen")``: the default before the coupled step, MODEL.md
+  §6.1 as written (rates frozen over a sub-step, r·h <= c = 0.01): the "before" of issue 11;
 * ``illinois``  — ``SolverOptions(method="illinois")`` (bracketed regula falsi);
 * ``bisect``    — ``SolverOptions(method="bisect")``, the seed's algorithm (MODEL.md §5.2);
 * ``reference`` — :data:`spine_gym.params.FINE_REFERENCE`: frozen rates, fixed 0.1-ms sub-steps (§6.2).
 
 For each: median/min/quartiles [s], ratio to the default, sub-steps and shape passes, time per
-simulated second and per sub-step, and the maximum |Θ − Θ_reference| over the run. Also the whole
-50-s hysteresis run (default and frozen) against its own fine-step reference. On a loaded machine
-the times are upper bounds; the ratios (same run, interleaved) are what carries over.
+simulated second, per sub-step and per output step (2 000), and the maximum |Θ − Θ_reference|
+over the run. Also the whole 50-s hysteresis run (default, stepped, frozen) against its own
+fine-step reference, and the §10.3/§10.4 gates of the default, the ``dense_h*`` variants, stepped
+and frozen. On a loaded machine the times are upper bounds; the ratios (same run, interleaved) are
+what carries over.
 
 Spatial core (SPATIAL.md), 20-s runs timed in the same round-robin, as ratios to the planar default,
-each with the default (coupled, MODEL.md §6.5) step and with ``scheme="frozen"`` (``*_frozen``):
+each with the default (coupled, MODEL.md §6.5, dense output) step, stepped to every output
+(``*_stepped``) and with ``scheme="frozen"`` (``*_frozen``):
 
 * ``spatial``  — :meth:`SpineLayout.seed` (one four-wire module), wire 0 at the §10.2 drive, the other
   three unpowered: the planar run on the generic core (its |Θ − Θ_reference| is reported too);
@@ -86,13 +94,21 @@ TARGET_ANGLE_DEG = 0.5  # [deg] accuracy target against the fine-step reference
 
 CONFIGS = {
     "newton": SolverOptions(),
+    "stepped": SolverOptions(dense_output=False),
+    "dense_h0.1": SolverOptions(dense_h_max=0.1),
+    "dense_h0.02": SolverOptions(dense_h_max=0.02),
+    "dense_hinf": SolverOptions(dense_h_max=math.inf),
     "frozen": SolverOptions(scheme="frozen"),
     "illinois": SolverOptions(method="illinois"),
     "bisect": SolverOptions(method="bisect"),
     "reference": FINE_REFERENCE,
 }
 LABELS = {
-    "newton": "newton + coupled step (default)",
+    "newton": "newton + coupled step + dense output (default)",
+    "stepped": "newton + coupled step, stepped to every output",
+    "dense_h0.1": "default, dense_h_max = 0.1 s",
+    "dense_h0.02": "default, dense_h_max = 0.02 s",
+    "dense_hinf": "default, dense_h_max = inf (tol_x only)",
     "frozen": "newton + frozen rates, c = 0.01 (before)",
     "illinois": "illinois + coupled step",
     "bisect": "bisect (seed's solve) + coupled step",
@@ -100,13 +116,19 @@ LABELS = {
 }
 
 SPATIAL_LABELS = {
-    "spatial": "spatial module (4 wires), coupled (default)",
+    "spatial": "spatial module (4 wires), coupled + dense (default)",
+    "spatial_stepped": "spatial module (4 wires), coupled, stepped",
     "spatial_frozen": "spatial module (4 wires), frozen rates",
-    "chain": "spatial 2-module chain (8 wires), coupled",
+    "chain": "spatial 2-module chain (8 wires), coupled + dense",
+    "chain_stepped": "spatial 2-module chain (8 wires), coupled, stepped",
     "chain_frozen": "spatial 2-module chain (8 wires), frozen",
 }
 SPATIAL_TARGETS = {"spatial": 2.0, "chain": 4.0}  # issue 11: run time / the planar default's
-SPATIAL_SOLVERS = {"": SolverOptions(), "_frozen": SolverOptions(scheme="frozen")}
+SPATIAL_SOLVERS = {
+    "": SolverOptions(),
+    "_stepped": SolverOptions(dense_output=False),
+    "_frozen": SolverOptions(scheme="frozen"),
+}
 
 
 def _spatial_runs(vr: np.ndarray) -> dict[str, tuple[SpineLayout, np.ndarray, SolverOptions]]:
@@ -191,7 +213,7 @@ def _gates(solver: SolverOptions) -> dict:
         "alternate_worst_deviation_over_tolerance": worst_alt,
         "capacity_worst_deviation_over_tolerance": worst_cap,
         "capacity_values": rows,
-        "pass": worst_alt <= 1.0 and worst_cap <= 1.0,
+        "pass": bool(worst_alt <= 1.0 and worst_cap <= 1.0),
     }
 
 
@@ -320,6 +342,7 @@ def main(argv=None) -> int:
             "shape_passes": r.shape_passes,
             "ms_per_simulated_s": st["median_s"] * 1e3 / DURATION,
             "us_per_substep": st["median_s"] * 1e6 / r.substeps,
+            "us_per_output_step": st["median_s"] * 1e6 / (len(r) - 1),
             "angle_at_20s_deg": float(r.angle_deg[-1]),
             "max_abs_angle_diff_to_reference_deg": float(diff.max()),
             "time_of_max_diff_s": float(r.time[int(diff.argmax())]),
@@ -329,7 +352,7 @@ def main(argv=None) -> int:
     spatial = {}
     for name, r in spatial_out.items():
         st = _stats(times[name])
-        sref = spatial_ref[name.removesuffix("_frozen")]
+        sref = spatial_ref[name.split("_")[0]]
         spatial[name] = {
             "label": SPATIAL_LABELS[name],
             "scheme": spatial_runs[name][2].scheme,
@@ -352,14 +375,14 @@ def main(argv=None) -> int:
             "us_per_substep": st["median_s"] * 1e6 / r.substeps,
             "tip_theta_at_20s_deg": float(r.tip_theta_deg[-1]),
         }
-    for name in ("spatial", "spatial_frozen"):
+    for name in ("spatial", "spatial_stepped", "spatial_frozen"):
         seed_diff = np.abs(spatial_out[name].tip_bending_deg[:, 0] - ref.angle_deg)
         spatial[name]["max_abs_angle_diff_to_planar_reference_deg"] = float(seed_diff.max())
 
     # the whole 50-s hysteresis run (heating + cooling) with the default solver
     vr50, vl50 = hysteresis_voltages()
     full_ref = simulate(50.0, vr50, vl50, solver=CONFIGS["reference"])
-    peers50 = {k: CONFIGS[k] for k in ("newton", "frozen")}
+    peers50 = {k: CONFIGS[k] for k in ("newton", "stepped", "frozen")}
     t50 = _time_interleaved(peers50, vr50, vl50, 50.0, args.repeats)
     hyst50 = {}
     for k, solver in peers50.items():
@@ -371,8 +394,8 @@ def main(argv=None) -> int:
             "max_abs_angle_diff_to_reference_deg": float(np.abs(full.angle_deg - full_ref.angle_deg).max()),
         }
 
-    print("MODEL.md §10.3 / §10.4 gates (default and frozen) ...", flush=True)
-    gates = {k: _gates(CONFIGS[k]) for k in ("newton", "frozen")}
+    print("MODEL.md §10.3 / §10.4 gates ...", flush=True)
+    gates = {k: _gates(CONFIGS[k]) for k in CONFIGS if k not in ("illinois", "bisect", "reference")}
     compile_info = None if args.no_compile else _compile_times(args.compile_repeats)
     load_after = os.getloadavg()[0]
     d = results["newton"]
@@ -382,6 +405,10 @@ def main(argv=None) -> int:
         "meets_time_target": d["median_s"] <= TARGET_SECONDS,
         "default_min_ms": d["min_s"] * 1e3,
         "meets_time_target_by_min": d["min_s"] <= TARGET_SECONDS,
+        "speedup_vs_stepped": results["stepped"]["median_s"] / d["median_s"],
+        "speedup_vs_stepped_by_min": results["stepped"]["min_s"] / d["min_s"],
+        "max_angle_diff_50s_deg": hyst50["newton"]["max_abs_angle_diff_to_reference_deg"],
+        "default_passes_gates": gates["newton"]["pass"],
         "speedup_vs_frozen_before": results["frozen"]["median_s"] / d["median_s"],
         "speedup_vs_frozen_before_by_min": results["frozen"]["min_s"] / d["min_s"],
         "max_angle_diff_deg": d["max_abs_angle_diff_to_reference_deg"],
@@ -466,14 +493,15 @@ def main(argv=None) -> int:
 
     print(
         f"{'config':<50} {'median ms':>9} {'min ms':>7} {'ratio':>6} {'substeps':>8} {'us/sub':>7} "
-        f"{'max|dΘ| deg':>11}  (spatial rows: ratio to the planar default; error vs the spatial reference)"
+        f"{'us/out':>7} {'max|dΘ| deg':>11}  (spatial rows: ratio to the planar default; error vs the "
+        "spatial reference)"
     )
     for n in names:
         r = results[n]
         print(
             f"{r['label']:<50} {r['median_s'] * 1e3:9.2f} {r['min_s'] * 1e3:7.2f} "
             f"{r['ratio_to_default']:6.2f} {r['substeps']:8d} {r['us_per_substep']:7.2f} "
-            f"{r['max_abs_angle_diff_to_reference_deg']:11.4f}"
+            f"{r['us_per_output_step']:7.2f} {r['max_abs_angle_diff_to_reference_deg']:11.4f}"
         )
     for r in spatial.values():
         print(
@@ -512,7 +540,9 @@ def main(argv=None) -> int:
         f"target ≤ {TARGET_SECONDS * 1e3:g} ms "
         f"{'met' if summary['meets_time_target'] else 'NOT met'}; accuracy ≤ {TARGET_ANGLE_DEG}° "
         f"{'met' if summary['meets_accuracy_target'] else 'NOT met'}; "
-        f"min {summary['default_min_ms']:.2f} ms; frozen (before) / default = "
+        f"min {summary['default_min_ms']:.2f} ms; stepped / default = "
+        f"{summary['speedup_vs_stepped']:.2f}x (median), {summary['speedup_vs_stepped_by_min']:.2f}x (min); "
+        f"frozen (before) / default = "
         f"{summary['speedup_vs_frozen_before']:.2f}x (median), "
         f"{summary['speedup_vs_frozen_before_by_min']:.2f}x (min); "
         f"60 s / default = {summary['ratio_paper_60s_to_default']:.0f}x; "

@@ -348,10 +348,20 @@ class SolverOptions:
             rule rate × h <= ``step_c``. MODEL.md §6.5. The planar and the spatial core
             (SPATIAL.md §8.6) both read this one field.
         tol_x: local error tolerance of the coupled scheme on the phase fractions [-].
+        dense_output: let the sub-steps run across output points over which the inputs
+            (voltages, loads) are held, and report the outputs inside a sub-step from the state
+            linearly interpolated between its ends (default; MODEL.md §6.5, ``physics.dense``).
+            ``False``: every output step ends a sub-step, as before. Used by the time loops of
+            ``simulate`` (planar and spatial); the env kernels and MPC rollouts advance one
+            output step per call either way.
+        dense_h_max: longest sub-step across output points [s] (never below the output step):
+            the step-error control bounds the local error of the implicit Euler heat balance, not
+            its growth over a long quiet heating or cooling, which shifts the onsets (§6.5).
         step_c: adaptive criterion c of §6.1 b (rate × sub-step <= c) of the frozen scheme.
             ``inf`` disables it.
         h_min: smallest adaptive sub-step [s].
-        h_max: largest sub-step [s] (``inf``: the output step). ``scheme="frozen", step_c=inf,
+        h_max: largest sub-step [s] (``inf``: no cap but the output step, or the span of held
+            output steps with ``dense_output``). ``scheme="frozen", step_c=inf,
             h_max=1e-4`` is the fixed-step reference of §6.2 (:data:`FINE_REFERENCE`).
         tol_moment: composite-solve tolerance on the wire moment [N m].
         tol_theta: shape-iteration tolerance on max |ΔΔθ_n| [rad].
@@ -363,6 +373,8 @@ class SolverOptions:
     method: str = "newton"
     scheme: str = "coupled"
     tol_x: float = 1e-4
+    dense_output: bool = True
+    dense_h_max: float = 0.05
     step_c: float = 0.01
     h_min: float = 1e-5
     h_max: float = _INF
@@ -378,6 +390,9 @@ class SolverOptions:
         if self.scheme not in L.SCHEMES:
             raise ValueError(f"scheme must be one of {sorted(L.SCHEMES)}, got {self.scheme!r}")
         _check("tol_x", self.tol_x, 0.0, 0.1, lo_open=True)
+        if not isinstance(self.dense_output, bool):
+            raise ValueError(f"dense_output must be True or False, got {self.dense_output!r}")
+        _check("dense_h_max", self.dense_h_max, 0.0, _INF, lo_open=True)
         _check("step_c", self.step_c, 0.0, _INF, lo_open=True)
         _check("h_min", self.h_min, 0.0, 1.0, lo_open=True)
         _check("h_max", self.h_max, 0.0, _INF, lo_open=True)
@@ -401,6 +416,7 @@ class SolverOptions:
         ks[L.S_MAXSUB] = self.max_substeps
         ks[L.S_SCHEME] = L.SCHEMES[self.scheme]
         ks[L.S_TOLX] = self.tol_x
+        ks[L.S_DENSE] = self.dense_h_max if self.dense_output else 0.0
         return ks
 
     def replace(self, **changes) -> SolverOptions:

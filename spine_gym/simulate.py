@@ -111,7 +111,9 @@ def simulate(
     ((W,), (n, W) or a callable t → (W,)), ``voltage_left`` and ``params`` must be omitted (the
     layout carries its params) and forces are 3-vectors (see :func:`simulate_spatial`).
 
-    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
+    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold). Where they
+    stay the same over consecutive output steps, the sub-steps run across the output points and
+    the outputs in between are interpolated (``SolverOptions.dense_output``, MODEL.md §6.5).
 
     Args:
         duration: simulated time [s], > 0; rounded to a whole number of steps.

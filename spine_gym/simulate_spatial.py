@@ -109,7 +109,9 @@ def simulate_spatial(
 ) -> SpatialResult:
     """Simulate a spatial or chained spine for ``duration`` seconds (SPATIAL.md §1–§5, MODEL.md §6).
 
-    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold).
+    Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold). Where they
+    stay the same over consecutive output steps, the sub-steps run across the output points and
+    the outputs in between are interpolated (``SolverOptions.dense_output``, MODEL.md §6.5).
 
     Args:
         duration: simulated time [s], > 0; rounded to a whole number of steps.

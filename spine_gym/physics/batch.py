@@ -12,37 +12,34 @@ import numba
 import numpy as np
 
 from ._jit import jit, pjit
-from .layout import OK, X_HEAD, X_ML, X_MR, X_PL, X_PR
-from .sma import resistivity
-from .solver import advance
-from .tube import tip_position
+from .dense import held_steps, span_options, spans_outputs
+from .layout import OK
+from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
+from .solver import advance, advance_held
 
-# columns written by ``record`` after the state's head
-OUT_ANGLE, OUT_RES_R, OUT_RES_L, OUT_TIP_X, OUT_TIP_Y = range(X_HEAD, X_HEAD + 5)
-OUT_SIZE = X_HEAD + 5
-
-
-@jit
-def record(state, kp, row):
-    """Write the state's head, Θ [rad], the wire resistivities [Ω m] and the tip position [m]."""
-    n = (state.shape[0] - X_HEAD) // 2
-    for i in range(X_HEAD):
-        row[i] = state[i]
-    dth = state[X_HEAD : X_HEAD + n]
-    theta = 0.0
-    for i in range(n):
-        theta += dth[i]
-    row[OUT_ANGLE] = theta
-    row[OUT_RES_R] = resistivity(state[X_PR], state[X_MR], kp)
-    row[OUT_RES_L] = resistivity(state[X_PL], state[X_ML], kp)
-    tx, ty = tip_position(dth, kp)
-    row[OUT_TIP_X] = tx
-    row[OUT_TIP_Y] = ty
+__all__ = [
+    "OUT_ANGLE",
+    "OUT_RES_L",
+    "OUT_RES_R",
+    "OUT_SIZE",
+    "OUT_TIP_X",
+    "OUT_TIP_Y",
+    "advance_many",
+    "advance_many_serial",
+    "empty_record",
+    "record",
+    "run",
+]
 
 
 @jit
 def run(state, kp, ks, v_r, v_l, loads, dt, out):
     """Integrate one spine over ``v_r.shape[0]`` output steps, recording every step.
+
+    Consecutive output steps with equal inputs are advanced as one span (:func:`.solver.advance_held`,
+    the sub-steps crossing their output points, the outputs in between interpolated: MODEL.md
+    §6.5, :mod:`.dense`) unless the option ``dense_output`` is off; then every output step is one
+    :func:`.solver.advance`.
 
     Args:
         state: initial state, advanced in place.
@@ -56,19 +53,27 @@ def run(state, kp, ks, v_r, v_l, loads, dt, out):
     """
     n = v_r.shape[0]
     record(state, kp, out[0])
+    volts = np.empty((n, 2))
+    volts[:, 0] = v_r
+    volts[:, 1] = v_l
+    dense = spans_outputs(ks)
+    ks_span = span_options(ks, dt)
     nsub = 0
     npass = 0
     varying = loads.shape[0] > 1
-    for k in range(n):
+    k = 0
+    while k < n:
         vf = loads[k] if varying else loads[0]
         # the caller solved the mechanics for loads[0]; re-solve only when the loads change
         resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
-        st, a, b = advance(state, kp, ks, v_r[k], v_l[k], vf, dt, resolve)
+        m = held_steps(volts, loads, k) if dense else 1
+        kss = ks_span if m > 1 else ks
+        st, done, a, b = advance_held(state, kp, kss, v_r[k], v_l[k], vf, dt, m, resolve, out, k + 1)
         nsub += a
         npass += b
         if st != OK:
-            return st, k, nsub, npass
-        record(state, kp, out[k + 1])
+            return st, k + done, nsub, npass
+        k += m
     return OK, n, nsub, npass
 
 

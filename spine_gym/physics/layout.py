@@ -50,7 +50,7 @@ from __future__ import annotations
 (
     S_C,  # [-] adaptive criterion c: r·h <= c (MODEL.md §6.1 b)
     S_HMIN,  # [s] smallest adaptive sub-step
-    S_HMAX,  # [s] largest sub-step (inf: the output step)
+    S_HMAX,  # [s] largest sub-step (inf: the output step, or the span of held ones with S_DENSE)
     S_TOLM,  # [N m] moment tolerance of the composite solve
     S_TOLTH,  # [rad] shape-iteration tolerance (max |ΔΔθ_n|)
     S_MAXSHAPE,  # [-] cap on shape passes per shape solve
@@ -59,8 +59,9 @@ from __future__ import annotations
     S_MAXSUB,  # [-] cap on sub-steps per output step
     S_SCHEME,  # [-] time step: 0 frozen rates with r·h <= c (MODEL.md §6.1), 1 coupled (default)
     S_TOLX,  # [-] local error tolerance of the coupled step on the phase fractions
+    S_DENSE,  # [s] longest sub-step across output points with held inputs (dense output); 0: off
     KS_SIZE,
-) = range(12)
+) = range(13)
 
 METHOD_BISECT = 0
 METHOD_ILLINOIS = 1

@@ -12,7 +12,9 @@ residual g(M) = G(M) − M is strictly decreasing, so a bracketed root always ex
   falls back to ``illinois`` from the untouched starting point, so the bracket is the safeguard.
 
 :func:`advance` integrates one output step with adaptive sub-steps, implicit Euler on the phases,
-implicit convection and exact discrete energy bookkeeping (§6.1).
+implicit convection and exact discrete energy bookkeeping (§6.1); :func:`advance_held` integrates
+a span of output steps with held inputs in one go, the sub-steps crossing the output points and
+the outputs inside a sub-step interpolated (dense output, §6.5, :mod:`.dense`).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from .coupled import (
     quiet,
     step_rate,
 )
+from .dense import interpolate, output_fraction
 from .layout import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -91,6 +94,7 @@ from .layout import (
     X_TL,
     X_TR,
 )
+from .record import record
 from .sma import (
     clip_fractions,
     compliance,
@@ -862,29 +866,85 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     Returns:
         (status, sub-steps, shape passes).
     """
+    st, _done, nsub, passes = _advance(state, kp, ks, v_r, v_l, vforce, dt, 1, resolve, None, 0)
+    return st, nsub, passes
+
+
+@jit
+def advance_held(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
+    """Advance by ``n_out`` output steps of ``dt`` over which the inputs are held, in one span.
+
+    The sub-steps run across the output points (MODEL.md §6.5, :mod:`.dense`): only the span's end
+    cuts one. The record (:func:`.record.record`) of the state at output j = 1 … n_out goes to
+    ``out[row0 + j − 1]``, linearly interpolated between the ends of the sub-step that contains it.
+    With n_out = 1 this is :func:`advance` followed by a record. Arguments as :func:`advance`;
+    the cap ``max_substeps`` and the stability check of the end shape apply per output step.
+
+    Returns:
+        (status, output steps completed, sub-steps, shape passes).
+    """
+    return _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0)
+
+
+@jit
+def _complete_outputs(state, start, mid, kp, out, row0, dt, n_out, done, sub):
+    """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span) reached
+    (:func:`.dense.output_fraction`): the model time and, with ``out``, their records, interpolated
+    between ``start`` and the state (dense output). Returns the outputs completed."""
+    e0, e1, at_end = sub
+    theta = output_fraction(done + 1, n_out, dt, e0, e1, at_end)
+    while theta >= 0.0:
+        state[X_TIME] += dt
+        if out is not None:
+            if theta == 1.0:
+                record(state, kp, out[row0 + done])
+            else:
+                interpolate(start, state, theta, mid)
+                mid[X_TIME] = state[X_TIME]
+                record(mid, kp, out[row0 + done])
+        done += 1
+        if done == n_out:
+            break
+        theta = output_fraction(done + 1, n_out, dt, e0, e1, at_end)
+    return done
+
+
+@jit
+def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
+    """:func:`advance_held`; ``out`` None records nothing (and copies nothing per sub-step)."""
     n = (state.shape[0] - X_HEAD) // 2
-    buf = np.empty(2 * n + COUPLED_WORK_SIZE)  # one allocation per output step
+    size = state.shape[0]
+    rows = 0 if out is None else 2 * size
+    buf = np.empty(2 * n + COUPLED_WORK_SIZE + rows)  # one allocation per call
     work = buf[:n]
     saved = buf[n : 2 * n]
-    cw = coupled_work(buf[2 * n :])
+    cw = coupled_work(buf[2 * n : 2 * n + COUPLED_WORK_SIZE])
+    start = buf[2 * n + COUPLED_WORK_SIZE : 2 * n + COUPLED_WORK_SIZE + size]
+    mid = buf[2 * n + COUPLED_WORK_SIZE + size :]
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
     passes = 0
     check = needs_stability_check(vforce, kp)
     if resolve:
         st, passes = composite(state, vforce, kp, ks, work, saved, check)
         if st != OK:
-            return st, 0, passes
+            return st, 0, 0, passes
     l0sq = kp[K_L0] * kp[K_L0]
     jr_num = v_r * v_r / l0sq
     jl_num = v_l * v_l / l0sq
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
     max_sub = int(ks[S_MAXSUB])
-    rem = dt
+    span = dt * n_out
+    rem = span
     nsub = 0
+    since = 0  # sub-steps since the last output
+    done = 0  # output steps completed
     solved = False
     if coupled:
         _cached_rates(state, kp, cw[CW_RT])
     while rem > 0.0:
+        if out is not None:
+            start[:] = state
+        e0 = span - rem
         if coupled:
             st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
         else:
@@ -894,20 +954,30 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
         passes += p
         solved = solved or sol
         if st != OK:
-            return st, nsub, passes
+            return st, done, nsub, passes
         rem -= h
         nsub += 1
-        if nsub > max_sub:
-            return ERR_SUBSTEPS, nsub, passes
-    if coupled:
-        _cache_rates(state, kp, cw[CW_RT])
-    # h. stability of the shape the step ends on (once per output step: the O(N³) test on every
-    # sub-step would triple the cost of a heavily loaded run)
-    dth = state[X_HEAD : X_HEAD + n]
-    if check and solved and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp):
-        return ERR_BUCKLING, nsub, passes
-    state[X_TIME] += dt
-    return OK, nsub, passes
+        since += 1
+        if since > max_sub:
+            return ERR_SUBSTEPS, done, nsub, passes
+        sub = (e0, span - rem, rem <= 0.0)
+        if coupled and rem <= 0.0:
+            _cache_rates(state, kp, cw[CW_RT])
+        if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
+            # h. the sub-step reached an output: stability of the shape it ends on (once per output
+            # step at most: the O(N³) test on every sub-step would triple the cost of a heavily
+            # loaded run)
+            dth = state[X_HEAD : X_HEAD + n]
+            if (
+                check
+                and solved
+                and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp)
+            ):
+                return ERR_BUCKLING, done, nsub, passes
+            done = _complete_outputs(state, start, mid, kp, out, row0, dt, n_out, done, sub)
+            since = 0
+            solved = False
+    return OK, done, nsub, passes
 
 
 @jit

@@ -45,6 +45,7 @@ from .coupled import (
     quiet,
     step_rate,
 )
+from .dense import held_steps, interpolate, output_fraction, span_options, spans_outputs
 from .layout import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -1214,6 +1215,48 @@ def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
     are checked for stability, as in the planar core; an unstable equilibrium ends the step with
     ERR_BUCKLING.
     """
+    st, _done, nsub, passes = _advance_in(state, kp, ks, kw, km, volts, vforce, dt, 1, resolve, wk, None, 0)
+    return st, nsub, passes
+
+
+@jit
+def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
+    """Advance by ``n_out`` output steps of ``dt`` with the inputs held, in one span, as
+    :func:`.solver.advance_held`: the sub-steps cross the output points (MODEL.md §6.5,
+    :mod:`.dense`) and the :func:`record` of output j = 1 … n_out goes to ``out[row0 + j − 1]``,
+    from the state linearly interpolated within the sub-step that contains it.
+
+    Returns:
+        (status, output steps completed, sub-steps, shape passes).
+    """
+    return _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0)
+
+
+@jit
+def _complete_outputs(state, start, mid, kp, kw, km, wk, out, row0, dt, n_out, done, sub):
+    """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
+    reached, as :func:`.solver._complete_outputs`. Returns the outputs completed."""
+    e0, e1, at_end = sub
+    theta = output_fraction(done + 1, n_out, dt, e0, e1, at_end)
+    while theta >= 0.0:
+        state[S_TIME] += dt
+        if out is not None:
+            if theta == 1.0:
+                record(state, kp, kw, km, wk, out[row0 + done])
+            else:
+                interpolate(start, state, theta, mid)
+                mid[S_TIME] = state[S_TIME]
+                record(mid, kp, kw, km, wk, out[row0 + done])
+        done += 1
+        if done == n_out:
+            break
+        theta = output_fraction(done + 1, n_out, dt, e0, e1, at_end)
+    return done
+
+
+@jit
+def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
+    """:func:`advance_held_in`; ``out`` None records nothing (and copies nothing per sub-step)."""
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
     wb = (
@@ -1232,18 +1275,27 @@ def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
     if resolve:
         st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check)
         if st != OK:
-            return st, 0, passes
+            return st, 0, 0, passes
     jnum = wk[WK_JNUM]
     for j in range(nw):
         jnum[j] = volts[j] * volts[j] / (kw[j, W_L0] * kw[j, W_L0])
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
     if coupled:
         _load_rates(state, kp, kw, km, ns, wk[WK_RT])
+    # with ``out``: the state at the start of a sub-step and one interpolated (dense output)
+    start = state[:0] if out is None else np.empty(state.shape[0])
+    mid = state[:0] if out is None else np.empty(state.shape[0])
     solved = False
     max_sub = int(ks[S_MAXSUB])
-    rem = dt
+    span = dt * n_out
+    rem = span
     nsub = 0
+    since = 0  # sub-steps since the last output
+    done = 0  # output steps completed
     while rem > 0.0:
+        if out is not None:
+            start[:] = state
+        e0 = span - rem
         if coupled:
             st, h, p, sol = _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
         else:
@@ -1251,18 +1303,24 @@ def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
         passes += p
         solved = solved or sol
         if st != OK:
-            return st, nsub, passes
+            return st, done, nsub, passes
         rem -= h
         nsub += 1
-        if nsub > max_sub:
-            return ERR_SUBSTEPS, nsub, passes
-    if coupled:
-        _store_rates(state, kp, kw, km, ns, wk[WK_RT])
-    # h. stability of the shape the step ends on (once per output step, as solver.advance)
-    if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
-        return ERR_BUCKLING, nsub, passes
-    state[S_TIME] += dt
-    return OK, nsub, passes
+        since += 1
+        if since > max_sub:
+            return ERR_SUBSTEPS, done, nsub, passes
+        sub = (e0, span - rem, rem <= 0.0)
+        if coupled and rem <= 0.0:
+            _store_rates(state, kp, kw, km, ns, wk[WK_RT])
+        if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
+            # h. the sub-step reached an output: stability of the shape it ends on (once per output
+            # step at most, as solver.advance)
+            if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+                return ERR_BUCKLING, done, nsub, passes
+            done = _complete_outputs(state, start, mid, kp, kw, km, wk, out, row0, dt, n_out, done, sub)
+            since = 0
+            solved = False
+    return OK, done, nsub, passes
 
 
 @jit
@@ -1363,6 +1421,9 @@ def _record(state, kp, kw, km, frames, chords, pos, row):
 def run(state, kp, ks, kw, km, volts, loads, dt, out):
     """Integrate one spatial spine over ``volts.shape[0]`` output steps, recording every step.
 
+    Consecutive output steps with equal inputs are one span of :func:`advance_held_in` (MODEL.md
+    §6.5, :mod:`.dense`) unless the option ``dense_output`` is off, as :func:`.batch.run`.
+
     Args:
         state: initial state, advanced in place.
         volts: (n, W) voltages held over [t_k, t_k + dt) [V].
@@ -1377,18 +1438,23 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
     wk = make_work(nw, nm, ns)
     n = volts.shape[0]
     record(state, kp, kw, km, wk, out[0])
+    dense = spans_outputs(ks)
+    ks_span = span_options(ks, dt)
     nsub = 0
     npass = 0
     varying = loads.shape[0] > 1
-    for k in range(n):
+    k = 0
+    while k < n:
         vf = loads[k] if varying else loads[0]
         resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
-        st, a, b = advance_in(state, kp, ks, kw, km, volts[k], vf, dt, resolve, wk)
+        m = held_steps(volts, loads, k) if dense else 1
+        kss = ks_span if m > 1 else ks
+        st, done, a, b = advance_held_in(state, kp, kss, kw, km, volts[k], vf, dt, m, resolve, wk, out, k + 1)
         nsub += a
         npass += b
         if st != OK:
-            return st, k, nsub, npass
-        _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out[k + 1])
+            return st, k + done, nsub, npass
+        k += m
     return OK, n, nsub, npass
 
 
