@@ -51,7 +51,7 @@ from ..params import SolverOptions
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
-from .estimator import PhaseEstimator
+from .estimator import DisturbanceConfig, PhaseEstimator
 
 __all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST"]
 
@@ -105,6 +105,10 @@ class MPPIConfig:
         plan_scheme: time-stepping scheme of the rollouts (``SolverOptions.scheme``: ``"coupled"``
             or ``"frozen"``); ``None``: the env's. benchmarks/bench_mpc.py compares the plan time
             of both (issue 11).
+        disturbance: the estimated mode's equivalent tip-force filter
+            (:class:`~spine_gym.controllers.estimator.DisturbanceConfig`; the estimated load is held
+            over the horizon), or None for no load estimate. Planar env only (the spatial
+            estimator assumes no load).
         iterations: MPPI updates per control step, in [1, 100].
         parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
             shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
@@ -125,6 +129,7 @@ class MPPIConfig:
     plan_step_c: float | None = 0.03
     plan_h_min: float | None = None
     plan_scheme: str | None = None
+    disturbance: DisturbanceConfig | None = DisturbanceConfig()
     iterations: int = 1
     parallel: bool = False
     seed: int = 0
@@ -156,6 +161,10 @@ class MPPIConfig:
         if self.plan_h_min is not None:
             hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
             _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
+        if self.disturbance is not None and not isinstance(self.disturbance, DisturbanceConfig):
+            raise ValueError(
+                f"disturbance must be a DisturbanceConfig or None, got {type(self.disturbance).__name__}"
+            )
         if self.plan_scheme is not None and self.plan_scheme not in L.SCHEMES:
             raise ValueError(
                 f"plan_scheme must be None or one of {sorted(L.SCHEMES)}, got {self.plan_scheme!r}"
@@ -199,6 +208,7 @@ class MPPIBase(BaseController):
     """
 
     name = "mpc"
+    plan_fields: tuple = PLAN_FIELDS  # configuration fields an env to bind to must agree on
 
     def __init__(
         self,
@@ -242,14 +252,34 @@ class MPPIBase(BaseController):
         self._interp = np.maximum(0.0, 1.0 - np.abs(pos[:, None] - np.arange(n_knots)[None, :]))
         self._n_knots = n_knots
         self.env = None
+        self.env_config = None  # the subclass's env configuration
+        self.estimator = None  # the subclass's state estimator (estimated mode)
+
+    def bind(self, env) -> None:
+        """Plan on ``env`` (oracle mode reads its state each step; ``agents.runtime.run_episode``
+        binds each episode's env); ValueError if its configuration is of another type or differs
+        in a field of :attr:`plan_fields`."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if type(cfg) is not type(self.env_config) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in self.plan_fields
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {self.plan_fields}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
+        self.env = env
 
     def reset(self) -> None:
-        """New episode: zero plan, fresh generator."""
+        """New episode: zero plan, fresh generator and estimator."""
         super().reset()
         self.plan = np.zeros((self.horizon_steps, self.n_wires))
         self.rng = np.random.default_rng(self.settings.seed)
         self.last_cost = math.nan
         self._last_preview = None
+        if self.estimator is not None:
+            self.estimator.reset()
 
     # ------------------------------------------------------------------ predict
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
@@ -386,7 +416,9 @@ class MPPIController(MPPIBase):
         self._side_volume = p.wire_volume * p.n_w
         self._ks = s.plan_solver(config.solver).to_kernel()
         self._t_lim = config.temperature_limit - s.temp_margin
-        self.estimator = PhaseEstimator(config) if mode == "estimated" else None
+        self.estimator = (
+            PhaseEstimator(config, disturbance=s.disturbance) if mode == "estimated" else None
+        )
         if env is not None:
             self.bind(env)
         n, h = s.n_samples, self.horizon_steps
@@ -396,28 +428,6 @@ class MPPIController(MPPIBase):
         self._joule = np.empty((n, h, 2))
         self._status = np.empty(n, dtype=np.int64)
         self.reset()
-
-    # ------------------------------------------------------------------ wiring
-    def bind(self, env) -> None:
-        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its config differs
-        in a field of :data:`PLAN_FIELDS`. ``agents.runtime.run_episode`` binds each episode's env."""
-        env = getattr(env, "unwrapped", env)
-        cfg = getattr(env, "config", None)
-        if not isinstance(cfg, EnvConfig) or any(
-            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
-        ):
-            raise ValueError(
-                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
-            )
-        if not hasattr(env, "snapshot"):
-            raise ValueError(f"env must have snapshot() (a SmaSpineEnv), got {type(env).__name__}")
-        self.env = env
-
-    def reset(self) -> None:
-        """New episode: zero plan, fresh generator and estimator."""
-        super().reset()
-        if self.estimator is not None:
-            self.estimator.reset()
 
     # ------------------------------------------------------------------ the planning problem
     def _problem(self, obs):
