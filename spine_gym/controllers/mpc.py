@@ -26,8 +26,10 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     temperature and the martensite resistivity from the episode's first observation; the other
     parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon
     come from the observed target and its 1-s preview (linear in between, then continued at the
-    preview's rate of change). The observed angle minus the estimated one is an output
-    disturbance held over the horizon (offset-free MPC).
+    preview's rate of change). The estimator's disturbance filter (``MPPIConfig.disturbance``)
+    also estimates the plant's austenite resistivity from the angle residual (and, optionally, an
+    equivalent tip force, which the rollouts then carry); the observed angle minus the estimated
+    one is an output disturbance held over the horizon (offset-free MPC).
 
 The sampling, the weighting and the warm start are :class:`MPPIBase`, shared with
 :class:`~spine_gym.controllers.mpc_spatial.SpatialMPPIController` (the same planner, one voltage
@@ -77,6 +79,10 @@ PLAN_FIELDS = (
 class MPPIConfig:
     """Settings of :class:`MPPIController` (defaults: real time on 2 cores, see benchmarks/bench_mpc.py).
 
+    With the defaults on the env's defaults the rollouts are the env's own step loop (0.1-s
+    physics step, coupled scheme, the env's error control): a rollout of the true state is the
+    env's trajectory bit for bit (tested).
+
     Attributes:
         n_samples: rollouts per control step, in [4, 100000] (the current plan, all off and full
             heating of either side are always among them).
@@ -91,12 +97,10 @@ class MPPIConfig:
         plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
             rollouts then reproduce the env exactly); a whole fraction of the control period.
         plan_step_c: adaptive sub-step criterion c of the rollouts (MODEL.md §6.1 b: rate × h <= c),
-            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``, 0.01). It acts only on the
-            frozen-rate scheme (``SolverOptions.step_c``); the coupled scheme, the planar env's
-            default since issue 11, chooses its sub-steps by ``tol_x``. The default 0.03 takes
-            a third of the sub-steps where the wires transform, which brought the 95th percentile
-            of the plan time under the control period at an unchanged RMSE
-            (benchmarks/bench_mpc.py).
+            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``). It acts only on the
+            frozen-rate scheme; the coupled scheme (the default of every env since issue 11)
+            chooses its sub-steps by ``tol_x``. (Before, the planning default 0.03 took a third of
+            the frozen scheme's sub-steps.)
         plan_h_min: smallest adaptive sub-step of the rollouts [s], in (0, plan_physics_dt];
             ``None``: the env's (``SolverOptions.h_min``). It caps the sub-steps a rollout takes
             per physics step at ``plan_physics_dt / plan_h_min`` — and so the plan time when every
@@ -105,10 +109,10 @@ class MPPIConfig:
         plan_scheme: time-stepping scheme of the rollouts (``SolverOptions.scheme``: ``"coupled"``
             or ``"frozen"``); ``None``: the env's. benchmarks/bench_mpc.py compares the plan time
             of both (issue 11).
-        disturbance: the estimated mode's equivalent tip-force filter
-            (:class:`~spine_gym.controllers.estimator.DisturbanceConfig`; the estimated load is held
-            over the horizon), or None for no load estimate. Planar env only (the spatial
-            estimator assumes no load).
+        disturbance: the estimated mode's disturbance filter
+            (:class:`~spine_gym.controllers.estimator.DisturbanceConfig`: λ_A of the plant and,
+            if enabled, an equivalent tip force, held over the horizon), or None (nominal λ_A,
+            no load). Planar env only (the spatial estimator has neither).
         iterations: MPPI updates per control step, in [1, 100].
         parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
             shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
@@ -126,7 +130,7 @@ class MPPIConfig:
     w_temp: float = 10.0
     temp_margin: float = 5.0
     plan_physics_dt: float | None = 0.1
-    plan_step_c: float | None = 0.03
+    plan_step_c: float | None = None
     plan_h_min: float | None = None
     plan_scheme: str | None = None
     disturbance: DisturbanceConfig | None = DisturbanceConfig()
