@@ -50,6 +50,8 @@ import spine_gym
 from agents.common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 from agents.runtime import VALIDATION_SEED_BASE, build_controller, env_id_of, make_env
 from spine_gym.controllers import MPPIConfig, MPPIController, SpatialMPPIController
+from spine_gym.controllers.mpc import min_samples
+from spine_gym.controllers.mpc_spatial import drive_patterns
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402 - after the backend choice
@@ -90,6 +92,13 @@ def make_mpc(env, mode: str, settings: MPPIConfig):
     if env_id_of(env) == ENV_ID:
         return MPPIController(env.config, mode, env=env, settings=settings, temperature_limit=guard)
     return SpatialMPPIController(env, mode, settings=settings, temperature_limit=guard)
+
+
+def smallest_n(env) -> int:
+    """The smallest N the env's MPC accepts (the always-sampled patterns)."""
+    if env_id_of(env) == ENV_ID:
+        return min_samples(np.eye(2))
+    return min_samples(drive_patterns(env.unwrapped.config.layout))
 
 
 def _timing(prefix: str, seconds: np.ndarray, period: float) -> dict:
@@ -144,8 +153,9 @@ def run(ctrl, env, seeds, bar) -> dict:
     }
 
 
-def configurations(d: MPPIConfig, grids: dict) -> list[tuple[str, str, MPPIConfig]]:
-    """Both modes at the defaults ``d``, the parallel kernel, then each sweep of ``grids`` alone."""
+def configurations(d: MPPIConfig, grids: dict, n_min: int) -> list[tuple[str, str, MPPIConfig]]:
+    """Both modes at the defaults ``d``, the parallel kernel, then each sweep of ``grids`` alone
+    (N below ``n_min``, the env's smallest, is left out)."""
     out = [
         ("default oracle", "oracle", d),
         ("default estimated", "estimated", d),
@@ -155,7 +165,7 @@ def configurations(d: MPPIConfig, grids: dict) -> list[tuple[str, str, MPPIConfi
         out += [
             (f"estimated {key}={v:g}", "estimated", dataclasses.replace(d, **{key: v}))
             for v in grids[key]
-            if v != getattr(d, key)
+            if v != getattr(d, key) and not (key == "n_samples" and v < n_min)
         ]
     return out
 
@@ -244,7 +254,7 @@ def main(argv=None) -> dict:
     p.add_argument("--envs", nargs="+", default=list(ENV_IDS), choices=ENV_IDS)
     p.add_argument("--episodes", type=int, default=2, help="validation episodes per configuration")
     p.add_argument("--duration", type=float, default=20.0, help="episode length [s] (default: %(default)s)")
-    p.add_argument("--samples", nargs="*", type=int, default=[8, 16, 32])
+    p.add_argument("--samples", nargs="*", type=int, default=[8, 12, 16, 32])
     p.add_argument("--horizons", nargs="*", type=float, default=[2.0, 3.0, 4.0])
     p.add_argument("--knots", nargs="*", type=float, default=[0.5, 1.0, 1.5])
     p.add_argument("--out", default=str(OUT))
@@ -256,7 +266,7 @@ def main(argv=None) -> dict:
     for env_id in args.envs:
         env = make_env({"episode_duration": args.duration}, env_id=env_id)
         _warm_up(env)
-        plan[env_id] = (env, configurations(default_settings(env), grids))
+        plan[env_id] = (env, configurations(default_settings(env), grids, smallest_n(env)))
     steps = sum(len(seeds) * env.config.n_steps * (len(c) + 1) for env, c in plan.values())
     with tqdm(total=steps, desc="bench_mpc", unit="step") as bar:
         for env_id, (env, cfgs) in plan.items():

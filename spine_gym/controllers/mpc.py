@@ -55,7 +55,7 @@ from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
 
-__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST"]
+__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST", "min_samples"]
 
 OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
 OBS_PREVIEW = planar_obs_index("target_preview")
@@ -186,6 +186,12 @@ class MPPIConfig:
         return solver.replace(**changes) if changes else solver
 
 
+def min_samples(extremes: np.ndarray) -> int:
+    """Smallest ``n_samples`` of a spine whose (E, W) full-drive patterns ``extremes`` are always
+    sampled (with the plan and all off)."""
+    return int(extremes.shape[0]) + 2
+
+
 def _whole(name: str, value: float, unit: float) -> int:
     n = int(round(value / unit))
     if n < 1 or abs(n * unit - value) > 1e-9 * max(value, 1.0):
@@ -230,7 +236,7 @@ class MPPIBase(BaseController):
         if not isinstance(settings, MPPIConfig):
             raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
         extremes = np.eye(n_wires) if extremes is None else np.asarray(extremes, dtype=np.float64)
-        if settings.n_samples < extremes.shape[0] + 2:
+        if settings.n_samples < min_samples(extremes):
             raise ValueError(
                 f"n_samples must be >= {extremes.shape[0] + 2} for this spine (the plan, all off and "
                 f"{extremes.shape[0]} full-drive patterns are always sampled), got {settings.n_samples}"
