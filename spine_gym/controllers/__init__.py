@@ -21,7 +21,7 @@ from .baselines import (
     steady_state_map,
     volts_to_action,
 )
-from .estimator import PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
+from .estimator import DisturbanceConfig, PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
 from .mpc import MODES, MPPIConfig, MPPIController
 from .mpc_spatial import SpatialMPPIController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
@@ -40,6 +40,7 @@ __all__ = [
     "MPPIController",
     "MODES",
     "SpatialMPPIController",
+    "DisturbanceConfig",
     "PhaseEstimator",
     "SpatialPhaseEstimator",
     "austenite_from_resistance",

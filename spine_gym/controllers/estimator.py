@@ -26,9 +26,21 @@ measured temperatures is the ambient temperature T_E and the mean resistance giv
 resistivity λ_M = R A_w / L0 (clipped to the ranges ``ModelParams`` accepts). The other
 randomised parameters (convection, tube modulus, λ_A) stay nominal.
 
-The angle is not forced onto the state (the fractions are already pinned by the resistance); the
-difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used by MPC as
-an output disturbance (it carries the unobserved payload and tip forces). How well it recovers the
+The angle is not forced onto the state (the fractions are already pinned by the resistance).
+What the angle does tell is the load the spine carries: with ``disturbance`` set (a
+:class:`DisturbanceConfig`, the default) the estimator also keeps an **equivalent tip force**
+f = (f_x, f_y) [N] on the top disk, the load the model assumes from then on (predict, correct and
+the MPC's rollouts). Because the tube is quasi-static (MODEL.md §4), the bending angle is an
+algebraic function θ(x, f) of the corrected wire state and the load, so f is the state of a
+Kalman filter with a random-walk model: each period P += Q (Q = diag(walk_x², walk_y²): pushes
+come and go, a payload stays), the sensitivity J = ∂θ/∂f is taken by finite differences of the
+composite solve, and the innovation ``measured − model angle`` corrects f by the gain
+P Jᵀ / (J P Jᵀ + angle_std²). A payload is f_y = −m g and a horizontal push f_x; at a bent
+shape both components move the angle, so holding different angles separates them (a straight
+spine does not see f_y, and the filter then keeps its prior). It also absorbs what the nominal
+model gets wrong about the moment balance (the tube modulus of a randomised plant). The
+remaining difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used
+by MPC as an output disturbance. How well it recovers the
 fractions on seeded episodes is tested in ``tests/test_mpc.py`` and quoted in ``docs/agents.md``.
 
 :class:`SpatialPhaseEstimator` is the same estimator for ``SmaSpine3D-v0`` and
@@ -37,6 +49,8 @@ the resistance inversion; tested in ``tests/test_mpc_spatial.py``).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -48,7 +62,7 @@ from ..physics import spatial_solver as sps
 from ..physics.solver import advance, composite, init_state, needs_stability_check
 from ..physics.spatial_stability import needs_stability_check as spatial_needs_check
 
-__all__ = ["PhaseEstimator", "SpatialPhaseEstimator", "austenite_from_resistance"]
+__all__ = ["DisturbanceConfig", "PhaseEstimator", "SpatialPhaseEstimator", "austenite_from_resistance"]
 
 # SmaSpine-v0's observation indices, from its table (right before left in each pair)
 OBS_DIM = len(OBS_NAMES)
@@ -59,6 +73,44 @@ OBS_PREV_R = planar_obs_index("previous_action")
 OBS_PREV_L = OBS_PREV_R + 1
 OBS_RES_R = planar_obs_index("resistance")
 OBS_RES_L = OBS_RES_R + 1
+
+
+@dataclass(frozen=True)
+class DisturbanceConfig:
+    """Kalman filter of :class:`PhaseEstimator`'s augmented state (λ_A, f_x, f_y) (module docstring).
+
+    Attributes:
+        lam_a_std: prior standard deviation of λ_A relative to the nominal, in (0, 1] (the env's
+            randomisation draws λ_A × U(0.95, 1.05): 0.029); the estimate stays within ±3 of it.
+        force_std: prior standard deviation of either tip-force component [N], in (0, 10].
+        walk_x: random walk of the horizontal component per control period [N] (tip pushes), in (0, 10].
+        walk_y: random walk of the vertical component per control period [N] (a payload stays), in (0, 10].
+        angle_std: angle measurement and model error [deg], in (0, 90].
+        limit: each force component is clipped to [−limit, limit] [N], in (0, 5] (5.59 N down
+            buckles the straight spine, README).
+        forces: estimate the tip force too (default False: λ_A alone; the force components then
+            keep zero variance and stay zero). On hard-like validation episodes the force estimate
+            made the MPC track worse (docs/agents.md): at a held angle the angle cannot tell a
+            payload from a λ_A error or a stiffer tube, and knowing the true payload did not help
+            the planner either.
+    """
+
+    lam_a_std: float = 0.03
+    force_std: float = 0.5
+    walk_x: float = 0.01
+    walk_y: float = 0.003
+    angle_std: float = 1.0
+    limit: float = 1.5
+    forces: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.forces, bool):
+            raise ValueError(f"forces must be a bool, got {self.forces!r}")
+        for name, hi in (("lam_a_std", 1.0), ("force_std", 10.0), ("walk_x", 10.0), ("walk_y", 10.0),
+                         ("angle_std", 90.0), ("limit", 5.0)):  # fmt: skip
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v <= hi:
+                raise ValueError(f"{name} must be a number in (0, {hi:g}], got {v!r}")
 
 
 def austenite_from_resistance(resistance: np.ndarray, params, length=None) -> np.ndarray:
@@ -78,19 +130,35 @@ class PhaseEstimator:
         config: the env's :class:`~spine_gym.envs.EnvConfig` (nominal parameters, solver, periods,
             ``v_max``). Loads and sensor noise of an episode are not known.
         identify: identify T_E and λ_M from each episode's first observation (module docstring).
+        disturbance: settings of the equivalent tip-force filter, or None for no load estimate
+            (the loads then stay zero).
     """
 
-    def __init__(self, config: EnvConfig, identify: bool = True):
+    def __init__(
+        self,
+        config: EnvConfig,
+        identify: bool = True,
+        disturbance: DisturbanceConfig | None = DisturbanceConfig(),
+    ):
         if not isinstance(config, EnvConfig):
             raise ValueError(f"config must be an EnvConfig, got {type(config).__name__}")
         self.config = config
         self.identify = bool(identify)
+        if disturbance is not None and not isinstance(disturbance, DisturbanceConfig):
+            raise ValueError(
+                f"disturbance must be a DisturbanceConfig or None, got {type(disturbance).__name__}"
+            )
+        self.disturbance = disturbance
         self.nominal = config.params
         self.params = config.params
         self.kp = self.params.to_kernel()
         self.ks = config.solver.to_kernel()
         n = self.params.n_seg
-        self.loads = np.zeros((n, 2))  # assumed loads: none (payload and tip forces are not observed)
+        # assumed vertex loads [N]: the equivalent tip force on the top disk (row 0), else none
+        self.loads = np.zeros((n, 2))
+        self.identified = self.nominal  # the parameters before the λ_A estimate
+        self.lam_a_scale = 1.0  # estimated λ_A / nominal λ_A
+        self.cov = np.zeros((3, 3))  # covariance of the augmented estimate (λ_A scale, f_x, f_y)
         self.state = np.zeros(L.state_size(n))
         self._work = np.empty(n)
         self._saved = np.empty(n)
@@ -100,16 +168,24 @@ class PhaseEstimator:
     def reset(self) -> None:
         """The env's starting state (MODEL.md §3.10, straight at ambient) under the assumed loads,
         with the nominal parameters until the first observation identifies them."""
+        self.loads[:] = 0.0
+        self.lam_a_scale = 1.0
+        d = self.disturbance
+        self.cov = np.zeros((3, 3)) if d is None else np.diag(self._walk_or_prior(d, prior=True))
         self._set_params(self.nominal)
         self.angle_offset = 0.0
         self._started = False
 
     def _set_params(self, params) -> None:
-        self.params = params
-        self.kp = params.to_kernel()
+        self.identified = params
+        self._use_params(params.replace(lam_A=params.lam_A * self.lam_a_scale))
         st = init_state(self.state, self.kp, self.ks, self.loads)
         if st != L.OK:  # pragma: no cover - the nominal unloaded start always solves
             raise RuntimeError(L.STATUS_TEXT.get(st, str(st)))
+
+    def _use_params(self, params) -> None:
+        self.params = params
+        self.kp = params.to_kernel()
 
     def _identify(self, obs: np.ndarray) -> None:
         """T_E and λ_M from the first observation of an episode (see the module docstring)."""
@@ -124,8 +200,21 @@ class PhaseEstimator:
     @property
     def angle_deg(self) -> float:
         """Bending angle of the estimated state [deg]."""
+        return self._angle_of(self.state)
+
+    def _angle_of(self, state: np.ndarray) -> float:
         n = self.params.n_seg
-        return float(np.degrees(self.state[L.X_HEAD : L.X_HEAD + n].sum()))
+        return float(np.degrees(state[L.X_HEAD : L.X_HEAD + n].sum()))
+
+    @property
+    def tip_force(self) -> np.ndarray:
+        """Estimated equivalent tip force (f_x, f_y) [N] (global; a payload m is (0, −m g))."""
+        return self.loads[0].copy()
+
+    @property
+    def lam_a(self) -> float:
+        """Estimated austenite resistivity λ_A [Ω m]."""
+        return self.params.lam_A
 
     @property
     def fractions(self) -> np.ndarray:
@@ -143,7 +232,10 @@ class PhaseEstimator:
         elif self.identify:
             self._identify(obs)
         self._started = True
+        predicted = self.state.copy()
         self._correct(obs)
+        if self.disturbance is not None:
+            self._estimate_disturbance(obs, predicted)
         self.angle_offset = float(obs[OBS_ANGLE]) - self.angle_deg
         return self.state
 
@@ -160,21 +252,72 @@ class PhaseEstimator:
                 self.state[:] = backup
                 return
 
-    def _correct(self, obs: np.ndarray) -> None:
-        s = self.state
-        backup = s.copy()
+    def _corrected(self, predicted: np.ndarray, obs: np.ndarray, params, loads: np.ndarray):
+        """(status, state): ``predicted`` with the measured temperatures, the austenite fractions
+        of the resistances (under ``params``' λ_A, λ_M) and the shape solved under ``loads``."""
+        s = predicted.copy()
         s[L.X_TR] = obs[OBS_TEMP_R]
         s[L.X_TL] = obs[OBS_TEMP_L]
-        xa = austenite_from_resistance(obs[[OBS_RES_R, OBS_RES_L]], self.params)
+        xa = austenite_from_resistance(obs[[OBS_RES_R, OBS_RES_L]], params)
         for (ip, im), x_a in zip(((L.X_PR, L.X_MR), (L.X_PL, L.X_ML)), xa, strict=True):
             mart = s[ip] + s[im]
             share = s[ip] / mart if mart > 1e-12 else 1.0
             s[ip] = (1.0 - x_a) * share
             s[im] = (1.0 - x_a) * (1.0 - share)
-        check = needs_stability_check(self.loads, self.kp)
-        st, _ = composite(s, self.loads, self.kp, self.ks, self._work, self._saved, check)
+        kp = params.to_kernel()
+        check = needs_stability_check(loads, kp)
+        st, _ = composite(s, loads, kp, self.ks, self._work, self._saved, check)
+        return st, s
+
+    def _correct(self, obs: np.ndarray) -> None:
+        st, s = self._corrected(self.state, obs, self.params, self.loads)
+        if st == L.OK:
+            self.state[:] = s
+
+    def _with(self, aug: np.ndarray):
+        """(params, loads) of the augmented estimate ``aug`` = (λ_A scale, f_x, f_y)."""
+        loads = self.loads.copy()
+        loads[0] = aug[1:]
+        return self.identified.replace(lam_A=self.identified.lam_A * aug[0]), loads
+
+    @staticmethod
+    def _walk_or_prior(d: DisturbanceConfig, prior: bool) -> np.ndarray:
+        """Variances of (λ_A scale, f_x, f_y): the prior at reset or the random walk per period
+        (λ_A is constant); the force terms are zero unless ``d.forces``."""
+        on = 1.0 if d.forces else 0.0
+        if prior:
+            return np.array([d.lam_a_std**2, on * d.force_std**2, on * d.force_std**2])
+        return np.array([0.0, on * d.walk_x**2, on * d.walk_y**2])
+
+    def _estimate_disturbance(self, obs: np.ndarray, predicted: np.ndarray) -> None:
+        """One Kalman update of (λ_A scale, f_x, f_y) from the measured angle (module docstring);
+        the state is corrected again under the new estimate. A failed solve keeps the previous one."""
+        d = self.disturbance
+        base = self.angle_deg
+        aug = np.array([self.lam_a_scale, *self.loads[0]])
+        steps = (1e-2, 0.1, 0.1)  # finite-difference steps (relative λ_A, N, N): above the solve tolerance
+        jac = np.zeros(3)
+        for k in range(3 if d.forces else 1):
+            trial = aug.copy()
+            trial[k] += steps[k]
+            st, s = self._corrected(predicted, obs, *self._with(trial))
+            if st != L.OK:
+                return
+            jac[k] = (self._angle_of(s) - base) / steps[k]
+        cov = self.cov + np.diag(self._walk_or_prior(d, prior=False))
+        gain = cov @ jac / (jac @ cov @ jac + d.angle_std**2)
+        new = aug + gain * (float(obs[OBS_ANGLE]) - base)
+        lim = 3.0 * d.lam_a_std
+        new = np.clip(new, (1.0 - lim, -d.limit, -d.limit), (1.0 + lim, d.limit, d.limit))
+        params, loads = self._with(new)
+        st, s = self._corrected(predicted, obs, params, loads)
         if st != L.OK:
-            s[:] = backup
+            return
+        self.state[:] = s
+        self.loads[:] = loads
+        self.lam_a_scale = float(new[0])
+        self._use_params(params)
+        self.cov = cov - np.outer(gain, jac @ cov)
 
 
 def _identified(nominal, temperatures: np.ndarray, resistance: np.ndarray, lengths: np.ndarray):

@@ -26,8 +26,10 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     temperature and the martensite resistivity from the episode's first observation; the other
     parameters are nominal, the loads are unknown (none assumed) and the targets over the horizon
     come from the observed target and its 1-s preview (linear in between, then continued at the
-    preview's rate of change). The observed angle minus the estimated one is an output
-    disturbance held over the horizon (offset-free MPC).
+    preview's rate of change). The estimator's disturbance filter (``MPPIConfig.disturbance``)
+    also estimates the plant's austenite resistivity from the angle residual (and, optionally, an
+    equivalent tip force, which the rollouts then carry); the observed angle minus the estimated
+    one is an output disturbance held over the horizon (offset-free MPC).
 
 The sampling, the weighting and the warm start are :class:`MPPIBase`, shared with
 :class:`~spine_gym.controllers.mpc_spatial.SpatialMPPIController` (the same planner, one voltage
@@ -51,9 +53,9 @@ from ..params import SolverOptions
 from ..physics import layout as L
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
-from .estimator import PhaseEstimator
+from .estimator import DisturbanceConfig, PhaseEstimator
 
-__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST"]
+__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST", "min_samples"]
 
 OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
 OBS_PREVIEW = planar_obs_index("target_preview")
@@ -77,6 +79,10 @@ PLAN_FIELDS = (
 class MPPIConfig:
     """Settings of :class:`MPPIController` (defaults: real time on 2 cores, see benchmarks/bench_mpc.py).
 
+    With the defaults on the env's defaults the rollouts are the env's own step loop (0.1-s
+    physics step, coupled scheme, the env's error control): a rollout of the true state is the
+    env's trajectory bit for bit (tested).
+
     Attributes:
         n_samples: rollouts per control step, in [4, 100000] (the current plan, all off and full
             heating of either side are always among them).
@@ -91,12 +97,10 @@ class MPPIConfig:
         plan_physics_dt: physics step of the rollouts [s]; ``None``: the env's ``physics_dt`` (the
             rollouts then reproduce the env exactly); a whole fraction of the control period.
         plan_step_c: adaptive sub-step criterion c of the rollouts (MODEL.md §6.1 b: rate × h <= c),
-            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``, 0.01). It acts only on the
-            frozen-rate scheme (``SolverOptions.step_c``); the coupled scheme, the planar env's
-            default since issue 11, chooses its sub-steps by ``tol_x``. The default 0.03 takes
-            a third of the sub-steps where the wires transform, which brought the 95th percentile
-            of the plan time under the control period at an unchanged RMSE
-            (benchmarks/bench_mpc.py).
+            in (0, 1]; ``None``: the env's (``SolverOptions.step_c``). It acts only on the
+            frozen-rate scheme; the coupled scheme (the default of every env since issue 11)
+            chooses its sub-steps by ``tol_x``. (Before, the planning default 0.03 took a third of
+            the frozen scheme's sub-steps.)
         plan_h_min: smallest adaptive sub-step of the rollouts [s], in (0, plan_physics_dt];
             ``None``: the env's (``SolverOptions.h_min``). It caps the sub-steps a rollout takes
             per physics step at ``plan_physics_dt / plan_h_min`` — and so the plan time when every
@@ -105,6 +109,10 @@ class MPPIConfig:
         plan_scheme: time-stepping scheme of the rollouts (``SolverOptions.scheme``: ``"coupled"``
             or ``"frozen"``); ``None``: the env's. benchmarks/bench_mpc.py compares the plan time
             of both (issue 11).
+        disturbance: the estimated mode's disturbance filter
+            (:class:`~spine_gym.controllers.estimator.DisturbanceConfig`: λ_A of the plant and,
+            if enabled, an equivalent tip force, held over the horizon), or None (nominal λ_A,
+            no load). Planar env only (the spatial estimator has neither).
         iterations: MPPI updates per control step, in [1, 100].
         parallel: run the rollouts with the ``prange`` kernel (default: its serial twin; on the
             shared 2-core machine the OpenMP threads of the parallel loop waited on each other and
@@ -122,9 +130,10 @@ class MPPIConfig:
     w_temp: float = 10.0
     temp_margin: float = 5.0
     plan_physics_dt: float | None = 0.1
-    plan_step_c: float | None = 0.03
+    plan_step_c: float | None = None
     plan_h_min: float | None = None
     plan_scheme: str | None = None
+    disturbance: DisturbanceConfig | None = DisturbanceConfig()
     iterations: int = 1
     parallel: bool = False
     seed: int = 0
@@ -156,6 +165,10 @@ class MPPIConfig:
         if self.plan_h_min is not None:
             hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
             _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
+        if self.disturbance is not None and not isinstance(self.disturbance, DisturbanceConfig):
+            raise ValueError(
+                f"disturbance must be a DisturbanceConfig or None, got {type(self.disturbance).__name__}"
+            )
         if self.plan_scheme is not None and self.plan_scheme not in L.SCHEMES:
             raise ValueError(
                 f"plan_scheme must be None or one of {sorted(L.SCHEMES)}, got {self.plan_scheme!r}"
@@ -171,6 +184,12 @@ class MPPIConfig:
         if self.plan_scheme is not None:
             changes["scheme"] = self.plan_scheme
         return solver.replace(**changes) if changes else solver
+
+
+def min_samples(extremes: np.ndarray) -> int:
+    """Smallest ``n_samples`` of a spine whose (E, W) full-drive patterns ``extremes`` are always
+    sampled (with the plan and all off)."""
+    return int(extremes.shape[0]) + 2
 
 
 def _whole(name: str, value: float, unit: float) -> int:
@@ -199,6 +218,7 @@ class MPPIBase(BaseController):
     """
 
     name = "mpc"
+    plan_fields: tuple = PLAN_FIELDS  # configuration fields an env to bind to must agree on
 
     def __init__(
         self,
@@ -216,7 +236,7 @@ class MPPIBase(BaseController):
         if not isinstance(settings, MPPIConfig):
             raise ValueError(f"settings must be an MPPIConfig, got {type(settings).__name__}")
         extremes = np.eye(n_wires) if extremes is None else np.asarray(extremes, dtype=np.float64)
-        if settings.n_samples < extremes.shape[0] + 2:
+        if settings.n_samples < min_samples(extremes):
             raise ValueError(
                 f"n_samples must be >= {extremes.shape[0] + 2} for this spine (the plan, all off and "
                 f"{extremes.shape[0]} full-drive patterns are always sampled), got {settings.n_samples}"
@@ -242,14 +262,34 @@ class MPPIBase(BaseController):
         self._interp = np.maximum(0.0, 1.0 - np.abs(pos[:, None] - np.arange(n_knots)[None, :]))
         self._n_knots = n_knots
         self.env = None
+        self.env_config = None  # the subclass's env configuration
+        self.estimator = None  # the subclass's state estimator (estimated mode)
+
+    def bind(self, env) -> None:
+        """Plan on ``env`` (oracle mode reads its state each step; ``agents.runtime.run_episode``
+        binds each episode's env); ValueError if its configuration is of another type or differs
+        in a field of :attr:`plan_fields`."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if type(cfg) is not type(self.env_config) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in self.plan_fields
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {self.plan_fields}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
+        self.env = env
 
     def reset(self) -> None:
-        """New episode: zero plan, fresh generator."""
+        """New episode: zero plan, fresh generator and estimator."""
         super().reset()
         self.plan = np.zeros((self.horizon_steps, self.n_wires))
         self.rng = np.random.default_rng(self.settings.seed)
         self.last_cost = math.nan
         self._last_preview = None
+        if self.estimator is not None:
+            self.estimator.reset()
 
     # ------------------------------------------------------------------ predict
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
@@ -386,7 +426,9 @@ class MPPIController(MPPIBase):
         self._side_volume = p.wire_volume * p.n_w
         self._ks = s.plan_solver(config.solver).to_kernel()
         self._t_lim = config.temperature_limit - s.temp_margin
-        self.estimator = PhaseEstimator(config) if mode == "estimated" else None
+        self.estimator = (
+            PhaseEstimator(config, disturbance=s.disturbance) if mode == "estimated" else None
+        )
         if env is not None:
             self.bind(env)
         n, h = s.n_samples, self.horizon_steps
@@ -396,28 +438,6 @@ class MPPIController(MPPIBase):
         self._joule = np.empty((n, h, 2))
         self._status = np.empty(n, dtype=np.int64)
         self.reset()
-
-    # ------------------------------------------------------------------ wiring
-    def bind(self, env) -> None:
-        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its config differs
-        in a field of :data:`PLAN_FIELDS`. ``agents.runtime.run_episode`` binds each episode's env."""
-        env = getattr(env, "unwrapped", env)
-        cfg = getattr(env, "config", None)
-        if not isinstance(cfg, EnvConfig) or any(
-            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
-        ):
-            raise ValueError(
-                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
-            )
-        if not hasattr(env, "snapshot"):
-            raise ValueError(f"env must have snapshot() (a SmaSpineEnv), got {type(env).__name__}")
-        self.env = env
-
-    def reset(self) -> None:
-        """New episode: zero plan, fresh generator and estimator."""
-        super().reset()
-        if self.estimator is not None:
-            self.estimator.reset()
 
     # ------------------------------------------------------------------ the planning problem
     def _problem(self, obs):

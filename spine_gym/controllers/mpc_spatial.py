@@ -135,6 +135,8 @@ class SpatialMPPIController(MPPIBase):
             above it gets 0 V), or None.
     """
 
+    plan_fields = SPATIAL_PLAN_FIELDS
+
     def __init__(self, env, mode: str = "estimated", *, settings: MPPIConfig | None = None, **kwargs):
         env = getattr(env, "unwrapped", env)
         cfg = getattr(env, "config", None)
@@ -206,28 +208,6 @@ class SpatialMPPIController(MPPIBase):
         if cfg.n_modules == 1:
             return MPPIConfig(n_samples=16, horizon=3.0)
         return MPPIConfig(n_samples=12, horizon=3.0)
-
-    # ------------------------------------------------------------------ wiring
-    def bind(self, env) -> None:
-        """Plan on ``env`` (oracle mode reads its state each step); ValueError if its configuration
-        differs in a field of :data:`SPATIAL_PLAN_FIELDS`."""
-        env = getattr(env, "unwrapped", env)
-        cfg = getattr(env, "config", None)
-        if type(cfg) is not type(self.env_config) or any(
-            getattr(cfg, f) != getattr(self.env_config, f) for f in SPATIAL_PLAN_FIELDS
-        ):
-            raise ValueError(
-                f"env.config differs from the config this controller was built for in {SPATIAL_PLAN_FIELDS}"
-            )
-        if not hasattr(env, "snapshot"):
-            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
-        self.env = env
-
-    def reset(self) -> None:
-        """New episode: zero plan, fresh generator and estimator."""
-        super().reset()
-        if self.estimator is not None:
-            self.estimator.reset()
 
     # ------------------------------------------------------------------ observation
     def _check_obs(self, observation):

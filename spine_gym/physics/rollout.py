@@ -35,6 +35,31 @@ from .spatial_solver import make_work, sizes
 from .spatial_solver import record as spatial_record
 
 
+RECORD, START, HOLD = 0, 1, 2  # what a rollout records after a control step (_record_source)
+
+
+@jit
+def _record_source(status, h):
+    """What a rollout records after control step ``h``: RECORD its state (status OK), START its
+    start state (it failed in the first step), HOLD its last valid row (it failed earlier)."""
+    if status == OK:
+        return RECORD
+    return START if h == 0 else HOLD
+
+
+@jit
+def _record_planar(st, n, angle, temp, joule, h):
+    """Θ, both temperatures and both Joule heats of the planar state ``st`` into row ``h``."""
+    theta = 0.0
+    for q in range(n):
+        theta += st[X_HEAD + q]
+    angle[h] = theta
+    temp[h, 0] = st[X_TR]
+    temp[h, 1] = st[X_TL]
+    joule[h, 0] = st[X_QJR]
+    joule[h, 1] = st[X_QJL]
+
+
 def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, angle, temp, joule, status):
     """Roll ``B`` copies of ``state0`` over ``H`` control steps with their own voltage sequences.
 
@@ -70,30 +95,15 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
                     if code != OK:
                         status[i] = code
                         break
-            if status[i] == OK:
-                theta = 0.0
-                for q in range(n):
-                    theta += st[X_HEAD + q]
-                angle[i, h] = theta
-                temp[i, h, 0] = st[X_TR]
-                temp[i, h, 1] = st[X_TL]
-                joule[i, h, 0] = st[X_QJR]
-                joule[i, h, 1] = st[X_QJL]
-            elif h == 0:  # failed in the first step: report the start state
-                theta = 0.0
-                for q in range(n):
-                    theta += state0[X_HEAD + q]
-                angle[i, 0] = theta
-                temp[i, 0, 0] = state0[X_TR]
-                temp[i, 0, 1] = state0[X_TL]
-                joule[i, 0, 0] = state0[X_QJR]
-                joule[i, 0, 1] = state0[X_QJL]
-            else:  # failed earlier: hold the last valid values
+            src = _record_source(status[i], h)
+            if src == HOLD:
                 angle[i, h] = angle[i, h - 1]
-                temp[i, h, 0] = temp[i, h - 1, 0]
-                temp[i, h, 1] = temp[i, h - 1, 1]
-                joule[i, h, 0] = joule[i, h - 1, 0]
-                joule[i, h, 1] = joule[i, h - 1, 1]
+                temp[i, h, :] = temp[i, h - 1, :]
+                joule[i, h, :] = joule[i, h - 1, :]
+            elif src == RECORD:
+                _record_planar(st, n, angle[i], temp[i], joule[i], h)
+            else:
+                _record_planar(state0, n, angle[i], temp[i], joule[i], h)
 
 
 rollout_many = pjit(_rollout_many)
@@ -137,14 +147,14 @@ def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_s
                     if code != OK:
                         status[i] = code
                         break
-            if status[i] == OK:
-                spatial_record(st, kp, kw, km, wk, rec[i, h])
-            elif h == 0:  # failed in the first step: report the start state
-                for q in range(s):
-                    st[q] = state0[q]
-                spatial_record(st, kp, kw, km, wk, rec[i, 0])
-            else:  # failed earlier: hold the last valid row
+            src = _record_source(status[i], h)
+            if src == HOLD:
                 rec[i, h, :] = rec[i, h - 1, :]
+            else:
+                if src == START:
+                    for q in range(s):
+                        st[q] = state0[q]
+                spatial_record(st, kp, kw, km, wk, rec[i, h])
 
 
 rollout_many_spatial = pjit(_rollout_many_spatial)
