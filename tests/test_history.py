@@ -133,3 +133,14 @@ def test_budget_scale_multiplies_the_budget_and_is_validated():
     for bad in (0.0, 2.5, float("nan"), "half"):
         with pytest.raises(ValueError, match=r"budget_scale must be a number in \(0, 2\], got"):
             energy_budget(200.0, KW, 1, bad)
+
+
+def test_the_shipped_budget_policy_loads_plain_with_its_preview():
+    """ppo_bud (issue 10, the new default physics_dt): no integral, no history, the 3-s preview."""
+    from agents.common import POLICIES_DIR
+    from agents.runtime import SavedPolicy, evaluation_env_kwargs
+
+    pol = load_policy(POLICIES_DIR / "ppo_bud")
+    assert type(pol) is SavedPolicy and pol.model.observation_space.shape == (10,)
+    assert evaluation_env_kwargs(pol.env_kwargs) == {"target_preview": 3.0}
+    assert pol.meta["total_timesteps"] == 852464 and len(pol.meta["lineage"]) == 3
