@@ -266,9 +266,12 @@ def train(argv: list[str] | None = None) -> Path:
         model = algo_cls.load(
             args.trained_agent, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
         )
-        # SB3's load re-seeds with the checkpoint's own seed: without this, --seed did nothing on a resume
-        model.seed = args.seed
-        model.set_random_seed(args.seed)
+        if model.seed != args.seed:
+            # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
+            # Only re-seed when it differs: a second seeding after the network's construction changes
+            # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
+            model.seed = args.seed
+            model.set_random_seed(args.seed)
         replay = Path(args.trained_agent).with_name("replay_buffer.pkl")
         if args.algo == "sac" and replay.exists():
             model.load_replay_buffer(str(replay))
