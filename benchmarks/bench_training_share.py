@@ -7,9 +7,10 @@ and 1 → 2 numba threads (issue 11). One command prints all three against the i
    ``PPO.learn`` for ``--rollouts`` rollouts after one untimed warm-up rollout. Timed by wrapping
    (no change to the library): the outermost ``step_wait`` that PPO calls (``VecNormalize`` →
    ``VecMonitor`` → adapter), the adapter's ``step_wait`` (:class:`spine_gym.envs.sb3.SmaSpineSB3VecEnv`),
-   the vector env's ``step_arrays`` and the jitted physics kernel inside it, plus PPO's
-   ``collect_rollouts`` and ``train``. **The env share the target means is the adapter's
-   ``step_wait`` over the wall time of ``learn``** (the env's own step: physics, bookkeeping, the
+   the vector env's ``step_arrays`` and the one jitted call of a step inside it (physics and
+   bookkeeping, :mod:`spine_gym.envs._step_kernels`), plus PPO's ``collect_rollouts`` and
+   ``train``. **The env share the target means is the adapter's ``step_wait`` over the wall time
+   of ``learn``** (the env's own step: physics, bookkeeping, the
    per-env info dicts); the share including SB3's ``VecMonitor`` and ``VecNormalize`` (their
    running statistics are SB3 code) is printed beside it. Two runs: the default kernel choice
    (``parallel=None``: serial below ``PARALLEL_MIN_ENVS`` envs, so serial at 8) and
@@ -17,9 +18,10 @@ and 1 → 2 numba threads (issue 11). One command prints all three against the i
 2. **Native vector env per core vs the kernel alone** (target: within 10 %, native rate ≥ 0.9 ×
    kernel rate), for every env id: ``gym.make_vec(env_id, num_envs=N, parallel=False)`` with numba
    on 1 thread, from the warm regime (``--warm`` untimed steps), ``--steps`` timed steps; the
-   kernel alone replays the very calls the native env made (their recorded inputs — voltages,
-   loads, resolve flags — on the same start states, checked bit for bit at the end): same
-   states, same steps, no Python in between. Best of ``--repeats`` interleaved runs.
+   kernel alone is the physics alone (``env_kernels.step_many_serial`` or its spatial twin)
+   replaying the steps the native env made (the voltages, loads and resolve flags its calls
+   computed, on the same start states, checked bit for bit at the end): same states, same
+   steps, no bookkeeping and no Python in between. Best of ``--repeats`` interleaved runs.
 3. **Scaling from 1 to 2 numba threads** (target: near-linear, ≥ 1.8×): the native env with the
    parallel kernel (``parallel=True``) on 1 and 2 threads, and the serial kernel, at each of
    ``--scaling-sizes``, interleaved run by run. The same sweep gives the threshold of the default
@@ -30,7 +32,7 @@ of the time on a quiet machine (every rate a lower bound), and the 1 → 2 threa
 more than the second core's idle share, so it is a figure of this machine's load, not of the code.
 The load average at start and end is recorded. Writes ``benchmarks/results/training_share.json`` and ``.png``.
 
-    .venv/bin/python benchmarks/bench_training_share.py          # all three, ~5-10 min loaded
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_training_share.py --rollouts 6   # ~5-10 min loaded
     .venv/bin/python benchmarks/bench_training_share.py --omp-passive --tag _passive
 """
 
@@ -56,13 +58,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling bench_en
 from bench_env import SEED, machine  # noqa: E402
 
 import spine_gym  # noqa: E402, F401 - registers the env ids
+from spine_gym.envs import _bookkeeping as bk  # noqa: E402
+from spine_gym.envs import _step_kernels as sk  # noqa: E402
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
 from spine_gym.physics import env_kernels  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
 SHORT = dict(zip(IDS, ("planar", "3D", "chain"), strict=True))
-KERNELS = ("step_many", "step_many_serial", "step_many_spatial", "step_many_spatial_serial")
+KERNELS = ("planar_step", "planar_step_serial", "spatial_step", "spatial_step_serial")  # the env's one call
+PLANAR_KERNELS = (sk.planar_step, sk.planar_step_serial)  # the originals (Patch replaces the attributes)
 TARGET_SHARE = 0.10  # env share of PPO wall time (the adapter's step_wait)
 TARGET_NATIVE_OVER_KERNEL = 0.90  # native env rate per core / kernel-only rate
 TARGET_SCALING = 1.8  # 2 threads / 1 thread ("near-linear")
@@ -92,7 +97,7 @@ class Timer:
 def _breakdown(sec: dict, total: float) -> dict:
     """Shares of ``total`` of the nested timers (the env's step split into its layers)."""
     return {
-        "physics kernel": sec["kernel"] / total,
+        "jitted step (physics + bookkeeping)": sec["kernel"] / total,
         "vector env Python": (sec["vector_env"] - sec["kernel"]) / total,
         "SB3 adapter (info dicts)": (sec["adapter"] - sec["vector_env"]) / total,
         "VecNormalize + VecMonitor (SB3)": (sec["outer"] - sec["adapter"]) / total,
@@ -103,20 +108,21 @@ def _breakdown(sec: dict, total: float) -> dict:
 
 
 class Patch:
-    """Replace the env kernels (module attributes, looked up at call time) by ``wrap(kernel)``."""
+    """Replace the env's step kernels (``_step_kernels`` attributes, looked up at call time) by
+    ``wrap(kernel)``."""
 
     def __init__(self, wrap) -> None:
         self.wrap = wrap
 
     def __enter__(self):
-        self.orig = {name: getattr(env_kernels, name) for name in KERNELS}
+        self.orig = {name: getattr(sk, name) for name in KERNELS}
         for name, fn in self.orig.items():
-            setattr(env_kernels, name, self.wrap(fn))
+            setattr(sk, name, self.wrap(fn))
         return self
 
     def __exit__(self, *exc) -> None:
         for name, fn in self.orig.items():
-            setattr(env_kernels, name, fn)
+            setattr(sk, name, fn)
 
 
 # ---------------------------------------------------------------- 1. PPO
@@ -211,55 +217,57 @@ def time_native(venv, acts: np.ndarray, warm: int) -> tuple[float, float]:
     return time.perf_counter() - t0, time.thread_time() - c0
 
 
-def _copy(a):
-    """A copy of a kernel argument with the same numba type (a strided 1-D view stays strided, so
-    the replay runs the compiled kernel the env ran, not a new specialisation)."""
-    if not isinstance(a, np.ndarray) or a.flags.c_contiguous:
-        return a.copy() if isinstance(a, np.ndarray) else a
-    if a.ndim != 1:
-        raise ValueError(f"no same-layout copy of a non-contiguous {a.ndim}-D argument")
-    out = np.empty((a.shape[0], a.strides[0] // a.itemsize), dtype=a.dtype)[:, 0]
-    out[:] = a
-    return out
+def physics_call(fn, args) -> tuple:
+    """The physics alone of one step kernel call ``fn(*args)`` made by the env (after it returned):
+    ``env_kernels.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
+    flags that call computed, on the same arrays; per-call inputs copied."""
+    rows, _, drive, plant, step, _, _, _ = args
+    st = bk.Step(*step)
+    active = np.zeros(st.status.shape[0], dtype=np.bool_)
+    active[rows] = True
+    resolve = drive[3].copy()
+    if fn in PLANAR_KERNELS:
+        p = dict(zip(sk.PLANAR_PLANT, plant, strict=True))
+        volts = (st.volts[:, 0].copy(), st.volts[:, 1].copy())
+        kernel, head = env_kernels.step_many_serial, (p["kps"], p["ks"])
+    else:
+        p = dict(zip(sk.SPATIAL_PLANT, plant, strict=True))
+        volts = (st.volts.copy(),)
+        kernel, head = env_kernels.step_many_spatial_serial, (p["kps"], p["ks"], p["kws"], p["kms"])
+    tail = (st.loads.copy(), resolve, active, p["physics_dt"], p["n_sub"], st.status, p["meas"])
+    return kernel, (p["states"], p["backup"], *head, *volts, *tail)
 
 
-def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.ndarray]:
-    """The kernel calls (function, copies of the arguments) of the timed steps, and the states after."""
+def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.ndarray, np.ndarray]:
+    """The physics-only calls (:func:`physics_call`) of the timed steps, the states before the
+    first and the states after the last."""
     calls = []
 
     def recorder(fn):
         def rec(*args):
-            calls.append((fn, tuple(_copy(a) for a in args)))
-            return fn(*args)
+            ok = fn(*args)
+            calls.append(physics_call(fn, args))
+            return ok
 
         return rec
 
     venv.reset(seed=SEED)
     for a in acts[:warm]:
         venv.step(a)
+    start = venv.unwrapped._core.states.copy()
     with Patch(recorder):
         for a in acts[warm:]:
             venv.step(a)
-    return calls, venv.unwrapped._core.states.copy()
+    return calls, start, venv.unwrapped._core.states.copy()
 
 
-def _same_in_every_call(calls: list, p: int) -> bool:
-    first = calls[0][1][p]
-    if isinstance(first, np.ndarray):
-        return all(np.array_equal(args[p], first) for _, args in calls)
-    return all(args[p] == first for _, args in calls)
-
-
-def time_replay(calls: list, final_states: np.ndarray) -> tuple[float, float]:
-    """Seconds of the recorded kernel calls back to back on the recorded start states (argument 0;
-    checked to end on the native env's states bit for bit). An argument equal in every call
-    (constants, the active mask) is one array, as in the env; the others are per-call copies."""
-    states = calls[0][1][0].copy()
-    shared = {p: _copy(calls[0][1][p]) for p in range(1, len(calls[0][1])) if _same_in_every_call(calls, p)}
-    prepared = [
-        (fn, (states, *(shared[p] if p in shared else _copy(a) for p, a in enumerate(args) if p > 0)))
-        for fn, args in calls
-    ]
+def time_replay(calls: list, start: np.ndarray, final_states: np.ndarray) -> tuple[float, float]:
+    """Seconds of the recorded physics calls back to back from the recorded start states (the
+    replay's own copy; checked to end on the native env's states bit for bit), with the per-call
+    inputs (voltages, loads, flags) as recorded and the env's scratch and output arrays (the
+    native runs rewrite them from their reset on)."""
+    states = start.copy()
+    prepared = [(fn, (states, *args[1:])) for fn, args in calls]
     t0, c0 = time.perf_counter(), time.thread_time()
     for fn, args in prepared:
         fn(*args)
@@ -274,11 +282,12 @@ def native_vs_kernel(env_id: str, n: int, warm: int, steps: int, repeats: int) -
     numba.set_num_threads(1)
     acts = env_actions(env_id, warm + steps, n)
     venv = gym.make_vec(env_id, num_envs=n, parallel=False)
-    calls, final = record_kernel_calls(venv, acts, warm)
+    calls, start, final = record_kernel_calls(venv, acts, warm)
+    time_replay(calls, start, final)  # untimed: compiles the replay's (contiguous) specialisation
     best = {k: np.array([np.inf, np.inf]) for k in ("native", "kernel")}  # (wall, CPU)
     for _ in range(repeats):  # interleaved
         best["native"] = np.minimum(best["native"], time_native(venv, acts, warm))
-        best["kernel"] = np.minimum(best["kernel"], time_replay(calls, final))
+        best["kernel"] = np.minimum(best["kernel"], time_replay(calls, start, final))
     venv.close()
     out = {}
     for k, (wall, cpu) in best.items():
@@ -420,7 +429,7 @@ def report(res: dict, n_threads: int) -> None:
             f" {100 * r['env_share_cpu']:.1f} % of CPU"
             f" -> {ok}; with VecMonitor + VecNormalize {100 * r['env_share_with_wrappers']:.1f} % /"
             f" {100 * r['env_share_with_wrappers_cpu']:.1f} %; {r['wall_s']:.1f} s wall;"
-            f" per vector step {us['adapter']:.0f} us, kernel {us['kernel']:.0f} us"
+            f" per vector step {us['adapter']:.0f} us, jitted step {us['kernel']:.0f} us"
         )
         cpu = r["breakdown_share_of_main_thread_cpu"]
         for k, v in r["breakdown_share_of_wall"].items():

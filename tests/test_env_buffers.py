@@ -18,6 +18,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import spine_gym  # noqa: F401 - registers the env ids
+from spine_gym.envs._infos import RowInfo, VectorInfo
 from spine_gym.envs.sb3 import SmaSpineSB3VecEnv
 
 torch.set_num_threads(1)
@@ -140,3 +141,43 @@ def test_copied_pickled_and_restored_vector_envs_continue_bit_for_bit(env_id):
     for i, snap in enumerate(snaps):
         venv.restore(i, snap)
     _same([venv.step(a) for a in acts[5:]], expected, "restored")
+
+
+def test_lazy_infos_behave_as_the_eager_dicts_and_fill_only_when_read():
+    """The adapter's per-env infos (RowInfo) fill themselves from the step row on first use: SB3's
+    reads of its own keys do not fill them; every dict operation gives the eager dict's result."""
+    env = SmaSpineSB3VecEnv(2, seed=0)
+    env.reset()
+    env.step_async(np.zeros((2, 2), dtype=np.float32))
+    _, _, _, infos = env.step_wait()
+    eager = env.venv.row_infos()  # the same rows, built eagerly
+    for d in eager:
+        d["TimeLimit.truncated"] = False
+    d, ref = infos[0], eager[0]
+    assert isinstance(d, RowInfo)
+    assert d.get("episode") is None and "terminal_observation" not in d and not d["TimeLimit.truncated"]
+    assert "angle_deg" in d and "status" in d and "status_text" not in d
+    assert d._src is not None  # none of that filled it
+    for other in (d, dict(d), {**d}, d.copy(), copy.copy(d), copy.deepcopy(d), pickle.loads(pickle.dumps(d))):
+        _same(other, ref, "filled")
+        assert list(other) == list(ref)  # the eager key order
+    assert type(d.copy()) is dict and type(pickle.loads(pickle.dumps(d))) is dict
+    e = infos[1]
+    e["angle_deg"] = 1.5  # a write of a table key before the fill survives it
+    assert e["angle_deg"] == 1.5 and len(e) == len(ref)
+    _same(e, {**eager[1], "angle_deg": 1.5}, "written before the fill")
+
+
+def test_lazy_vector_info_equals_the_eager_one_and_fills_only_when_read():
+    """Gymnasium's info dict of a vector step (VectorInfo) fills itself on first use with the keys,
+    masks and values SyncVectorEnv gives (the equality itself: the tests above)."""
+    venv = gym.make_vec("SmaSpine-v0", num_envs=2, autoreset_mode=AutoresetMode.SAME_STEP).unwrapped
+    venv.reset(seed=0)
+    _, _, _, _, info = venv.step(np.zeros((2, 2), dtype=np.float32))
+    assert isinstance(info, VectorInfo)
+    assert "angle_deg" in info and "_status" in info and "final_obs" not in info and info._src is not None
+    info["final_obs"] = None  # a key set from outside does not fill it and stays last
+    assert info._src is not None
+    keys = list(info)
+    assert keys[-1] == "final_obs" and keys[:4] == ["voltage", "_voltage", "angle_deg", "_angle_deg"]
+    assert info["_angle_deg"].all() and info["angle_deg"].shape == (2,)

@@ -1,10 +1,11 @@
 """Jitted bookkeeping of one env step: sensors, observation, reward, info (no physics here).
 
-After the plant's step kernel (:func:`spine_gym.physics.env_kernels.step_many` for the planar
-spine, :func:`~spine_gym.physics.env_kernels.step_many_spatial` for the spatial ones) has advanced
-the spines and recorded them, a probe (:func:`planar_probe`, :func:`spatial_probe`) converts each
-record into the common probe row (degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns
-it into what the environment returns: the step's electrical energy from the model's Joule-heat
+After the plant's physics (:func:`spine_gym.physics.env_kernels.step_spine` for the planar
+spine, :func:`~spine_gym.physics.env_kernels.step_spine_spatial` for the spatial ones) has advanced
+the spines and recorded them (all in the one call of :mod:`._step_kernels`), a probe
+(:func:`planar_probe`, :func:`spatial_probe`) converts each record into the common probe row
+(degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns it into what the environment
+returns: the step's electrical energy from the model's Joule-heat
 accumulators, the sensor delay line plus the noise drawn in Python, the step row of the env's
 declarative table (:mod:`spine_gym.envs.table`: which quantity goes to which column and which are
 observed comes in as integer maps), the observation (clipped to its bounds), the reward terms, the
@@ -13,7 +14,8 @@ for the single env (one row) and the vector env (all rows), so both return the s
 :func:`begin_step` prepares a step's inputs (clipped actions, voltages, loads, resolve flags).
 Outputs go into the batch's preallocated (B, ...) buffers at the rows stepped, so a step has no
 NumPy temporaries; the groups of arrays are passed as plain tuples (:func:`finish`), which numba
-types on its fast path.
+types on its fast path, and the writer's helpers are inlined into it (``jit_inline``: a real call
+with the namedtuples of arrays cost more than their work).
 
 The formulas are documented in the env classes (Observation space, Rewards).
 """
@@ -25,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..physics._jit import jit
+from ..physics._jit import jit, jit_inline
 from ..physics.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
 from ..physics.layout import OK, X_QJL, X_QJR, X_TL, X_TR
 
@@ -76,13 +78,13 @@ Spec = namedtuple(
 Out = namedtuple("Out", ["obs", "row", "terminated", "truncated"])
 
 
-@jit
+@jit_inline
 def _put(row, col, value):
     if col >= 0:
         row[col] = value
 
 
-@jit
+@jit_inline
 def _sensors(i, step, mem, spec, fresh, true, measured):
     """True channels from the probe row -> delay line -> measured = oldest + noise."""
     p = step.probe[i]
@@ -104,7 +106,7 @@ def _sensors(i, step, mem, spec, fresh, true, measured):
         measured[c] = mem.hist[i, 0, c] + step.noise[i, c]
 
 
-@jit
+@jit_inline
 def _energy(i, step, mem, spec, fresh, row, period):
     """Electrical energy of the step from the model's cumulative Joule heat; per-wire power."""
     p = step.probe[i]
@@ -122,7 +124,7 @@ def _energy(i, step, mem, spec, fresh, row, period):
     return energy
 
 
-@jit
+@jit_inline
 def _tracking(i, kk, step, spec, row):
     """Target, preview and error of the tracked entry; returns |error| (Euclidean)."""
     last = step.targets.shape[1] - 1

@@ -1,7 +1,8 @@
 """The planar plant of ``SmaSpine-v0``: :class:`TableBatch` over the planar kernel (MODEL.md).
 
-The planar pair keeps its specialised kernel (:func:`spine_gym.physics.env_kernels.step_many`,
-proven equal to the spatial core in the planar case, SPATIAL.md §7.1); everything above the
+The planar pair keeps its specialised kernel (:func:`spine_gym.physics.env_kernels.step_spine`,
+proven equal to the spatial core in the planar case, SPATIAL.md §7.1), stepped with the env's
+bookkeeping in one call (:func:`._step_kernels.planar_step`); everything above the
 physics — sensors, observation, reward, info, snapshots — is the table-driven layer every env
 shares.
 """
@@ -17,6 +18,7 @@ from ..physics import batch, env_kernels
 from ..physics import layout as L
 from ..physics.solver import init_state
 from . import _bookkeeping as bk
+from . import _step_kernels as sk
 from .table_batch import TableBatch
 from .task import TargetProfile
 
@@ -25,6 +27,8 @@ __all__ = ["PlanarBatch"]
 
 class PlanarBatch(TableBatch):
     """The batch of ``SmaSpine-v0``: planar spines, targets are :class:`TargetProfile` s [deg]."""
+
+    PLANT = sk.PLANAR_PLANT
 
     def _alloc_plant(self, b: int) -> None:
         p = self.cfg.params
@@ -64,24 +68,8 @@ class PlanarBatch(TableBatch):
     def _init_state(self, i: int, vforce: np.ndarray) -> int:
         return init_state(self.states[i], self.kps[i], self.ks, vforce)
 
-    def _advance(self, active: np.ndarray, resolve: np.ndarray) -> None:
-        kernel = env_kernels.step_many if self.parallel else env_kernels.step_many_serial
-        cfg = self.cfg
-        kernel(
-            self.states,
-            self.backup,
-            self.kps,
-            self.ks,
-            self.volts[:, 0],
-            self.volts[:, 1],
-            self.loads,
-            resolve,
-            active,
-            cfg.physics_dt,
-            cfg.n_sub,
-            self.status,
-            self.meas,
-        )
+    def _step_kernel(self):
+        return sk.planar_step if self.parallel else sk.planar_step_serial
 
     def _record(self, rows: np.ndarray) -> None:
         env_kernels.record_many(self.states, self.kps, rows, self.meas)

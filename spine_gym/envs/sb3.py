@@ -6,9 +6,11 @@ observation of the finished episode in ``infos[i]["terminal_observation"]`` and
 ``infos[i]["TimeLimit.truncated"]`` (``truncated and not terminated``), exactly as SB3's own
 ``DummyVecEnv`` does. :class:`SmaSpineSB3VecEnv` gives that over
 :class:`~spine_gym.envs.vector_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
-physics of all environments stays one numba call per step, and the per-env info dicts are built
+physics of all environments stays one numba call per step, and the per-env info dicts come
 straight from the vector env's table rows (:meth:`~spine_gym.envs.vector_env.SmaSpineVectorEnv.step_arrays`,
-no Gymnasium info dict in between). It composes with
+no Gymnasium info dict in between); they fill themselves on first use
+(:class:`spine_gym.envs._infos.RowInfo`: SB3's algorithms and wrappers read only a few keys of
+most of them, so most are never filled). It composes with
 ``VecMonitor`` and ``VecNormalize``::
 
     from stable_baselines3 import PPO
@@ -91,23 +93,28 @@ class SmaSpineSB3VecEnv(VecEnv):
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
-        """One step of every env: the vector env's fresh arrays, per-env dicts built from its table
-        rows in one pass (no Gymnasium info dict in between)."""
+        """One step of every env: the vector env's fresh arrays and per-env dicts that fill
+        themselves from its table rows on first use (:class:`spine_gym.envs._infos.RowInfo`)."""
         if self._actions is None:
             raise RuntimeError("step_async() must be called before step_wait()")
         out = self.venv.step_arrays(self._actions)
         self._actions = None
-        infos = self.venv.row_infos(out.rows, out.status)
+        truncated = (out.truncated & ~out.terminated).tolist()
+        infos = self.venv.row_infos(out.rows, out.status, truncated)
         if out.final is not None:
             f = out.final
-            for d, i, obs in zip(
-                self.venv.row_infos(f.rows, f.status), f.env_ids.tolist(), f.obs, strict=True
+            done = f.env_ids.tolist()
+            finals = self.venv.row_infos(f.rows, f.status, [truncated[i] for i in done])
+            for d, i, obs, reset_info in zip(
+                finals,
+                done,
+                f.obs,
+                self.venv.row_infos(out.rows[f.env_ids], out.status[f.env_ids]),
+                strict=True,
             ):
-                self.reset_infos[i] = infos[i]
+                self.reset_infos[i] = reset_info
                 d["terminal_observation"] = obs
                 infos[i] = d
-        for d, t in zip(infos, (out.truncated & ~out.terminated).tolist(), strict=True):
-            d["TimeLimit.truncated"] = t
         return out.obs, out.reward.astype(np.float32), out.terminated | out.truncated, infos
 
     def close(self) -> None:

@@ -1,7 +1,8 @@
 """Configuration, tables and batch of the spatial envs ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
 
 The physics is the wire- and module-generic core of ``spine_gym.physics.spatial_solver``
-(SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_many_spatial`; the bookkeeping
+(SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_spine_spatial`, stepped with the
+bookkeeping in one call (:func:`._step_kernels.spatial_step`); the bookkeeping
 is the table-driven writer every env shares (:class:`.table_batch.TableBatch`). The env classes
 (their docstrings are the documentation pages) are in :mod:`.spatial_env`.
 """
@@ -20,6 +21,7 @@ from ..physics import spatial_layout as SL
 from ..physics.spatial_solver import init_state, record_size
 from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
+from . import _step_kernels as sk
 from .core import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
 from .table import Entry, Table
 from .table_batch import TableBatch
@@ -364,6 +366,7 @@ class SpatialBatch(TableBatch):
     """:class:`TableBatch` over the spatial core (per-spine layout tables, for randomised parameters)."""
 
     PLANT_ARRAYS = ("kws", "kms")
+    PLANT = sk.SPATIAL_PLANT
 
     def _alloc_plant(self, b: int) -> None:
         lay = self.cfg.layout
@@ -413,25 +416,8 @@ class SpatialBatch(TableBatch):
     def _init_state(self, i: int, vforce: np.ndarray) -> int:
         return init_state(self.states[i], self.kps[i], self.ks, self.kws[i], self.kms[i], vforce)
 
-    def _advance(self, active: np.ndarray, resolve: np.ndarray) -> None:
-        kernel = env_kernels.step_many_spatial if self.parallel else env_kernels.step_many_spatial_serial
-        cfg = self.cfg
-        kernel(
-            self.states,
-            self.backup,
-            self.kps,
-            self.ks,
-            self.kws,
-            self.kms,
-            self.volts,
-            self.loads,
-            resolve,
-            active,
-            cfg.physics_dt,
-            cfg.n_sub,
-            self.status,
-            self.meas,
-        )
+    def _step_kernel(self):
+        return sk.spatial_step if self.parallel else sk.spatial_step_serial
 
     def _record(self, rows: np.ndarray) -> None:
         env_kernels.record_many_spatial(self.states, self.kps, self.kws, self.kms, rows, self.meas)

@@ -133,6 +133,8 @@ class Table:
             (e.key, self.cols[e.key].start if e.size == 1 else self.cols[e.key]) for e in infos
         )
         self._scalar_cols = np.array([c for _, c in self._info_cols if isinstance(c, int)], dtype=np.int64)
+        self.info_key_set = frozenset(self.info_keys)
+        self.info_index = tuple((slice(None), c) for _, c in self._info_cols)  # into a block (n, width)
         self._sensors = sensors
         self._noise_sigma = dict(noise_sigma)
 
@@ -202,7 +204,7 @@ class Table:
 
     def info_dict(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Info arrays of the step rows ``rows`` (n, width): scalars (n,), vectors (n, size) (views)."""
-        return {key: rows[:, c] for key, c in self._info_cols}
+        return {key: rows[ix] for key, ix in zip(self.info_keys, self.info_index, strict=True)}
 
     def row_dicts(self, rows: np.ndarray) -> list[dict]:
         """One info dict per step row of ``rows`` (n, width), as a single env returns it: scalars
@@ -212,6 +214,11 @@ class Table:
         columns = [next(scalars) if isinstance(c, int) else list(rows[:, c]) for _, c in self._info_cols]
         keys = self.info_keys
         return [dict(zip(keys, values, strict=True)) for values in zip(*columns, strict=True)]
+
+    def row_dict(self, row: np.ndarray) -> dict:
+        """:meth:`row_dicts` of one step row ``row`` (width,)."""
+        scalars = iter(row[self._scalar_cols].tolist())
+        return {key: next(scalars) if isinstance(c, int) else row[c] for key, c in self._info_cols}
 
     # ------------------------------------------------------------------ documentation
     def markdown_observation(self) -> str:

@@ -2,15 +2,16 @@
 
 :class:`TableBatch` holds the per-environment arrays (model state, episode data, the writer's
 memory), resets one environment with its own generator and steps all active ones at once
-(:meth:`TableBatch.advance`): one jitted call of :func:`._bookkeeping.begin_step` (actions,
-voltages, loads), one of the plant's step kernel, one of its probe (the physics readings in the
-common probe layout of :mod:`._bookkeeping`), one of :func:`._bookkeeping.finish_rows` (sensors,
-observation, reward, info, from the env's :class:`~.table.Table`), all into preallocated
-per-environment buffers (``obs``, ``last_row``, ``status``, ``terminated``, ``truncated``) that
-the envs copy out. Subclasses are the plants
-(:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the physics arrays, draw the
-episode's target and solve, advance, record and probe their spines. The single env is a batch of
-one, so single and vector env run the same code and give the same numbers (tested bit for bit).
+(:meth:`TableBatch.advance`): one jitted call of the plant's step kernel
+(:mod:`._step_kernels`: the inputs of :func:`._bookkeeping.begin_step` — actions, voltages,
+loads —, the physics of every spine, its probe — the physics readings in the common probe layout
+of :mod:`._bookkeeping` — and :func:`._bookkeeping.finish_rows` — sensors, observation, reward,
+info, from the env's :class:`~.table.Table`), all into preallocated per-environment buffers
+(``obs``, ``last_row``, ``status``, ``terminated``, ``truncated``) that the envs copy out.
+Subclasses are the plants (:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the
+physics arrays, draw the episode's target, solve, record and probe their spines at a reset and name
+their step kernel and its plant tuple. The single env is a batch of one, so single and vector env
+run the same code and give the same numbers (tested bit for bit).
 """
 
 from __future__ import annotations
@@ -47,6 +48,8 @@ COMMON_ARRAYS = (
     "last_row",  # the table row of the last step or reset (true values)
     *bk.Memory._fields,
 )
+# entries of a plant tuple that come from the configuration (the others are batch attributes)
+_CFG_PLANT = ("physics_dt", "n_sub")
 
 
 class TableBatch:
@@ -60,6 +63,7 @@ class TableBatch:
     """
 
     PLANT_ARRAYS: tuple[str, ...] = ()
+    PLANT: tuple[str, ...] = ()  # the plant tuple of its step kernel (_step_kernels.*_PLANT)
     RECORD_SIZE: int = 0
 
     def __init__(self, cfg: BaseEnvConfig, num_envs: int, parallel: bool):
@@ -121,7 +125,6 @@ class TableBatch:
         self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
         self.reward_col = self.table.cols["reward"].start
         self.row_ids = np.arange(b)
-        self._all = np.ones(b, dtype=np.bool_)
         # the step's buffers, written in place at the rows stepped (no per-step allocation)
         self.obs = np.zeros((b, self.table.obs_dim), dtype=np.float32)  # last observation
         self.terminated = np.zeros(b, dtype=np.bool_)
@@ -140,6 +143,8 @@ class TableBatch:
         tail = (self.volts, self.loads, self.targets, self.noise)
         self._step_in = (*inputs, self.act, *tail)  # bk.Step of a step
         self._reset_in = (*inputs, self._fresh_actions, *tail)  # bk.Step of a reset
+        self._drive = (self._coef, self.forces, self.resolve_plan, self.resolve)
+        self._plant = tuple(getattr(cfg, k) if k in _CFG_PLANT else getattr(self, k) for k in self.PLANT)
 
     # ------------------------------------------------------------------ plant hooks
     def _alloc_plant(self, b: int) -> None:
@@ -167,7 +172,9 @@ class TableBatch:
     def _init_state(self, i: int, vforce: np.ndarray) -> int:
         raise NotImplementedError
 
-    def _advance(self, active: np.ndarray, resolve: np.ndarray) -> None:
+    def _step_kernel(self):
+        """The plant's step kernel of :mod:`._step_kernels` (looked up per call: the benchmarks
+        wrap the module attribute), parallel or serial as ``self.parallel``."""
         raise NotImplementedError
 
     def _record(self, rows: np.ndarray) -> None:
@@ -287,7 +294,8 @@ class TableBatch:
 
         Writes the buffers :attr:`obs`, :attr:`last_row` (the step rows: reward, info), :attr:`status`,
         :attr:`terminated` and :attr:`truncated` at ``rows`` and leaves the other rows as they are:
-        four jitted calls (inputs, physics, probe, bookkeeping) and no NumPy temporaries.
+        one jitted call (inputs, physics, probe, bookkeeping: :mod:`._step_kernels`) and no NumPy
+        temporaries (with sensor noise, the noise is drawn first, per environment).
 
         Args:
             actions: (B, W) float32 or float64; clipped to [-1, 1] (ValueError if not finite; the
@@ -300,28 +308,17 @@ class TableBatch:
         """
         if rows is None:
             rows = self.row_ids
-        ok = bk.begin_step(
-            rows,
-            actions,
-            self.act,
-            self.volts,
-            self._coef,
-            self.mem.k,
-            self.forces,
-            self.resolve_plan,
-            self.loads,
-            self.resolve,
-        )
-        if not ok:
-            validate_actions(actions, actions.shape)  # raises the documented ValueError
-        active = self._all if rows.shape[0] == self.num_envs else np.isin(self.row_ids, rows)
-        self._advance(active, self.resolve)
-        self._probe(rows)
-        if self.noisy:  # drawn per environment from its own generator, after the physics
+        if self.noisy:  # drawn per environment from its own generator, only for a valid step
+            if not np.isfinite(actions).all():
+                validate_actions(actions, actions.shape)  # raises the documented ValueError
             c = self.table.n_channels
             for i in rows:
                 self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
-        bk.finish(rows, self._step_in, self._mem, self._spec, self._out, False)
+        kernel = self._step_kernel()
+        if not kernel(
+            rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out
+        ):
+            validate_actions(actions, actions.shape)  # raises the documented ValueError
         return rows
 
     def step(

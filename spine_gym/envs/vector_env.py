@@ -3,13 +3,13 @@
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
-``seed + i`` like ``SyncVectorEnv``; the physics of all N spines is one call of the kernel
-:func:`spine_gym.physics.env_kernels.step_many` (or its serial twin) per step. Row i therefore
-equals ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for
-bit). A step writes the batch's preallocated buffers (observations, table rows, flags) in four
-jitted calls and hands out fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the
-Gymnasium info dict holds views of the copied rows, and the SB3 adapter builds its per-env dicts
-from the same rows.
+``seed + i`` like ``SyncVectorEnv``; the physics and bookkeeping of all N spines is one jitted call
+per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``). Row i therefore equals
+``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
+A step writes the batch's preallocated buffers (observations, table rows, flags) and hands out
+fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the Gymnasium info dict fills
+itself from the copied rows on first use (:class:`~spine_gym.envs._infos.VectorInfo`), and the SB3
+adapter builds its per-env dicts from the same rows.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ._infos import VectorInfo, row_infos, vector_info_keys
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -84,7 +85,9 @@ class SmaSpineVectorEnv(VectorEnv):
       also use: every parallel step waits for its slowest thread, and GNU OpenMP's idle workers
       spin after each step, competing with the Python work in between (measured on the shared
       2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
-      at N = 256 at 0.6-0.7x; on an idle machine 1.7-1.8x at N >= 256; benchmarks/README.md).
+      at N = 256 at 0.6-0.7x, and never beat it at N = 8 ... 256 with the one-call step either;
+      on an idle machine 1.4-1.9x from N = 8 on with the previous 0.01-s physics step;
+      benchmarks/README.md).
       The serial default also never starts OpenMP's threads. With the parallel kernel on a
       shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once)
       or ``NUMBA_THREADING_LAYER=workqueue`` (no spinning; one parallel call at a time).
@@ -149,6 +152,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._no_seeds: list[int | None] = [None] * self.num_envs
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
+        self._info_keys = vector_info_keys(self._core.table)
 
     # ------------------------------------------------------------------ facts (as the single env)
     @property
@@ -325,13 +329,20 @@ class SmaSpineVectorEnv(VectorEnv):
         )
 
     def row_infos(
-        self, rows: np.ndarray | None = None, status: np.ndarray | None = None
+        self,
+        rows: np.ndarray | None = None,
+        status: np.ndarray | None = None,
+        truncated: list[bool] | None = None,
     ) -> list[dict[str, Any]]:
         """One info dict per row, as the single env gives it, of table ``rows`` and ``status`` from
-        :meth:`step_arrays` (default: every sub-env's last step or reset)."""
+        :meth:`step_arrays` (default: every sub-env's last step or reset). With ``truncated`` (one
+        ``TimeLimit.truncated`` flag per row, SB3's key) the dicts carry that key and fill
+        themselves on first use (:func:`spine_gym.envs._infos.row_infos`)."""
         if rows is None:
             rows, status = self._core.last_row.copy(), self._core.status.copy()
-        return self._core.row_infos(rows, status)
+        if truncated is None:
+            return self._core.row_infos(rows, status)
+        return row_infos(self._core.table, rows, status, truncated)
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as a float array of the batch's shape (the batch checks finiteness)."""
@@ -351,15 +362,12 @@ class SmaSpineVectorEnv(VectorEnv):
 
     def _infos(self, rows: np.ndarray, status: np.ndarray) -> dict[str, Any]:
         """Gymnasium's info dict of a step in which every sub-env has every key (views of the fresh
-        ``rows``, one block of all-True ``_key`` masks) plus ``status_text`` on failed rows."""
-        arrays = self._info_arrays(rows, status)
-        masks = np.ones((len(arrays), self.num_envs), dtype=np.bool_)
-        infos: dict[str, Any] = {}
-        for (key, v), m in zip(arrays.items(), masks, strict=True):
-            infos[key] = v
-            infos["_" + key] = m
-        failed, texts = status_texts(status)
-        self._merge(infos, {"status_text": texts}, failed)
+        ``rows``, all-True ``_key`` masks), filled on first use (:class:`~._infos.VectorInfo`),
+        or at once with ``status_text`` on the failed rows if a step failed."""
+        infos = VectorInfo((self._info_keys, rows, status))
+        if status.any():  # some step failed (layout.OK is 0)
+            failed, texts = status_texts(status)
+            self._merge(infos, {"status_text": texts}, failed)
         return infos
 
     def _merge_step(self, infos: dict[str, Any], arrays: dict[str, np.ndarray], rows: np.ndarray) -> None:

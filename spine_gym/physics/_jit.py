@@ -9,12 +9,20 @@ from __future__ import annotations
 
 import numba
 
-__all__ = ["jit", "pjit"]
+__all__ = ["jit", "jit_inline", "pjit"]
 
 
 def jit(func):
     """Serial kernel: ``@njit(cache=True, nogil=True)``."""
     return numba.njit(cache=True, nogil=True)(func)
+
+
+def jit_inline(func):
+    """Small serial helper inlined into its jitted callers at numba IR level (``inline="always"``):
+    for helpers that take tuples of arrays and do little work per call (the env's bookkeeping,
+    ``envs/_bookkeeping.py``), where a real call (its arguments' reference counts) costs more than
+    the work. Same numerics as :func:`jit` (no ``fastmath``)."""
+    return numba.njit(cache=True, nogil=True, inline="always")(func)
 
 
 def pjit(func):

@@ -1,22 +1,23 @@
-"""One control period for many spines: the jitted loop shared by the single and the vector env.
+"""One control period for many spines: the jitted step shared by the single and the vector env.
 
 Nothing here adds an equation: each spine is advanced with :func:`solver.advance` (the model's own
 adaptive sub-steps inside every physics step ``dt``) and measured with :func:`batch.record`, exactly
-as :func:`spine_gym.simulate` does. What the environments need on top is bookkeeping: a per-spine
-``active`` mask (the vector env steps only the environments that are not being reset), a backup so
+as :func:`spine_gym.simulate` does. What the environments need on top is bookkeeping: a backup so
 that a spine whose step fails is handed back at its last valid state (the env then terminates
 with a status, never with NaN), and a ``resolve`` flag per spine (solve the mechanics again only
 when the loads changed since the last solve, as ``batch.run`` does).
 
-Compiled twice from one body (STYLE.md): ``step_many`` runs the loop over spines in parallel with
-``prange``; ``step_many_serial`` is the serial twin used by the single env and by the vector env with
-``parallel=False``. Both give bit-identical rows (tested), and each has its own on-disk cache entry
-(``_jit.pjit``), so the serial twin never runs the parallel machine code (tested).
+:func:`step_spine` is one spine's control period; the envs call it from their one jitted call per
+step (:mod:`spine_gym.envs._step_kernels`: inputs, physics, readings and bookkeeping together).
+``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``;
+``step_many_serial`` is its serial twin (one body compiled twice, STYLE.md; each twin has its own
+on-disk cache entry, ``_jit.pjit``, so a serial kernel never runs parallel machine code). They are
+the physics alone, as the benchmarks time it against the env.
 
-``step_many_spatial`` / ``step_many_spatial_serial`` are the same loop over spatial or chained
-spines (:func:`spatial_solver.advance` and :func:`spatial_solver.record`, SPATIAL.md), used by
-``SmaSpine3D-v0`` and ``SmaSpineChain-v0``; each spine carries its own layout tables (``kw``,
-``km``), which depend on the episode's (possibly randomised) parameters.
+:func:`step_spine_spatial`, ``step_many_spatial`` / ``step_many_spatial_serial`` are the same for
+spatial or chained spines (:func:`spatial_solver.advance_in` and :func:`spatial_solver.record`,
+SPATIAL.md), used by ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``; each spine carries its own layout
+tables (``kw``, ``km``), which depend on the episode's (possibly randomised) parameters.
 """
 
 from __future__ import annotations
@@ -34,12 +35,45 @@ from .spatial_solver import make_work, sizes
 from .spatial_solver import record as spatial_record
 
 
+@jit
+def step_spine(state, backup, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, meas):
+    """Advance one spine by ``n_sub`` physics steps of ``dt`` and record it; returns its status.
+
+    Args:
+        state: (S,) model state, advanced in place (handed back at its start value if a step fails).
+        backup: (S,) scratch; receives the state before the step.
+        kp, ks: the spine's constants and the solver options.
+        v_r, v_l: voltages held over the control period [V].
+        loads: (N, 2) vertex forces held over the control period [N].
+        resolve: the loads differ from those of the last mechanical solve.
+        dt: physics step [s]; the control period is ``n_sub * dt``.
+        n_sub: physics steps per control period.
+        meas: (batch.OUT_SIZE,) out; :func:`batch.record` after the step (of the restored state if
+            the step failed).
+
+    Returns:
+        ``layout`` status code: OK or the first failure.
+    """
+    status = OK
+    for q in range(state.shape[0]):
+        backup[q] = state[q]
+    for j in range(n_sub):
+        st, _, _ = advance(state, kp, ks, v_r, v_l, loads, dt, resolve and j == 0)
+        if st != OK:
+            status = st
+            for q in range(state.shape[0]):
+                state[q] = backup[q]
+            break
+    record(state, kp, meas)
+    return status
+
+
 def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
-    """Advance every active spine by ``n_sub`` physics steps of ``dt`` and record it.
+    """:func:`step_spine` of every active spine (row i of each (B, ...) argument).
 
     Args:
         states: (B, S) model states, advanced in place.
-        backup: (B, S) scratch; row i receives the state before the step.
+        backup: (B, S) scratch.
         kps: (B, KP_SIZE) constants (one row per spine, for domain randomisation).
         ks: solver options.
         v_r, v_l: (B,) voltages held over the control period [V].
@@ -49,25 +83,13 @@ def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_
         dt: physics step [s]; the control period is ``n_sub * dt``.
         n_sub: physics steps per control period.
         status: (B,) int64 out; ``layout`` status code of the step (OK or the first failure).
-        meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step
-            (of the restored state if the step failed).
+        meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step.
     """
-    b = states.shape[0]
-    s = states.shape[1]
-    for i in numba.prange(b):
-        if not active[i]:
-            continue
-        status[i] = OK
-        for q in range(s):
-            backup[i, q] = states[i, q]
-        for j in range(n_sub):
-            st, _, _ = advance(states[i], kps[i], ks, v_r[i], v_l[i], loads[i], dt, resolve[i] and j == 0)
-            if st != OK:
-                status[i] = st
-                for q in range(s):
-                    states[i, q] = backup[i, q]
-                break
-        record(states[i], kps[i], meas[i])
+    for i in numba.prange(states.shape[0]):
+        if active[i]:
+            status[i] = step_spine(
+                states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
+            )
 
 
 step_many = pjit(_step_many)
@@ -90,42 +112,59 @@ def _all_finite(x):
     return True
 
 
-def _step_many_spatial(
-    states, backup, kps, ks, kws, kms, volts, loads, resolve, active, dt, n_sub, status, rec
-):
-    """:func:`_step_many` for spatial or chained spines (:func:`spatial_solver.advance`, SPATIAL.md).
+@jit
+def step_spine_spatial(state, backup, kp, ks, kw, km, volts, loads, resolve, dt, n_sub, rec):
+    """:func:`step_spine` for a spatial or chained spine (:func:`spatial_solver.advance_in`, SPATIAL.md).
 
-    Args as :func:`_step_many`, except: ``kws`` (B, W, KW_SIZE) and ``kms`` (B, K, KM_SIZE) the
-    layout tables of each spine (they depend on the episode's parameters); ``volts`` (B, W) [V];
-    ``loads`` (B, N, 3) global x/y/z vertex forces [N]; ``rec`` (B, record_size) out, the
-    :func:`spatial_solver.record` row of each active spine after the step.
+    Args as :func:`step_spine`, except: ``kw`` (W, KW_SIZE) and ``km`` (K, KM_SIZE) the spine's
+    layout tables (they depend on the episode's parameters); ``volts`` (W,) [V]; ``loads`` (N, 3)
+    global x/y/z vertex forces [N]; ``rec`` (record_size,) out, the :func:`spatial_solver.record`
+    row after the step.
 
     A physics step that reports OK but leaves a non-finite state counts as failed (ERR_NONFINITE,
     rolled back): the spatial core can let a NaN through in rare steps of extreme drive under load
     (found by the env's fuzz test), and the env must never hand one out.
     """
-    b = states.shape[0]
-    s = states.shape[1]
-    for i in numba.prange(b):
-        if not active[i]:
-            continue
-        status[i] = OK
-        for q in range(s):
-            backup[i, q] = states[i, q]
-        nw, nm, ns = sizes(kws[i], kms[i])
-        wk = make_work(nw, nm, ns)  # once per spine and env step, shared by its sub-steps and record
-        for j in range(n_sub):
-            st, _, _ = spatial_advance_in(
-                states[i], kps[i], ks, kws[i], kms[i], volts[i], loads[i], dt, resolve[i] and j == 0, wk
+    status = OK
+    for q in range(state.shape[0]):
+        backup[q] = state[q]
+    nw, nm, ns = sizes(kw, km)
+    wk = make_work(nw, nm, ns)  # once per spine and env step, shared by its sub-steps and record
+    for j in range(n_sub):
+        st, _, _ = spatial_advance_in(state, kp, ks, kw, km, volts, loads, dt, resolve and j == 0, wk)
+        if st == OK and not _all_finite(state):
+            st = ERR_NONFINITE
+        if st != OK:
+            status = st
+            for q in range(state.shape[0]):
+                state[q] = backup[q]
+            break
+    spatial_record(state, kp, kw, km, wk, rec)
+    return status
+
+
+def _step_many_spatial(
+    states, backup, kps, ks, kws, kms, volts, loads, resolve, active, dt, n_sub, status, rec
+):
+    """:func:`step_spine_spatial` of every active spine (args as :func:`_step_many`, except ``kws``
+    (B, W, KW_SIZE), ``kms`` (B, K, KM_SIZE), ``volts`` (B, W) [V], ``loads`` (B, N, 3) and ``rec``
+    (B, record_size) out)."""
+    for i in numba.prange(states.shape[0]):
+        if active[i]:
+            status[i] = step_spine_spatial(
+                states[i],
+                backup[i],
+                kps[i],
+                ks,
+                kws[i],
+                kms[i],
+                volts[i],
+                loads[i],
+                resolve[i],
+                dt,
+                n_sub,
+                rec[i],
             )
-            if st == OK and not _all_finite(states[i]):
-                st = ERR_NONFINITE
-            if st != OK:
-                status[i] = st
-                for q in range(s):
-                    states[i, q] = backup[i, q]
-                break
-        spatial_record(states[i], kps[i], kws[i], kms[i], wk, rec[i])
 
 
 step_many_spatial = pjit(_step_many_spatial)

@@ -1,0 +1,118 @@
+"""One env step in one jitted call: inputs, physics, readings and bookkeeping (issue 11).
+
+A step of every env id is four jitted pieces — :func:`._bookkeeping.begin_step` (clipped actions,
+voltages, loads, resolve flags), the plant's per-spine control period
+(:func:`spine_gym.physics.env_kernels.step_spine` or its spatial twin), the plant's probe
+(:func:`._bookkeeping.planar_probe`, :func:`._bookkeeping.spatial_probe`) and the table-driven
+writer (:func:`._bookkeeping.finish_rows`) — and this module runs them in one call from Python, so
+a vector step pays numba's dispatch and argument unboxing once, not four times. Nothing is
+computed here that the pieces do not compute: the rows are bit for bit those of the separate
+calls (``scripts/rollout_digest.py`` gives the same digests).
+
+The argument groups are plain tuples built once per batch (numba types a plain tuple of arrays on
+its fast C path; :class:`.table_batch.TableBatch` holds them):
+
+* ``drive``: ``(coef, forces, plan, resolve)``, as :func:`._bookkeeping.begin_step` takes them;
+* ``plant``: the plant's arrays, :data:`PLANAR_PLANT` / :data:`SPATIAL_PLANT` order;
+* ``step``, ``mem``, ``spec``, ``out``: :data:`._bookkeeping.Step`, ``Memory``, ``Spec``, ``Out``.
+
+Each kernel is one body compiled twice (STYLE.md): ``*_serial`` loops over the spines serially,
+the other runs that loop with ``prange`` on all numba threads (the bookkeeping around it is serial,
+it costs well under a microsecond per spine). Each returns False, changing nothing, if an action
+is not finite (the caller raises the documented ValueError).
+"""
+
+from __future__ import annotations
+
+import numba
+
+from ..physics._jit import jit, pjit
+from ..physics.env_kernels import step_spine, step_spine_spatial
+from . import _bookkeeping as bk
+
+__all__ = [
+    "PLANAR_PLANT",
+    "SPATIAL_PLANT",
+    "planar_step",
+    "planar_step_serial",
+    "spatial_step",
+    "spatial_step_serial",
+]
+
+# the plant tuples: per-spine (B, ...) arrays, then the solver options and the physics step
+PLANAR_PLANT = ("states", "backup", "kps", "ks", "ohm", "wvol", "meas", "physics_dt", "n_sub")
+SPATIAL_PLANT = (
+    "states", "backup", "kps", "ks", "kws", "kms", "record_cols", "ohm", "wvol", "meas", "physics_dt", "n_sub"
+)  # fmt: skip
+
+
+def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
+    """One control period of the planar spines ``rows`` (int64, ascending); see the module docstring.
+
+    Args:
+        rows: (n,) environments to step.
+        actions: (B, 2) float32 or float64 actions of every environment (clipped to [-1, 1]).
+        drive, plant, step, mem, spec, out: the batch's tuples (module docstring).
+
+    Returns:
+        False if an action is not finite (nothing changed), else True.
+    """
+    st, m, sp = bk.Step(*step), bk.Memory(*mem), bk.Spec(*spec)
+    coef, forces, plan, resolve = drive
+    states, backup, kps, ks, ohm, wvol, meas, dt, n_sub = plant
+    if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+        return False
+    volts, loads, status = st.volts, st.loads, st.status
+    for j in numba.prange(rows.shape[0]):
+        i = rows[j]
+        status[i] = step_spine(
+            states[i],
+            backup[i],
+            kps[i],
+            ks,
+            volts[i, 0],
+            volts[i, 1],
+            loads[i],
+            resolve[i],
+            dt,
+            n_sub,
+            meas[i],
+        )
+    bk.planar_probe(rows, meas, ohm, wvol, sp.probe_cols, st.probe)
+    bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)
+    return True
+
+
+def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
+    """:func:`_planar_step` for spatial or chained spines (``actions`` (B, W))."""
+    st, m, sp = bk.Step(*step), bk.Memory(*mem), bk.Spec(*spec)
+    coef, forces, plan, resolve = drive
+    states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
+    if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+        return False
+    volts, loads, status = st.volts, st.loads, st.status
+    for j in numba.prange(rows.shape[0]):
+        i = rows[j]
+        status[i] = step_spine_spatial(
+            states[i],
+            backup[i],
+            kps[i],
+            ks,
+            kws[i],
+            kms[i],
+            volts[i],
+            loads[i],
+            resolve[i],
+            dt,
+            n_sub,
+            meas[i],
+        )
+    bk.spatial_probe(rows, meas, record_cols, ohm, wvol, sp.probe_cols, st.probe)
+    bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)
+    return True
+
+
+planar_step = pjit(_planar_step)
+planar_step_serial = jit(_planar_step)
+spatial_step = pjit(_spatial_step)
+spatial_step_serial = jit(_spatial_step)
