@@ -40,8 +40,10 @@ SPECIAL_KEYS = (
     "lagrangian_lr",
     "budget_episodes",
     "budget_window",
+    "budget_scale",
     "obs_integral",
     "obs_integral_limit",
+    "obs_history",
 )
 
 
@@ -131,10 +133,14 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("lagrangian_lr", 0.5)
     special.setdefault("budget_episodes", 16)
     special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
+    special.setdefault("budget_scale", 1.0)  # the budget is this fraction of energy_budget's joules
     special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of agents.integral
     special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
+    special.setdefault("obs_history", None)  # k earlier frames of angle and action (agents.history)
     if special["residual"] in (None, "none", "None", False):
         special["residual"] = None
     if special["obs_integral"] in (None, "none", "None", False):
         special["obs_integral"] = None
+    if special["obs_history"] in (None, "none", "None", False, 0):
+        special["obs_history"] = None
     return hp, special

@@ -7,7 +7,8 @@
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
   :class:`agents.residual.ResidualPolicy`, one trained with the integral-of-error observation
-  wrapped in :class:`agents.integral.IntegralObsPolicy`), so the evaluation treats it like any controller.
+  wrapped in :class:`agents.integral.IntegralObsPolicy`, one with the frame history in
+  :class:`agents.history.HistoryObsPolicy`), so the evaluation treats it like any controller.
 * :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`;
   :func:`validation_scores` — mean RMSE and energy over the validation episodes.
 
@@ -29,6 +30,7 @@ import yaml
 import spine_gym  # noqa: F401 - registers the env
 
 from .common import ENV_ID
+from .history import HistoryObsPolicy, HistorySpec
 from .integral import IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
@@ -293,7 +295,11 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
             break
     meta.setdefault("algo", algo)
     policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
-    if meta.get("obs_integral"):  # the integral is appended last: after the residual's base action
+    # the model sees [obs, residual's base action, integral, frame history] (agents.train's order):
+    # the innermost wrapper appends last
+    if meta.get("obs_history"):
+        policy = HistoryObsPolicy(policy, HistorySpec.from_dict(meta["obs_history"]), name=policy.name)
+    if meta.get("obs_integral"):
         policy = IntegralObsPolicy(policy, IntegralSpec.from_dict(meta["obs_integral"]), name=policy.name)
     if meta.get("residual"):
         return ResidualPolicy(policy, meta["residual"], name=policy.name)

@@ -31,11 +31,14 @@ meets the budget (:mod:`agents.lagrangian`); ``pid`` is the tuned PID's mean ene
 observation: a longer ``target_preview`` of the policy is not given to the PID). ``lagrangian_init`` and
 ``lagrangian_lr`` set the initial multiplier and its step, ``budget_window`` how many finished
 episodes the mean energy of the dual step is taken over (default 32; 0: the episodes finished
-since the previous dual step); the budget goes into ``meta.json``.
+since the previous dual step), ``budget_scale`` (default 1, in (0, 2]) multiplies the budget (e.g. 0.93
+with ``pid``: 7 % under the PID's energy); the budget goes into ``meta.json``.
 
 ``obs_integral: <τ [s] or inf>`` appends the (leaky) integral of the tracking error to the
 observation (:mod:`agents.integral`; ``obs_integral_limit`` its clip, default 300 deg s); its
 settings go into ``meta.json``, so :func:`agents.runtime.load_policy` rebuilds it for evaluation.
+``obs_history: <k>`` appends the k earlier frames of the measured angle and the previous action
+(:mod:`agents.history`), after the integral; likewise stored and rebuilt.
 """
 
 from __future__ import annotations
@@ -52,6 +55,7 @@ import yaml
 
 from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
+from .history import HistoryObsVecEnv, HistorySpec
 from .integral import IntegralObsVecEnv, IntegralSpec
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .residual import ResidualVecEnv, base_spec
@@ -214,9 +218,20 @@ def train(argv: list[str] | None = None) -> Path:
         env = IntegralObsVecEnv(env, ispec)
         if eval_env is not None:
             eval_env = IntegralObsVecEnv(eval_env, ispec)
+    if special["obs_history"] is not None:
+        # the frame history (agents.history), after the integral
+        probe = make_env(env_kwargs, env_id=args.env)
+        hspec = HistorySpec.from_env(probe, special["obs_history"])
+        probe.close()
+        meta["obs_history"] = hspec.to_dict()
+        env = HistoryObsVecEnv(env, hspec)
+        if eval_env is not None:
+            eval_env = HistoryObsVecEnv(eval_env, hspec)
     budget_env = None
     if special["energy_budget"] is not None:
-        budget = energy_budget(special["energy_budget"], env_kwargs, int(special["budget_episodes"]))
+        budget = energy_budget(
+            special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
+        )
         probe = make_env(env_kwargs)
         budget_env = EnergyBudgetVecEnv(
             env,
@@ -251,6 +266,12 @@ def train(argv: list[str] | None = None) -> Path:
         model = algo_cls.load(
             args.trained_agent, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
         )
+        if model.seed != args.seed:
+            # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
+            # Only re-seed when it differs: a second seeding after the network's construction changes
+            # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
+            model.seed = args.seed
+            model.set_random_seed(args.seed)
         replay = Path(args.trained_agent).with_name("replay_buffer.pkl")
         if args.algo == "sac" and replay.exists():
             model.load_replay_buffer(str(replay))
@@ -334,22 +355,29 @@ def train(argv: list[str] | None = None) -> Path:
     return run
 
 
-def energy_budget(spec, env_kwargs: dict, n_episodes: int) -> float:
-    """The energy budget per episode [J]: a number as given, or ``"pid"``: the tuned PID's mean
-    energy on ``n_episodes`` validation episodes of the training distribution ``env_kwargs``."""
+def energy_budget(spec, env_kwargs: dict, n_episodes: int, scale: float = 1.0) -> float:
+    """The energy budget per episode [J]: ``scale`` × a number as given, or ``"pid"``: ``scale`` ×
+    the tuned PID's mean energy on ``n_episodes`` validation episodes of the training distribution
+    ``env_kwargs``."""
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}") from None
+    if not 0.0 < scale <= 2.0:
+        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}")
     if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
         kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
         probe = make_env(kw)
         pid = build_controller("pid", probe)
         probe.close()
-        return validation_scores(pid, n_episodes, kw)[1]
+        return scale * validation_scores(pid, n_episodes, kw)[1]
     try:
         value = float(spec)
     except (TypeError, ValueError):
         raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}") from None
     if not value > 0.0:
         raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}")
-    return value
+    return scale * value
 
 
 def _checkpoint_vecnormalize(ckpt: Path) -> Path:

@@ -63,6 +63,7 @@ def test_train_ppo_smoke_run_and_resume(tmp_path):
     assert meta2["total_timesteps"] >= step0 + 128
     pol = load_policy(tmp_path / "ppo" / "SmaSpine-v0_2")
     assert pol.obs_rms is not None  # statistics carried over from the checkpoint
+    assert pol.model.seed == 0  # the resume's --seed (default 0), not the checkpoint's 3
 
 
 def test_train_sac_smoke_run(tmp_path):
