@@ -35,6 +35,7 @@ from spine_gym.design import space as space_mod
 from spine_gym.design import sweeps as sweep_mod
 from spine_gym.design.space import INF_VIOLATION, design_parameter_names
 from spine_gym.params import field_names
+from spine_gym import SolverOptions
 from spine_gym.simulate import SimulationError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -150,9 +151,15 @@ def test_parallel_sweep_is_bit_identical_to_serial():
 
 
 def test_sweep_reproduces_model_md_10_4_trends():
-    """Full protocol (60+60+30 s): a = 6, 10, 14 mm at n_w = 1, and n_w = 2, 3 at a = 14 mm."""
-    ra = sweep({"a": [6e-3, 10e-3, 14e-3]}, n_workers=1)
-    rn = sweep({"n_w": [2, 3]}, n_workers=1)
+    """Full protocol (60+60+30 s): a = 6, 10, 14 mm at n_w = 1, and n_w = 2, 3 at a = 14 mm.
+
+    Compared to the table's printed precision, so with the sub-steps cut at every output step: dense
+    output (the default) moves θ_s by up to 0.011°, inside the §10.4 tolerance of 0.5° that
+    test_experiments.py::test_reproduction_is_within_the_model_md_gates checks for the default.
+    """
+    stepped = SolverOptions(dense_output=False)
+    ra = sweep({"a": [6e-3, 10e-3, 14e-3]}, n_workers=1, solver=stepped)
+    rn = sweep({"n_w": [2, 3]}, n_workers=1, solver=stepped)
     angle, ability = ra.column("stable_angle_deg"), ra.column("actuating_ability")
     t_resp, t_swing = ra.column("responding_time_s"), ra.column("responding_time_swing_s")
     # MODEL.md §10.4 table (values printed to 2 decimals / 3 decimals)
