@@ -28,7 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
-from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env import VecEnv
+
+from .augment import AugmentedObsPolicy, AugmentedObsVecEnv
 
 __all__ = [
     "DEFAULT_HISTORY_KEYS",
@@ -139,8 +141,23 @@ def _memory(n: int, spec: HistorySpec) -> np.ndarray:
     return np.zeros((n, (spec.frames + 1) * spec.width))
 
 
-class HistoryObsVecEnv(VecEnvWrapper):
-    """Observation = the wrapped env's observation ++ the k previous frames of the spec's entries.
+class _HistoryMemory:
+    """The memory of :class:`HistoryObsVecEnv` and :class:`HistoryObsPolicy`: the newest k + 1 frames."""
+
+    def _memory(self, n: int) -> np.ndarray:
+        return _memory(n, self.spec)
+
+    def _advance(self, mem: np.ndarray, obs: np.ndarray, start: np.ndarray) -> np.ndarray:
+        return history_step(mem, obs, self.spec, start)
+
+    def _features(self, mem: np.ndarray) -> np.ndarray:
+        return history_features(mem, self.spec)
+
+
+class HistoryObsVecEnv(_HistoryMemory, AugmentedObsVecEnv):
+    """Observation = the wrapped env's observation ++ the k previous frames of the spec's entries
+    (:class:`agents.augment.AugmentedObsVecEnv`: terminal observations in ``infos`` are augmented
+    with the history continued to the episode's last state).
 
     Args:
         venv: the vector env (raw, un-normalised observations).
@@ -150,72 +167,15 @@ class HistoryObsVecEnv(VecEnvWrapper):
     def __init__(self, venv: VecEnv, spec: HistorySpec):
         if not isinstance(spec, HistorySpec):
             raise ValueError(f"spec must be a HistorySpec, got {type(spec).__name__}")
-        self.spec = spec
-        super().__init__(venv, observation_space=spec.space(venv.observation_space))
-        self.mem = _memory(self.num_envs, spec)
-        self.fresh = np.ones(self.num_envs, dtype=bool)
-
-    def _augment(self, obs: np.ndarray) -> np.ndarray:
-        self.mem = history_step(self.mem, obs, self.spec, self.fresh)
-        self.fresh[:] = False
-        return np.concatenate([obs, history_features(self.mem, self.spec)], axis=1).astype(np.float32)
-
-    def reset(self) -> np.ndarray:
-        self.fresh[:] = True
-        return self._augment(self.venv.reset())
-
-    def step_wait(self):
-        obs, rewards, dones, infos = self.venv.step_wait()
-        for i in np.flatnonzero(dones):
-            term = infos[i].get("terminal_observation")
-            if term is not None:  # the history continued to the last state of the episode
-                last = history_step(self.mem[i : i + 1], term[None, :], self.spec, np.zeros(1, bool))
-                infos[i]["terminal_observation"] = np.concatenate(
-                    [term, history_features(last, self.spec)[0]]
-                ).astype(np.float32)
-        self.fresh[:] = dones
-        return self._augment(obs), rewards, dones, infos
+        super().__init__(venv, spec, spec.space(venv.observation_space))
 
 
-class HistoryObsPolicy:
+class HistoryObsPolicy(_HistoryMemory, AugmentedObsPolicy):
     """A model trained on :class:`HistoryObsVecEnv` observations, as a ``predict``-able controller.
 
     It keeps the frames per row of the observation batch; ``episode_start`` (or ``reset()``)
-    restarts them. ``predict`` returns the model's action and ``state`` ``None``.
+    restarts them (:class:`agents.augment.AugmentedObsPolicy`).
     """
-
-    def __init__(self, model, spec: HistorySpec, name: str | None = None):
-        self.model = model
-        self.spec = spec
-        self.name = name or getattr(model, "name", "policy")
-        self.meta = getattr(model, "meta", {})
-        self.env_kwargs = getattr(model, "env_kwargs", {})
-        self.mem = None
-
-    def reset(self) -> None:
-        self.mem = None
-        if hasattr(self.model, "reset"):
-            self.model.reset()
-
-    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
-        obs = np.asarray(observation)
-        if obs.ndim not in (1, 2) or not np.issubdtype(obs.dtype, np.number):
-            raise ValueError(f"observation must be a numeric array (d,) or (n_envs, d), got shape {obs.shape}")
-        single = obs.ndim == 1
-        obs2 = np.atleast_2d(obs).astype(np.float32)
-        if obs2.shape[1] < self.spec.min_obs:
-            raise ValueError(f"observation must have >= {self.spec.min_obs} entries, got {obs2.shape[1]}")
-        start = np.zeros(obs2.shape[0], dtype=bool)
-        if self.mem is None or self.mem.shape[0] != obs2.shape[0]:
-            self.mem = _memory(obs2.shape[0], self.spec)
-            start[:] = True
-        if episode_start is not None:
-            start |= np.asarray(episode_start, dtype=bool).reshape(-1)
-        self.mem = history_step(self.mem, obs2, self.spec, start)
-        aug = np.concatenate([obs2, history_features(self.mem, self.spec)], axis=1).astype(np.float32)
-        action, _ = self.model.predict(aug, None, episode_start, deterministic)
-        action = np.asarray(action)
-        return (action[0] if single else action), None
 
     def __repr__(self) -> str:
         return f"HistoryObsPolicy({self.name}, frames={self.spec.frames}, ranges={self.spec.ranges})"

@@ -30,7 +30,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 from gymnasium import spaces
-from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env import VecEnv
+
+from .augment import AugmentedObsPolicy, AugmentedObsVecEnv
 
 __all__ = ["IntegralSpec", "integral_step", "IntegralObsVecEnv", "IntegralObsPolicy", "parse_tau"]
 
@@ -84,6 +86,11 @@ class IntegralSpec:
         return self.tracked[1] - self.tracked[0]
 
     @property
+    def min_obs(self) -> int:
+        """Shortest observation the tracked value and its target fit in."""
+        return max(self.tracked[1], self.target[1])
+
+    @property
     def decay(self) -> float:
         """d = exp(−dt/τ) (1 for a pure integral)."""
         return 1.0 if math.isinf(self.tau) else math.exp(-self.dt / self.tau)
@@ -129,8 +136,25 @@ def augment_space(space: spaces.Box, spec: IntegralSpec) -> spaces.Box:
     )
 
 
-class IntegralObsVecEnv(VecEnvWrapper):
-    """Observation = the wrapped env's observation ++ the integral of the tracking error.
+class _IntegralMemory:
+    """The memory of :class:`IntegralObsVecEnv` and :class:`IntegralObsPolicy`: the integral,
+    0 before an episode's first observation."""
+
+    def _memory(self, n: int) -> np.ndarray:
+        return np.zeros((n, self.spec.size))
+
+    def _advance(self, mem: np.ndarray, obs: np.ndarray, start: np.ndarray) -> np.ndarray:
+        mem = np.where(np.asarray(start, dtype=bool).reshape(-1, 1), 0.0, mem)
+        return integral_step(mem, obs, self.spec)
+
+    def _features(self, mem: np.ndarray) -> np.ndarray:
+        return mem
+
+
+class IntegralObsVecEnv(_IntegralMemory, AugmentedObsVecEnv):
+    """Observation = the wrapped env's observation ++ the integral of the tracking error
+    (:class:`agents.augment.AugmentedObsVecEnv`: terminal observations in ``infos`` are augmented
+    with the integral continued to the episode's last state).
 
     Args:
         venv: the vector env (raw, un-normalised observations).
@@ -140,66 +164,15 @@ class IntegralObsVecEnv(VecEnvWrapper):
     def __init__(self, venv: VecEnv, spec: IntegralSpec):
         if not isinstance(spec, IntegralSpec):
             raise ValueError(f"spec must be an IntegralSpec, got {type(spec).__name__}")
-        self.spec = spec
-        super().__init__(venv, observation_space=augment_space(venv.observation_space, spec))
-        self.mem = np.zeros((self.num_envs, spec.size))
-
-    def _augment(self, obs: np.ndarray) -> np.ndarray:
-        self.mem = integral_step(self.mem, obs, self.spec)
-        return np.concatenate([obs, self.mem], axis=1).astype(np.float32)
-
-    def reset(self) -> np.ndarray:
-        self.mem[:] = 0.0
-        return self._augment(self.venv.reset())
-
-    def step_wait(self):
-        obs, rewards, dones, infos = self.venv.step_wait()
-        for i in np.flatnonzero(dones):
-            term = infos[i].get("terminal_observation")
-            if term is not None:  # the integral continued to the last state of the episode
-                last = integral_step(self.mem[i : i + 1], term[None, :], self.spec)[0]
-                infos[i]["terminal_observation"] = np.concatenate([term, last]).astype(np.float32)
-            self.mem[i] = 0.0
-        return self._augment(obs), rewards, dones, infos
+        super().__init__(venv, spec, augment_space(venv.observation_space, spec))
 
 
-class IntegralObsPolicy:
+class IntegralObsPolicy(_IntegralMemory, AugmentedObsPolicy):
     """A model trained on :class:`IntegralObsVecEnv` observations, as a ``predict``-able controller.
 
     It keeps the integral per row of the observation batch; ``episode_start`` (or ``reset()``)
-    restarts it. ``predict`` returns the model's action and ``state`` ``None``.
+    restarts it (:class:`agents.augment.AugmentedObsPolicy`).
     """
-
-    def __init__(self, model, spec: IntegralSpec, name: str | None = None):
-        self.model = model
-        self.spec = spec
-        self.name = name or getattr(model, "name", "policy")
-        self.meta = getattr(model, "meta", {})
-        self.env_kwargs = getattr(model, "env_kwargs", {})
-        self.mem = None
-
-    def reset(self) -> None:
-        self.mem = None
-        if hasattr(self.model, "reset"):
-            self.model.reset()
-
-    def predict(self, observation, state=None, episode_start=None, deterministic: bool = True):
-        obs = np.asarray(observation)
-        if obs.ndim not in (1, 2) or not np.issubdtype(obs.dtype, np.number):
-            raise ValueError(f"observation must be a numeric array (d,) or (n_envs, d), got shape {obs.shape}")
-        single = obs.ndim == 1
-        obs2 = np.atleast_2d(obs).astype(np.float32)
-        if obs2.shape[1] < max(self.spec.tracked[1], self.spec.target[1]):
-            raise ValueError(f"observation must have >= {max(self.spec.tracked[1], self.spec.target[1])} entries, got {obs2.shape[1]}")
-        if self.mem is None or self.mem.shape[0] != obs2.shape[0]:
-            self.mem = np.zeros((obs2.shape[0], self.spec.size))
-        if episode_start is not None:
-            self.mem[np.asarray(episode_start, dtype=bool).reshape(-1)] = 0.0
-        self.mem = integral_step(self.mem, obs2, self.spec)
-        aug = np.concatenate([obs2, self.mem], axis=1).astype(np.float32)
-        action, _ = self.model.predict(aug, None, episode_start, deterministic)
-        action = np.asarray(action)
-        return (action[0] if single else action), None
 
     def __repr__(self) -> str:
         return f"IntegralObsPolicy({self.name}, tau={self.spec.tau}, limit={self.spec.limit})"
