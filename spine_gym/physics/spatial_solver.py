@@ -1233,20 +1233,24 @@ def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk
 
 
 @jit
-def _complete_outputs(state, start, mid, kp, kw, km, wk, out, row0, dt, n_out, done, sub):
+def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
-    reached, as :func:`.solver._complete_outputs`. Returns the outputs completed."""
+    reached, as :func:`.solver._complete_outputs`. Only the recorded head of the state (up to S)
+    is interpolated, and the record gets its work arrays (frames, chords, vertex positions), not
+    the work tuple. Returns the outputs completed."""
     e0, e1, at_end = sub
+    nw, nm, ns = sizes(kw, km)
+    head = sens_offset(nw, nm, ns)
     theta = output_fraction(done + 1, n_out, dt, e0, e1, at_end)
     while theta >= 0.0:
         state[S_TIME] += dt
         if out is not None:
             if theta == 1.0:
-                record(state, kp, kw, km, wk, out[row0 + done])
+                _record(state, kp, kw, km, frames, chords, pos, out[row0 + done])
             else:
-                interpolate(start, state, theta, mid)
+                interpolate(start[:head], state[:head], theta, mid[:head])
                 mid[S_TIME] = state[S_TIME]
-                record(mid, kp, kw, km, wk, out[row0 + done])
+                _record(mid, kp, kw, km, frames, chords, pos, out[row0 + done])
         done += 1
         if done == n_out:
             break
@@ -1283,8 +1287,10 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     if coupled:
         _load_rates(state, kp, kw, km, ns, wk[WK_RT])
     # with ``out``: the state at the start of a sub-step and one interpolated (dense output)
-    start = state[:0] if out is None else np.empty(state.shape[0])
-    mid = state[:0] if out is None else np.empty(state.shape[0])
+    # (only the head up to S is recorded: the rest of ``mid`` is the state at the span's start)
+    start = state[:0] if out is None else state.copy()
+    mid = state[:0] if out is None else state.copy()
+    head = sens_offset(nw, nm, ns)
     solved = False
     max_sub = int(ks[S_MAXSUB])
     span = dt * n_out
@@ -1294,7 +1300,7 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     done = 0  # output steps completed
     while rem > 0.0:
         if out is not None:
-            start[:] = state
+            start[:head] = state[:head]
         e0 = span - rem
         if coupled:
             st, h, p, sol = _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
@@ -1317,7 +1323,9 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
             # step at most, as solver.advance)
             if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
                 return ERR_BUCKLING, done, nsub, passes
-            done = _complete_outputs(state, start, mid, kp, kw, km, wk, out, row0, dt, n_out, done, sub)
+            done = _complete_outputs(
+                state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out, row0, dt, n_out, done, sub
+            )
             since = 0
             solved = False
     return OK, done, nsub, passes
