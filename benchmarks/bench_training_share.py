@@ -26,6 +26,11 @@ and 1 → 2 numba threads (issue 11). One command prints all three against the i
    parallel kernel (``parallel=True``) on 1 and 2 threads, and the serial kernel, at each of
    ``--scaling-sizes``, interleaved run by run. The same sweep gives the threshold of the default
    kernel choice: the smallest N from which the parallel kernel on 2 threads beats the serial one.
+   Two peers in the same run say where a shortfall comes from: the **kernel alone** (the recorded
+   physics calls of item 2 replayed through the parallel kernel on 1 and 2 threads: no Python,
+   the envs' uneven sub-step counts and the threads' start-up remain) and the **machine's ceiling**
+   (a compute-bound ``prange`` loop of equal iterations, no memory traffic: what a second thread
+   can give on this machine at all).
 
 The machine this was written on has 2 cores shared with other jobs: every time is an upper bound
 of the time on a quiet machine (every rate a lower bound), and the 1 → 2 thread scaling cannot show
@@ -46,6 +51,7 @@ if "--omp-passive" in sys.argv:  # before numba's OpenMP runtime starts (as benc
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
 
@@ -332,6 +338,52 @@ def thread_scaling(sizes: list[int], warm: int, steps: int, repeats: int, n_thre
     return out
 
 
+def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) -> dict:
+    """Env steps/s of SmaSpine-v0's physics alone (item 2's recorded calls, replayed through the
+    parallel kernel ``env_kernels.step_many``) on 1 and ``n_threads`` numba threads."""
+    numba.set_num_threads(1)
+    acts = env_actions("SmaSpine-v0", warm + steps, n)
+    venv = gym.make_vec("SmaSpine-v0", num_envs=n, parallel=False)
+    calls, start, final = record_kernel_calls(venv, acts, warm)
+    venv.close()
+    twin = {env_kernels.step_many_serial: env_kernels.step_many}
+    calls = [(twin[fn], args) for fn, args in calls]
+    time_replay(calls, start, final)  # untimed: compiles the parallel replay
+    best = {1: np.inf, n_threads: np.inf}
+    for _ in range(repeats):
+        for k in best:
+            numba.set_num_threads(k)
+            best[k] = min(best[k], time_replay(calls, start, final)[0])
+    numba.set_num_threads(n_threads)
+    rate = {f"threads_{k}": n * steps / t for k, t in best.items()}
+    return {**rate, "speedup": rate[f"threads_{n_threads}"] / rate["threads_1"]}
+
+
+@numba.njit(parallel=True)
+def _busy(out, work):
+    """A compute-bound prange loop of equal iterations (no memory traffic)."""
+    for i in numba.prange(out.shape[0]):
+        x = 0.0
+        for k in range(work):
+            x += math.sin(x + 1e-3 * k)
+        out[i] = x
+
+
+def machine_ceiling(n_threads: int, repeats: int, iterations: int = 256, work: int = 20_000) -> dict:
+    """Speed-up of :func:`_busy` from 1 to ``n_threads`` numba threads (best of ``repeats``)."""
+    out = np.empty(iterations)
+    _busy(out, 10)  # compile
+    best = {1: np.inf, n_threads: np.inf}
+    for _ in range(repeats):
+        for k in best:
+            numba.set_num_threads(k)
+            t0 = time.perf_counter()
+            _busy(out, work)
+            best[k] = min(best[k], time.perf_counter() - t0)
+    numba.set_num_threads(n_threads)
+    return {"seconds_1": best[1], f"seconds_{n_threads}": best[n_threads], "speedup": best[1] / best[n_threads]}
+
+
 # ---------------------------------------------------------------- report
 def plot(res: dict, path: Path) -> None:
     import matplotlib
@@ -458,6 +510,12 @@ def report(res: dict, n_threads: int) -> None:
             f"  scaling {r['speedup']:.2f}x"
             f" ({ok}); parallel/serial {r['parallel_over_serial']:.2f} (default: {r['default_kernel']})"
         )
+    for n, r in res["kernel_threads"].items():
+        print(
+            f"   kernel alone N={n:5s} 1 thread {r['threads_1']:8.0f}  {n_threads} threads"
+            f" {r[f'threads_{n_threads}']:8.0f} steps/s  scaling {r['speedup']:.2f}x"
+        )
+    print(f"   machine ceiling (compute-bound prange loop): {res['machine_ceiling']['speedup']:.2f}x")
     wins = [int(n) for n, r in res["threads"].items() if r["parallel_over_serial"] > 1.0]
     print(
         f"   default threshold PARALLEL_MIN_ENVS = {PARALLEL_MIN_ENVS};"
@@ -491,7 +549,7 @@ def main(argv=None) -> int:
     torch.set_num_threads(1)
     info = machine()
     n_threads = numba.config.NUMBA_NUM_THREADS
-    res: dict = {"ppo": [], "native_vs_kernel": {}, "threads": {}}
+    res: dict = {"ppo": [], "native_vs_kernel": {}, "threads": {}, "kernel_threads": {}, "machine_ceiling": {}}
     t_start = time.perf_counter()
     for parallel in (None, True):
         print(f"1. PPO, {args.rollouts} rollouts, parallel={parallel} ...", flush=True)
@@ -506,6 +564,11 @@ def main(argv=None) -> int:
     res["threads"] = thread_scaling(
         sorted(args.scaling_sizes), args.warm, args.steps, args.repeats, n_threads
     )
+    res["kernel_threads"] = {
+        str(n): kernel_scaling(n, args.warm, args.steps, args.repeats, n_threads)
+        for n in sorted({min(args.scaling_sizes), max(args.scaling_sizes)})
+    }
+    res["machine_ceiling"] = machine_ceiling(n_threads, args.repeats)
     info["load_average_end"] = os.getloadavg()
     info["torch_threads"] = torch.get_num_threads()
     info["wall_time_s"] = time.perf_counter() - t_start
