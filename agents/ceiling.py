@@ -84,7 +84,7 @@ def ceiling_rows(
 def plot(rows: list[dict], target: float, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4.5))
     ax.fill_between([0.0, 1.0], 0.0, target, color="tab:green", alpha=0.15, label=f"target (≤ {target} × RMSE, ≤ 1 × energy)")
-    for dist, marker in zip(DISTRIBUTIONS, "os"):
+    for dist, marker in zip(DISTRIBUTIONS, "os", strict=True):
         pts = [r for r in rows if r["distribution"] == dist and r["controller"] != "pid"]
         if not pts:
             continue

@@ -9,7 +9,7 @@ from .layout import Module, SpineLayout, WireGroup
 from .params import ModelParams, SolverOptions, alternative, baseline
 from .simulate import SimulationError, SimulationResult, simulate
 from .simulate_spatial import SpatialResult
-from . import envs  # registers SmaSpine-v0
+from . import envs  # noqa: F401 - registers SmaSpine-v0
 
 __all__ = [
     "ModelParams",

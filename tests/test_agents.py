@@ -268,10 +268,12 @@ def test_residual_env_with_zero_correction_is_the_tuned_pid():
     pid = ev.build_controller("pid", env)
     ref_obs = np.stack([ev.make_env(kw).reset(seed=5 + i)[0] for i in range(2)])
     np.testing.assert_array_equal(obs[:, :10], ref_obs)
-    for k in range(25):  # past the 20-step episode end: autoreset restarts the PID memory
-        a_pid, _ = pid.predict(obs[:, :10], episode_start=np.full(2, k == 0) if k == 0 else done)
+    start = np.ones(2, dtype=bool)
+    for _ in range(25):  # past the 20-step episode end: autoreset restarts the PID memory
+        a_pid, _ = pid.predict(obs[:, :10], episode_start=start)
         np.testing.assert_allclose(obs[:, 10:], a_pid, atol=1e-6)
         obs, _, done, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+        start = done
         if done.any():
             assert all(infos[i]["terminal_observation"].shape == (12,) for i in np.flatnonzero(done))
     assert np.array_equal(combine(np.array([0.5, -0.9]), np.array([2.0, -0.5]), 0.5), np.float32([1.0, -1.0]))

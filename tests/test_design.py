@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from spine_gym import SolverOptions
 from spine_gym.capacity import CapacityProtocol
 from spine_gym.design import (
     Constraint,
@@ -35,7 +36,6 @@ from spine_gym.design import space as space_mod
 from spine_gym.design import sweeps as sweep_mod
 from spine_gym.design.space import INF_VIOLATION, design_parameter_names
 from spine_gym.params import field_names
-from spine_gym import SolverOptions
 from spine_gym.simulate import SimulationError
 
 ROOT = Path(__file__).resolve().parents[1]
