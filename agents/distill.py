@@ -276,6 +276,16 @@ def action_error(model, x: np.ndarray, y: np.ndarray, obs_rms, epsilon: float = 
     return float(np.mean((a - np.asarray(y, np.float32)) ** 2))
 
 
+def _validate(model, obs_rms, hspec, ispec, n: int) -> dict:
+    """Mean RMSE [deg] and energy [J] of the student on ``n`` validation episodes of the default
+    and the hard-like distribution (60 s, the student's preview: ``agents.select``'s episodes)."""
+    pol, _ = student_controller(model, obs_rms, hspec, ispec)
+    out = {}
+    for name, kw in (("default", {"target_preview": PREVIEW}), ("hard_like", dict(STUDENT_ENV_KWARGS))):
+        out[f"val_{name}"] = validation_scores(pol, n, kw)
+    return out
+
+
 def save_student(folder: Path, model, venv, obs_rms, hp: dict, special: dict, meta: dict) -> Path:
     """Write the shipped layout (``agents/policies/ppo_bud/``) to ``folder``; returns it."""
     folder = Path(folder)
@@ -315,7 +325,9 @@ def distill(
     log_std: float | None = None,
 ) -> Path:
     """Run DAgger (module docstring) and save the student to ``out``; returns ``out``."""
-    _check("iterations", isinstance(iterations, (int, np.integer)) and iterations >= 1, iterations, "an integer >= 1")
+    _check("iterations", isinstance(iterations, (int, np.integer)) and iterations >= 0, iterations, "an integer >= 0")
+    if iterations == 0 and init_data is None:
+        raise ValueError("iterations must be >= 1 without init_data (0: only fit on init_data)")
     _check("episodes", isinstance(episodes, (int, np.integer)) and episodes >= 1, episodes, "an integer >= 1")
     _check("duration", float(duration) > 0.0, duration, "> 0 [s]")
     _check("beta0", 0.0 <= float(beta0) <= 1.0, beta0, "in [0, 1]")
@@ -356,17 +368,6 @@ def distill(
         base_meta["obs_history"] = hspec.to_dict()
     if ispec is not None:
         base_meta["obs_integral"] = ispec.to_dict()
-    rng = np.random.default_rng(seed)
-    xs, ys, its = [], [], []
-    if init_data is not None:
-        d = np.load(init_data)
-        xs, ys, its = [d["x"]], [d["y"]], [d["iteration"] - d["iteration"].max() - 1]
-    obs_rms = _rms(xs[0]) if xs else None
-    envs = {
-        "hard_like": make_env({**STUDENT_ENV_KWARGS, "episode_duration": float(duration)}),
-        "default": make_env({"target_preview": PREVIEW, "episode_duration": float(duration)}),
-    }
-    experts = {k: build_expert(e, expert, w_energy) for k, e in envs.items()}
     settings = {
         "expert": expert,
         "w_energy": w_energy,
@@ -381,7 +382,31 @@ def distill(
         "seed_base": int(seed_base),
         "init_data": None if init_data is None else str(init_data),
     }
+    rng = np.random.default_rng(seed)
+    xs, ys, its = [], [], []
+    if init_data is not None:
+        d = np.load(init_data)
+        xs, ys, its = [d["x"]], [d["y"]], [d["iteration"] - d["iteration"].max() - 1]
+    obs_rms = None
     history = []
+    meta = dict(base_meta)
+    if xs:  # start from the student fitted on the earlier data
+        obs_rms = _rms(xs[0])
+        t1 = time.time()
+        losses = fit_student(model, xs[0], ys[0], obs_rms, epochs=epochs, lr=lr, batch_size=batch_size, seed=seed + 10_000)
+        rec = {"iteration": -1, "samples_total": int(len(xs[0])), "fit_wall_s": round(time.time() - t1, 1),
+               "loss_first": losses[0], "loss_last": losses[-1]}  # fmt: skip
+        if val_episodes:
+            rec.update(_validate(model, obs_rms, hspec, ispec, val_episodes))
+        history.append(rec)
+        tqdm.write(json.dumps(rec))
+        meta = {**base_meta, "distill": {**settings, "iterations": history}}
+        np.savez_compressed(out / "data.npz", x=xs[0], y=ys[0], iteration=its[0])
+    envs = {
+        "hard_like": make_env({**STUDENT_ENV_KWARGS, "episode_duration": float(duration)}),
+        "default": make_env({"target_preview": PREVIEW, "episode_duration": float(duration)}),
+    }
+    experts = {k: build_expert(e, expert, w_energy) for k, e in envs.items()}
     t_start = time.time()
     for k in range(iterations):
         beta = float(beta0) * float(beta_decay) ** k
@@ -415,9 +440,7 @@ def distill(
             "loss_last": losses[-1],
         }
         if val_episodes:
-            pol, _ = student_controller(model, obs_rms, hspec, ispec)
-            for name, kw in (("default", {"target_preview": PREVIEW}), ("hard_like", dict(STUDENT_ENV_KWARGS))):
-                rec[f"val_{name}"] = validation_scores(pol, val_episodes, kw)
+            rec.update(_validate(model, obs_rms, hspec, ispec, val_episodes))
         history.append(rec)
         tqdm.write(json.dumps(rec))
         np.savez_compressed(out / "data.npz", x=X, y=Y, iteration=np.concatenate(its))
@@ -433,7 +456,7 @@ def distill(
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.distill", description=__doc__.split("\n")[0])
     p.add_argument("--out", required=True, help="output folder (the student, per-iteration students, data.npz)")
-    p.add_argument("--iterations", type=int, default=4, help="DAgger iterations (default: %(default)s)")
+    p.add_argument("--iterations", type=int, default=4, help="DAgger iterations (0: fit on --init-data only; default: %(default)s)")
     p.add_argument("--episodes", type=int, default=10, help="episodes per iteration (default: %(default)s)")
     p.add_argument("--duration", type=float, default=30.0, help="episode length [s] (default: %(default)s)")
     p.add_argument("--beta0", type=float, default=1.0, help="expert share of iteration 1 (default: %(default)s)")
@@ -449,7 +472,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed (network, mixing, distribution draws)")
     p.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE, help="first reset seed (default: %(default)s)")
     p.add_argument("--val-episodes", type=int, default=0, help="validation episodes per iteration and distribution")
-    p.add_argument("--init-data", default=None, help="data.npz of an earlier run to aggregate from")
+    p.add_argument("--init-data", default=None, help="data.npz of an earlier run: fitted first, then aggregated with")
     p.add_argument("--log-std", type=float, default=None, help="set the saved policy's log std (default: ppo.yml's)")
     return p
 
