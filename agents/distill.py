@@ -107,6 +107,10 @@ def _check(name: str, ok: bool, value, what: str) -> None:
         raise ValueError(f"{name} must be {what}, got {value!r}")
 
 
+def _check_int(name: str, value, low: int) -> None:
+    _check(name, isinstance(value, (int, np.integer)) and value >= low, value, f"an integer >= {low}")
+
+
 def _specs(obs_history: int | None, obs_integral: float | None):
     """(HistorySpec | None, IntegralSpec | None) on the student's env."""
     probe = make_env(STUDENT_ENV_KWARGS)
@@ -124,7 +128,7 @@ def make_student(obs_history: int | None = None, obs_integral: float | None = No
     ``VecNormalize`` to save), ``hp``/``special`` the hyperparameters used.
     """
     if obs_history is not None:
-        _check("obs_history", isinstance(obs_history, (int, np.integer)) and obs_history >= 1, obs_history, "an integer >= 1 or None")
+        _check_int("obs_history", obs_history, 1)
     if obs_integral is not None:
         _check("obs_integral", float(obs_integral) > 0.0, obs_integral, "a time constant > 0 [s] or None")
     hp_raw = load_hyperparams("ppo", ENV_ID)
@@ -201,7 +205,8 @@ def collect_episode(env, expert, student, tap, seed: int, beta: float, rng: np.r
         energy += float(np.sum(info["energy_J"]))
         if terminated or truncated:
             break
-    return np.asarray(xs, np.float32), np.asarray(ys, np.float32), float(np.sqrt(np.mean(np.square(err)))), energy
+    rmse = float(np.sqrt(np.mean(np.square(err))))
+    return np.asarray(xs, np.float32), np.asarray(ys, np.float32), rmse, energy
 
 
 def _rms(x: np.ndarray) -> RunningMeanStd:
@@ -234,9 +239,9 @@ def fit_student(
 ) -> list[float]:
     """Fit the student's mean action to ``y`` on ``x`` normalised by ``obs_rms`` (MSE, Adam);
     returns the mean loss per epoch. Only the actor (extractor, policy MLP, action net) moves."""
-    _check("epochs", isinstance(epochs, (int, np.integer)) and epochs >= 1, epochs, "an integer >= 1")
+    _check_int("epochs", epochs, 1)
     _check("lr", float(lr) > 0.0, lr, "> 0")
-    _check("batch_size", isinstance(batch_size, (int, np.integer)) and batch_size >= 1, batch_size, "an integer >= 1")
+    _check_int("batch_size", batch_size, 1)
     x = np.asarray(x, np.float64)
     y = np.asarray(y, np.float32)
     if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] == 0:
@@ -268,9 +273,12 @@ def fit_student(
     return losses
 
 
-def action_error(model, x: np.ndarray, y: np.ndarray, obs_rms, epsilon: float = 1e-8, clip_obs: float = 10.0) -> float:
+def action_error(
+    model, x: np.ndarray, y: np.ndarray, obs_rms, epsilon: float = 1e-8, clip_obs: float = 10.0
+) -> float:
     """Mean squared error of the student's mean action against ``y`` on ``x``."""
-    xn = np.clip((np.asarray(x, np.float64) - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon), -clip_obs, clip_obs)
+    xn = (np.asarray(x, np.float64) - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon)
+    xn = np.clip(xn, -clip_obs, clip_obs)
     with torch.no_grad():
         a = _mean_action(model, torch.as_tensor(xn.astype(np.float32))).numpy()
     return float(np.mean((a - np.asarray(y, np.float32)) ** 2))
@@ -296,7 +304,13 @@ def save_student(folder: Path, model, venv, obs_rms, hp: dict, special: dict, me
     vn.save(str(folder / "vecnormalize.pkl"))
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))
     (folder / "command.txt").write_text(meta["command"] + "\n")
-    config = {**hp, **special, "n_envs": special.get("n_envs", 8), "n_timesteps": 0, "env_kwargs": dict(STUDENT_ENV_KWARGS)}
+    config = {
+        **hp,
+        **special,
+        "n_envs": special.get("n_envs", 8),
+        "n_timesteps": 0,
+        "env_kwargs": dict(STUDENT_ENV_KWARGS),
+    }
     (folder / "config.yml").write_text(yaml.safe_dump({ENV_ID: _yaml_safe(config)}))
     return folder
 
@@ -325,7 +339,7 @@ def distill(
     log_std: float | None = None,
 ) -> Path:
     """Run DAgger (module docstring) and save the student to ``out``; returns ``out``."""
-    _check("iterations", isinstance(iterations, (int, np.integer)) and iterations >= 0, iterations, "an integer >= 0")
+    _check_int("iterations", iterations, 0)
     if iterations == 0 and init_data is None:
         raise ValueError("iterations must be >= 1 without init_data (0: only fit on init_data)")
     _check("episodes", isinstance(episodes, (int, np.integer)) and episodes >= 1, episodes, "an integer >= 1")
@@ -333,12 +347,15 @@ def distill(
     _check("beta0", 0.0 <= float(beta0) <= 1.0, beta0, "in [0, 1]")
     _check("beta_decay", 0.0 <= float(beta_decay) <= 1.0, beta_decay, "in [0, 1]")
     _check("default_fraction", 0.0 <= float(default_fraction) <= 1.0, default_fraction, "in [0, 1]")
-    _check("val_episodes", isinstance(val_episodes, (int, np.integer)) and val_episodes >= 0, val_episodes, "an integer >= 0")
+    _check_int("val_episodes", val_episodes, 0)
     _check(
         "seed_base",
-        isinstance(seed_base, (int, np.integer)) and 0 <= seed_base and seed_base + iterations * episodes <= VALIDATION_SEED_BASE,
+        isinstance(seed_base, (int, np.integer))
+        and 0 <= seed_base
+        and seed_base + iterations * episodes <= VALIDATION_SEED_BASE,
         seed_base,
-        f"an integer >= 0 with seed_base + iterations x episodes <= {VALIDATION_SEED_BASE} (the validation seeds)",
+        f"an integer >= 0 with seed_base + iterations x episodes <= {VALIDATION_SEED_BASE} "
+        "(the validation seeds)",
     )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -393,7 +410,9 @@ def distill(
     if xs:  # start from the student fitted on the earlier data
         obs_rms = _rms(xs[0])
         t1 = time.time()
-        losses = fit_student(model, xs[0], ys[0], obs_rms, epochs=epochs, lr=lr, batch_size=batch_size, seed=seed + 10_000)
+        losses = fit_student(
+            model, xs[0], ys[0], obs_rms, epochs=epochs, lr=lr, batch_size=batch_size, seed=seed + 10_000
+        )
         rec = {"iteration": -1, "samples_total": int(len(xs[0])), "fit_wall_s": round(time.time() - t1, 1),
                "loss_first": losses[0], "loss_last": losses[-1]}  # fmt: skip
         if val_episodes:
@@ -414,7 +433,8 @@ def distill(
         ctrl, tap = student_controller(model, obs_rms, hspec, ispec)
         for i in tqdm(range(episodes), desc=f"DAgger {k + 1}/{iterations} (beta {beta:.2f})", unit="ep"):
             dist = "default" if rng.random() < default_fraction else "hard_like"
-            x, y, r, e = collect_episode(envs[dist], experts[dist], ctrl, tap, seed_base + k * episodes + i, beta, rng)
+            ep_seed = seed_base + k * episodes + i
+            x, y, r, e = collect_episode(envs[dist], experts[dist], ctrl, tap, ep_seed, beta, rng)
             xs.append(x)
             ys.append(y)
             its.append(np.full(len(x), k))
@@ -455,25 +475,53 @@ def distill(
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.distill", description=__doc__.split("\n")[0])
-    p.add_argument("--out", required=True, help="output folder (the student, per-iteration students, data.npz)")
-    p.add_argument("--iterations", type=int, default=4, help="DAgger iterations (0: fit on --init-data only; default: %(default)s)")
+    p.add_argument(
+        "--out", required=True, help="output folder (the student, per-iteration students, data.npz)"
+    )
+    p.add_argument(
+        "--iterations", type=int, default=4, help="DAgger iterations (0: fit on --init-data only; default: 4)"
+    )
     p.add_argument("--episodes", type=int, default=10, help="episodes per iteration (default: %(default)s)")
     p.add_argument("--duration", type=float, default=30.0, help="episode length [s] (default: %(default)s)")
-    p.add_argument("--beta0", type=float, default=1.0, help="expert share of iteration 1 (default: %(default)s)")
-    p.add_argument("--beta-decay", type=float, default=0.5, help="beta_k = beta0 x decay^k (default: %(default)s)")
-    p.add_argument("--default-fraction", type=float, default=0.25, help="share of episodes from the default distribution")
-    p.add_argument("--expert", default="mpc_oracle", help="registry controller of the expert (default: %(default)s)")
-    p.add_argument("--w-energy", type=float, default=None, help="the oracle's energy weight [1/J] (default: the registry's)")
-    p.add_argument("--obs-history", type=int, default=5, help="frames of history (0: none; default: %(default)s)")
-    p.add_argument("--obs-integral", type=float, default=None, help="integral time constant [s] (default: none)")
-    p.add_argument("--epochs", type=int, default=30, help="regression epochs per iteration (default: %(default)s)")
+    p.add_argument(
+        "--beta0", type=float, default=1.0, help="expert share of iteration 1 (default: %(default)s)"
+    )
+    p.add_argument(
+        "--beta-decay", type=float, default=0.5, help="beta_k = beta0 x decay^k (default: %(default)s)"
+    )
+    p.add_argument(
+        "--default-fraction", type=float, default=0.25, help="share of episodes from the default distribution"
+    )
+    p.add_argument(
+        "--expert", default="mpc_oracle", help="registry controller of the expert (default: %(default)s)"
+    )
+    p.add_argument(
+        "--w-energy", type=float, default=None, help="the oracle's energy weight [1/J] (default: registry's)"
+    )
+    p.add_argument(
+        "--obs-history", type=int, default=5, help="frames of history (0: none; default: %(default)s)"
+    )
+    p.add_argument(
+        "--obs-integral", type=float, default=None, help="integral time constant [s] (default: none)"
+    )
+    p.add_argument(
+        "--epochs", type=int, default=30, help="regression epochs per iteration (default: %(default)s)"
+    )
     p.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (default: %(default)s)")
     p.add_argument("--batch-size", type=int, default=256, help="regression mini-batch (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0, help="seed (network, mixing, distribution draws)")
-    p.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE, help="first reset seed (default: %(default)s)")
-    p.add_argument("--val-episodes", type=int, default=0, help="validation episodes per iteration and distribution")
-    p.add_argument("--init-data", default=None, help="data.npz of an earlier run: fitted first, then aggregated with")
-    p.add_argument("--log-std", type=float, default=None, help="set the saved policy's log std (default: ppo.yml's)")
+    p.add_argument(
+        "--seed-base", type=int, default=DEFAULT_SEED_BASE, help="first reset seed (default: %(default)s)"
+    )
+    p.add_argument(
+        "--val-episodes", type=int, default=0, help="validation episodes per iteration and distribution"
+    )
+    p.add_argument(
+        "--init-data", default=None, help="data.npz of an earlier run: fitted first, then aggregated with"
+    )
+    p.add_argument(
+        "--log-std", type=float, default=None, help="set the saved policy's log std (default: ppo.yml's)"
+    )
     return p
 
 

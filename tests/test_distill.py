@@ -73,7 +73,8 @@ def test_tiny_dagger_saves_a_loadable_finetunable_student(tmp_path):
 
     # agents.train -i resumes it (same observation space as the training stack)
     run = train(
-        ["--algo", "ppo", "-n", "64", "--n-envs", "1", "-f", str(tmp_path / "ft"), "-i", str(out / "model.zip"),
+        ["--algo", "ppo", "-n", "64", "--n-envs", "1", "-f", str(tmp_path / "ft"),
+         "-i", str(out / "model.zip"),
          "--eval-freq", "0", "--save-freq", "0", "--no-tensorboard", "-v", "0",
          "-params", "obs_history:2", "--env-kwargs", "episode_duration:4.0", "target_preview:3.0"]
     )  # fmt: skip
