@@ -28,24 +28,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from spine_gym.controllers import MPPIConfig, MPPIController  # noqa: E402
-
-from .registry import GUARD_MARGIN_K  # noqa: E402
-from .runtime import build_controller, env_temperature_limit, make_env, validation_scores  # noqa: E402
+from .runtime import build_controller, energy_weighted_oracle, make_env, validation_scores  # noqa: E402
 from .scenarios import HARD_LIKE_KWARGS  # noqa: E402
 
 DISTRIBUTIONS = {"default": {}, "hard_like": HARD_LIKE_KWARGS}
-
-
-def oracle(env, w_energy: float) -> MPPIController:
-    """``mpc_oracle`` (registry defaults) with the energy weight ``w_energy`` [1/J] of its cost."""
-    return MPPIController(
-        env.config,
-        "oracle",
-        env=env,
-        settings=MPPIConfig(w_energy=float(w_energy)),
-        temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
-    )
 
 
 def ceiling_rows(
@@ -59,7 +45,7 @@ def ceiling_rows(
     for dist, w in tqdm(jobs, desc="ceiling", unit="run"):
         kw = dict(DISTRIBUTIONS[dist]) | ({} if duration is None else {"episode_duration": float(duration)})
         env = make_env(kw)
-        ctrl = build_controller("pid", env) if w is None else oracle(env, w)
+        ctrl = build_controller("pid", env) if w is None else energy_weighted_oracle(env, w)
         rmse, energy = validation_scores(ctrl, episodes, kw)
         env.close()
         if w is None:

@@ -47,18 +47,15 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm import tqdm
 
-from spine_gym.controllers import MPPIConfig, MPPIController
-
 from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
 from .history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec
 from .integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec
-from .registry import GUARD_MARGIN_K
 from .runtime import (
     VALIDATION_SEED_BASE,
     SavedPolicy,
     build_controller,
-    env_temperature_limit,
+    energy_weighted_oracle,
     make_env,
     validation_scores,
 )
@@ -147,19 +144,13 @@ def make_student(obs_history: int | None = None, obs_integral: float | None = No
 
 def build_expert(env, name: str = "mpc_oracle", w_energy: float | None = None):
     """The registry's ``name`` for ``env``; for ``mpc_oracle`` with ``w_energy`` [1/J] set, the same
-    planner with that energy weight (as :func:`agents.ceiling.oracle`)."""
+    planner with that energy weight (:func:`agents.runtime.energy_weighted_oracle`)."""
     if w_energy is None:
         return build_controller(name, env)
     _check("w_energy", float(w_energy) >= 0.0, w_energy, "a weight >= 0 [1/J] or None")
     if name != "mpc_oracle":
         raise ValueError(f"w_energy applies to the expert 'mpc_oracle' only, got expert {name!r}")
-    return MPPIController(
-        env.config,
-        "oracle",
-        env=env,
-        settings=MPPIConfig(w_energy=float(w_energy)),
-        temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
-    )
+    return energy_weighted_oracle(env, w_energy)
 
 
 def _saved(model, obs_rms, meta: dict) -> SavedPolicy:

@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 import spine_gym  # noqa: F401 - registers the env
+from spine_gym.controllers import MPPIConfig, MPPIController
 
 from .common import ENV_ID
 from .history import HistoryObsPolicy, HistorySpec
@@ -43,6 +44,7 @@ __all__ = [
     "tracking_keys",
     "env_temperature_limit",
     "build_controller",
+    "energy_weighted_oracle",
     "run_episode",
     "SavedPolicy",
     "load_policy",
@@ -227,6 +229,19 @@ class SavedPolicy:
 
     def __repr__(self) -> str:
         return f"SavedPolicy({self.name}, algo={self.meta.get('algo')})"
+
+
+def energy_weighted_oracle(env, w_energy: float) -> MPPIController:
+    """The registry's ``mpc_oracle`` for the planar ``env`` with the energy weight ``w_energy``
+    [1/J] of its cost (the other settings its defaults): the expert of :mod:`agents.distill` and
+    the trade-off sweep of :mod:`agents.ceiling`."""
+    return MPPIController(
+        env.config,
+        "oracle",
+        env=env,
+        settings=MPPIConfig(w_energy=float(w_energy)),
+        temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
+    )
 
 
 def vecnormalize_candidates(model_path: Path) -> list[Path]:
