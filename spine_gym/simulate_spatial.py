@@ -165,26 +165,28 @@ def simulate_spatial(
 
 
 def _result(out, volts, dt, t0, layout: SpineLayout, nsub, npass, state) -> SpatialResult:
+    """The record's columns as arrays of the result: views into ``out`` where no unit changes (the
+    record is this result's alone; a copy of each block cost as much as the rest of the wrapping)."""
     p = layout.params
     nw, nm, ns = layout.n_wires, layout.n_modules, layout.n_seg
     rows = out.shape[0]
 
     def wires(f):
         o = SL.S_HEAD + f * nw
-        return out[:, o : o + nw].copy()
+        return out[:, o : o + nw]
 
     o = SL.S_HEAD + SL.N_WIRE_FIELDS * nw
-    moment = out[:, o : o + 2 * nm].reshape(rows, nm, 2).copy()
+    moment = out[:, o : o + 2 * nm].reshape(rows, nm, 2)
     o += 2 * nm
-    omega = out[:, o : o + 2 * ns].reshape(rows, ns, 2).copy()
+    omega = out[:, o : o + 2 * ns].reshape(rows, ns, 2)
     o += 2 * ns
     module_bending = np.degrees(out[:, o : o + 2 * nm].reshape(rows, nm, 2))
     o += 2 * nm
     tip_bending = np.degrees(out[:, o : o + 2])
     o += 2
-    tip_position = out[:, o : o + 3].copy()
+    tip_position = out[:, o : o + 3]
     o += 3
-    tip_frame = out[:, o : o + 9].reshape(rows, 3, 3).copy()
+    tip_frame = out[:, o : o + 9].reshape(rows, 3, 3)
     o += 9
     l0 = np.array([m.L0 for m in layout.modules for _ in m.wires])
     n_w = np.array([w.n_w for m in layout.modules for w in m.wires], dtype=float)

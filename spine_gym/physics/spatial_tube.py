@@ -40,12 +40,10 @@ _COS = (1.0, -1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800
 
 
 @jit
-def _series(u, coeffs):
-    """Σ_k coeffs[k] u^k (Horner)."""
-    acc = coeffs[-1]
-    for k in range(len(coeffs) - 2, -1, -1):
-        acc = acc * u + coeffs[k]
-    return acc
+def _series(u, c):
+    """Σ_k c[k] u^k over the 7 coefficients of ``_SINC`` / ``_COS`` (Horner, written out: a loop
+    over the tuple kept the compiler from vectorising :func:`_stage_coeffs`)."""
+    return (((((c[6] * u + c[5]) * u + c[4]) * u + c[3]) * u + c[2]) * u + c[1]) * u + c[0]
 
 
 @jit
@@ -68,41 +66,91 @@ def rot_coeffs(th2):
 
 
 @hot
+def _stage_coeffs(omega, a_out, b_out):
+    """(a, b) of :func:`rot_coeffs` for every segment i into ``a_out[i]``, ``b_out[i]`` (contiguous).
+
+    The series pass has no branch, so the compiler runs it on several segments at once (SIMD);
+    the rare segments at or above SERIES_TH2 are then redone with sine and cosine. Bit for bit the
+    numbers of :func:`rot_coeffs` (the same operations in the same order).
+    """
+    n = omega.shape[0]
+    for i in range(n):
+        w1 = omega[i, 0]
+        w2 = omega[i, 1]
+        a_out[i] = 0.25 * (w1 * w1 + w2 * w2)  # u = (Δθ/2)², replaced by a below
+    for i in range(n):
+        u = a_out[i]
+        f = _series(u, _SINC)
+        c = _series(u, _COS)
+        a_out[i] = f * c
+        b_out[i] = 0.5 * f * f
+    for i in range(n):
+        w1 = omega[i, 0]
+        w2 = omega[i, 1]
+        th2 = w1 * w1 + w2 * w2
+        if th2 >= SERIES_TH2:
+            a, b, _ = rot_coeffs(th2)
+            a_out[i] = a
+            b_out[i] = b
+
+
+@hot
 def kinematics(omega, km, frames, chords):
     """Bottom-up frames and chord vectors of every segment (SPATIAL.md §2).
 
     Args:
         omega: (N, 2) segment rotation vectors in the lower section's material axes [rad].
         km: module table.
-        frames: (N + 1, 3, 3) output, section frames at the vertices (rows d1, d2, t).
-        chords: (N, 3) output, r_i = P_i − P_{i+1} [m].
+        frames: (N + 1, 3, 3) output, section frames at the vertices (rows d1, d2, t); C-contiguous.
+        chords: (N, 3) output, r_i = P_i − P_{i+1} [m]; C-contiguous.
+
+    The coefficients (a_i, b_i) are staged first (:func:`_stage_coeffs`) in the outputs' own
+    memory: a_i in the i-th number of ``chords``, b_i in the i-th number of ``frames``. The chain
+    runs i = N−1 … 0 and its step i writes only chords[i] (numbers 3i … 3i+2) and frames[i]
+    (9i … 9i+8), after reading a_i and b_i, so it never overwrites the coefficients of a segment
+    j < i still to come. The current frame is carried in scalars.
     """
     n = omega.shape[0]
+    a_st = chords.reshape(-1)
+    b_st = frames.reshape(-1)
+    _stage_coeffs(omega, a_st, b_st)
     for r in range(3):
         for c in range(3):
             frames[n, r, c] = 1.0 if r == c else 0.0
+    x0, x1, x2 = 1.0, 0.0, 0.0  # d1 of the frame below the segment (global components)
+    y0, y1, y2 = 0.0, 1.0, 0.0  # d2
+    z0, z1, z2 = 0.0, 0.0, 1.0  # t
     for k in range(km.shape[0]):
         seg0 = int(km[k, M_SEG0])
         ls = km[k, M_LS]
         for i in range(seg0 + int(km[k, M_NSEG]) - 1, seg0 - 1, -1):
             w1 = omega[i, 0]
             w2 = omega[i, 1]
-            th2 = w1 * w1 + w2 * w2
-            a, b, _ = rot_coeffs(th2)
+            a = a_st[i]
+            b = b_st[i]
             c11 = 1.0 - b * w2 * w2
             c12 = b * w1 * w2
             c22 = 1.0 - b * w1 * w1
-            c33 = 1.0 - b * th2
+            c33 = 1.0 - b * (w1 * w1 + w2 * w2)
             aw1 = a * w1
             aw2 = a * w2
-            for c in range(3):
-                d1 = frames[i + 1, 0, c]
-                d2 = frames[i + 1, 1, c]
-                t = frames[i + 1, 2, c]
-                frames[i, 0, c] = c11 * d1 + c12 * d2 - aw2 * t
-                frames[i, 1, c] = c12 * d1 + c22 * d2 + aw1 * t
-                frames[i, 2, c] = aw2 * d1 - aw1 * d2 + c33 * t
-                chords[i, c] = ls * (a * t + b * (w2 * d1 - w1 * d2))
+            chords[i, 0] = ls * (a * z0 + b * (w2 * x0 - w1 * y0))
+            chords[i, 1] = ls * (a * z1 + b * (w2 * x1 - w1 * y1))
+            chords[i, 2] = ls * (a * z2 + b * (w2 * x2 - w1 * y2))
+            x0, x1, x2, y0, y1, y2, z0, z1, z2 = (
+                c11 * x0 + c12 * y0 - aw2 * z0,
+                c11 * x1 + c12 * y1 - aw2 * z1,
+                c11 * x2 + c12 * y2 - aw2 * z2,
+                c12 * x0 + c22 * y0 + aw1 * z0,
+                c12 * x1 + c22 * y1 + aw1 * z1,
+                c12 * x2 + c22 * y2 + aw1 * z2,
+                aw2 * x0 - aw1 * y0 + c33 * z0,
+                aw2 * x1 - aw1 * y1 + c33 * z1,
+                aw2 * x2 - aw1 * y2 + c33 * z2,
+            )
+            frames[i, 0, 0], frames[i, 0, 1], frames[i, 0, 2] = x0, x1, x2
+            frames[i, 1, 0], frames[i, 1, 1], frames[i, 1, 2] = y0, y1, y2
+            frames[i, 2, 0], frames[i, 2, 1], frames[i, 2, 2] = z0, z1, z2
 
 
 @jit
