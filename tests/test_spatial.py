@@ -642,6 +642,39 @@ def test_rotation_coefficients_equal_their_closed_forms_on_both_sides_of_the_ser
     assert tube3.rot_coeffs(0.0) == (1.0, 0.5, 1.0)
 
 
+def test_kinematics_equal_segment_by_segment_rodrigues_rotations_on_both_sides_of_the_series_switch():
+    # SPATIAL.md §2: frame i = R(k_i, Δθ_i) frame i+1 about k = (ω1 d1 + ω2 d2)/Δθ, chord
+    # r_i = (2 ls/Δθ) sin(Δθ/2) R(k_i, Δθ_i/2) t_{i+1}; built here with numpy matrices, one segment
+    # at a time from the kernel's frame below (the composition of many large rotations amplifies
+    # round-off: 2e-11 after 12 rotations of up to 3 rad, in the previous kernel as in this one).
+    # The kernel stages the coefficients of all segments in its outputs first (§8.8): every frame
+    # and chord must still be its segment's rotation, whatever the mix of small and large angles
+    p = ModelParams()
+    mods = (seed_module(p), Module(seed_module(p).wires, 5, 0.030, 0.16, 0.025))
+    _, _, km = SpineLayout(mods, p).to_kernel()
+    n = sum(m.n_seg for m in mods)
+    ls = np.empty(n)  # segment arc length, from each module's segment range
+    for k in range(km.shape[0]):
+        seg0 = int(km[k, SL.M_SEG0])
+        ls[seg0 : seg0 + int(km[k, SL.M_NSEG])] = km[k, SL.M_LS]
+    assert len(set(ls)) == 2  # the two modules' segments differ
+    rng = np.random.default_rng(11)
+    for scale in (1e-4, 0.05, 0.3, 1.2):  # from all-series to mostly sine/cosine segments
+        omega = rng.normal(0.0, scale, (n, 2))
+        frames, chords = np.full((n + 1, 3, 3), np.nan), np.full((n, 3), np.nan)
+        tube3.kinematics(omega, km, frames, chords)
+        np.testing.assert_array_equal(frames[n], np.eye(3))  # rows d1, d2, t of the base frame
+        for i in range(n - 1, -1, -1):
+            below = frames[i + 1]
+            th = np.hypot(*omega[i])
+            axis = (omega[i, 0] * below[0] + omega[i, 1] * below[1]) / th
+            want = (_rot(axis, th) @ below.T).T
+            chord_want = 2.0 * ls[i] / th * math.sin(th / 2) * (_rot(axis, th / 2) @ below[2])
+            np.testing.assert_allclose(frames[i], want, rtol=0, atol=2e-15)
+            np.testing.assert_allclose(chords[i], chord_want, rtol=0, atol=1e-16)
+        np.testing.assert_allclose(frames[0] @ frames[0].T, np.eye(3), rtol=0, atol=1e-14)
+
+
 def test_the_shared_linear_solver_matches_numpy_and_reports_singular_systems():
     # the spatial Newton step (2K unknowns: 2 × 2 by Cramer's rule) and the whole-shape Newton
     # (2N unknowns, elimination) both use stability.solve_in_place
