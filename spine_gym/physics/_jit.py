@@ -45,11 +45,16 @@ def pjit(func):
 def hot(func):
     """Serial kernel without reference counting: ``@njit(cache=True, nogil=True, _nrt=False)``.
 
-    For the spatial sub-step's kernels only. numba counts the references of every array argument,
-    tuple member and view with atomic increments and decrements; in the spatial 20-s run those were
-    ~30 % of the run's time (perf: 15 % in the planar one). Without NRT a kernel may not allocate
-    (compile error) and must not return an array or call a kernel that returns one (views,
+    For the sub-step kernels of both cores and everything they call (the MAS rates, the shape
+    pass, the composite solve and its fallbacks, the coupled step, the records). numba counts the
+    references of every array argument, tuple member and view with atomic increments and
+    decrements; in the spatial 20-s run those were ~30 % of the run's time, and in the planar env
+    step (random drives, 8 envs) the planar kernels without them take 0.55-0.65x the time. Without
+    NRT a kernel may not allocate (compile error, also in whatever it calls: numba compiles the
+    callees for its flags) and must not return an array or call a kernel that returns one (views,
     wire_block: that reference would never be released). Its arrays are borrowed from the caller,
-    which keeps them alive; arithmetic and results are unchanged (bit for bit).
+    which keeps them alive; so a ``jit`` wrapper allocates the scratch (``solver.composite``,
+    ``solver._advance``, ``tube.solve_shape``) and hands it to the ``hot`` kernel (``*_in``,
+    ``solver._span``). Arithmetic and results are unchanged (bit for bit).
     """
     return numba.njit(cache=True, nogil=True, _nrt=False)(func)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._jit import hot
 from .layout import K_ASV, K_RHOC, K_TE
 from .sma import latent_heats, resistivity
 
@@ -25,7 +25,7 @@ QUIET_RH = 1e-9  # fastest active transition × sub-step below which the coupled
 T_PER_FRACTION = 370.0
 
 
-@jit
+@hot
 def step_rate(xp, xm, ppA, pAp, pmA, pAm):
     """Fastest active transition of one wire (MODEL.md §6.1 b)."""
     r = 0.0
@@ -38,14 +38,14 @@ def step_rate(xp, xm, ppA, pAp, pmA, pAm):
     return r
 
 
-@jit
+@hot
 def kinetics(xp, xm, r):
     """dx₊/dt, dx₋/dt of MODEL.md §3.5 for the rates r[0:4] = (p₊A, p_A₊, p₋A, p_A₋)."""
     xa = 1.0 - xp - xm
     return -r[0] * xp + r[1] * xa, -r[2] * xm + r[3] * xa
 
 
-@jit
+@hot
 def quiet(x0, rt, h):
     """True when no active phase of any wire transforms noticeably over h (rate · h <= QUIET_RH).
 
@@ -61,7 +61,7 @@ def quiet(x0, rt, h):
     return r * h <= QUIET_RH
 
 
-@jit
+@hot
 def linear_system(xs, rt, sens, h, a_t, b_t, amat, rhs):
     """Matrix and right-hand side of the linearly implicit Euler step of all wires' fractions.
 
@@ -100,7 +100,7 @@ def linear_system(xs, rt, sens, h, a_t, b_t, amat, rhs):
         rhs[i + 1] = h * (-r[2] * xm + r[3] * xa + ft_m * a_t[w])
 
 
-@jit
+@hot
 def heating_rate(t, xp, xm, fp, fm, sigma, j_num, kp):
     """dT/dt of the heat balance §3.9 [K/s] for kinetics (fp, fm) = dx±/dt."""
     lp, lm = latent_heats(sigma, kp)
@@ -108,7 +108,7 @@ def heating_rate(t, xp, xm, fp, fm, sigma, j_num, kp):
     return (j - kp[K_ASV] * (t - kp[K_TE]) + lp * fp + lm * fm) / kp[K_RHOC]
 
 
-@jit
+@hot
 def heat_terms(t, sigma, xp, xm, j_num, h, kp):
     """(a, b₊, b₋) of the linearised discrete heat balance T' = T + a + b · Δx (MODEL.md §6.5)."""
     inv = 1.0 / (kp[K_RHOC] + h * kp[K_ASV])
@@ -117,14 +117,14 @@ def heat_terms(t, sigma, xp, xm, j_num, h, kp):
     return h * (j + kp[K_ASV] * (kp[K_TE] - t)) * inv, lp * inv, lm * inv
 
 
-@jit
+@hot
 def step_factor(err):
     """Factor h_next / h of the error control for err = local error / tol_x: 0.9 err^−½ in
     [STEP_SHRINK, STEP_GROW]."""
     return min(STEP_GROW, max(STEP_SHRINK, 0.9 / math.sqrt(max(err, 1e-12))))
 
 
-@jit
+@hot
 def first_try(h_proposed, rem, h_max):
     """The sub-step the coupled scheme tries first: the error control's last proposal (kept in the
     state; none yet: ``rem``, what is left of the output step), at most h_max."""
@@ -134,7 +134,7 @@ def first_try(h_proposed, rem, h_max):
     return min(h, h_max)
 
 
-@jit
+@hot
 def accept_or_retry(err, hh, h, h_min):
     """The error control's decision on a tried sub-step ``hh`` (``h`` before it was clipped to the
     output step), err = local error / tol_x (MODEL.md §6.5).

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import hot, jit
 from .layout import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
 
 OUTPUT_TOL = 1e-9  # an output within this fraction of dt after a sub-step's end counts as at the end
@@ -68,7 +68,7 @@ def span_options(ks, dt):
     return out
 
 
-@jit
+@hot
 def output_fraction(j, n_out, dt, e0, e1, at_end):
     """Where output j (1 … n_out, at j·dt from the span's start) falls in the sub-step [e0, e1].
 
@@ -86,7 +86,7 @@ def output_fraction(j, n_out, dt, e0, e1, at_end):
     return min(1.0, max(0.0, (t - e0) / (e1 - e0)))
 
 
-@jit
+@hot
 def interpolate(start, end, theta, out):
     """out = start + θ (end − start), elementwise: a quantity that did not change over the sub-step
     (a wire at rest, Joule heat after switch-off) stays exactly what it was."""

@@ -7,7 +7,7 @@ resistivities and the tip position in the OUT_* columns. :func:`.batch.run` and 
 
 from __future__ import annotations
 
-from ._jit import jit
+from ._jit import hot
 from .layout import X_HEAD, X_ML, X_MR, X_PL, X_PR
 from .sma import resistivity
 from .tube import tip_position
@@ -17,7 +17,7 @@ OUT_ANGLE, OUT_RES_R, OUT_RES_L, OUT_TIP_X, OUT_TIP_Y = range(X_HEAD, X_HEAD + 5
 OUT_SIZE = X_HEAD + 5
 
 
-@jit
+@hot
 def record(state, kp, row):
     """Write the state's head, Θ [rad], the wire resistivities [Ω m] and the tip position [m]."""
     n = (state.shape[0] - X_HEAD) // 2

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._jit import hot
 from .layout import (
     K_DETA,
     K_DSIG,
@@ -28,7 +28,7 @@ EXP_CLAMP = 700.0  # MODEL.md §6.3.1: exp(-min(λΔG, 700)); never exp of a hug
 SLOPE_DT = 1e-3  # [K] temperature step of the finite difference ∂ΔG/∂T in rates_and_slopes
 
 
-@jit
+@hot
 def landscape(T, kp):
     """Temperature-dependent free-energy landscape (MODEL.md §3.1).
 
@@ -61,7 +61,7 @@ def landscape(T, kp):
     return sig_A, sig_M, eps_A, eps_M, dbeta
 
 
-@jit
+@hot
 def helmholtz(eps, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta):
     """Helmholtz free energy ψ(ε) of §3.2 (even in ε), in the numerically friendly branch form."""
     u = abs(eps)
@@ -74,7 +74,7 @@ def helmholtz(eps, E_A, E_M, eps_T, dsig, sig_A, eps_A, eps_M, dbeta):
     return 0.5 * E_M * dm * dm
 
 
-@jit
+@hot
 def barriers_and_slopes(sigma, T, kp):
     """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3) and their σ-slopes.
 
@@ -114,7 +114,7 @@ def barriers_and_slopes(sigma, T, kp):
     )
 
 
-@jit
+@hot
 def barriers(sigma, T, kp):
     """Energy barriers of the Gibbs energy G = ψ − σε at stress σ (MODEL.md §3.3).
 
@@ -125,13 +125,13 @@ def barriers(sigma, T, kp):
     return b[0], b[1], b[2], b[3]
 
 
-@jit
+@hot
 def _rate(lam, dg, inv_tau):
     """τ⁻¹ exp(−min(λ ΔG, 700)) (MODEL.md §3.4, §6.3.1)."""
     return inv_tau * math.exp(-min(lam * dg, EXP_CLAMP))
 
 
-@jit
+@hot
 def rates(sigma, T, kp):
     """Thermally activated transition probabilities (MODEL.md §3.4).
 
@@ -149,7 +149,7 @@ def rates(sigma, T, kp):
     )
 
 
-@jit
+@hot
 def rates_and_slopes(sigma, T, kp, out):
     """The four rates of :func:`rates` and their partial derivatives, written into ``out`` (12,).
 
@@ -169,7 +169,7 @@ def rates_and_slopes(sigma, T, kp, out):
         out[8 + k] = -lam * p * ((bt[k] - b[k]) / SLOPE_DT - b[k] / T)
 
 
-@jit
+@hot
 def latent_heats(sigma, kp):
     """Transformation enthalpies L± = h_A − h_M± (MODEL.md §3.8) [J/m^3], > 0 in the working range."""
     base = kp[K_DU] + 0.5 * kp[K_KE] * sigma * sigma
@@ -177,27 +177,27 @@ def latent_heats(sigma, kp):
     return base + se, base - se
 
 
-@jit
+@hot
 def compliance(xp, xm, kp):
     """Phase-mixed compliance (x₊ + x₋)/E_M + x_A/E_A [1/Pa] of the constitutive law (§3.6)."""
     xa = 1.0 - xp - xm
     return (xp + xm) / kp[K_EM] + xa / kp[K_EA]
 
 
-@jit
+@hot
 def stress(eps, xp, xm, kp):
     """Constitutive law with slack (MODEL.md §3.6): σ = max((ε − ε_T(x₊−x₋)) / compliance, 0) [Pa]."""
     s = (eps - kp[K_EPST] * (xp - xm)) / compliance(xp, xm, kp)
     return s if s > 0.0 else 0.0
 
 
-@jit
+@hot
 def resistivity(xp, xm, kp):
     """Resistivity mixing ρ_e = λ_A x_A + λ_M₊ x₊ + λ_M₋ x₋ [Ω m] (MODEL.md §3.7)."""
     return kp[K_LAMA] * (1.0 - xp - xm) + kp[K_LAMP] * xp + kp[K_LAMM] * xm
 
 
-@jit
+@hot
 def phase_step(xp, xm, h, ppA, pAp, pmA, pAm):
     """Implicit Euler of the phase kinetics §3.5 with rates frozen over h (MODEL.md §6.1 c).
 
@@ -215,7 +215,7 @@ def phase_step(xp, xm, h, ppA, pAp, pmA, pAm):
     return clip_fractions((b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det)
 
 
-@jit
+@hot
 def clip_fractions(xp, xm):
     """Fractions back into the simplex x₊, x₋ ∈ [0, 1], x₊ + x₋ <= 1 after roundoff (MODEL.md §6.3.5)."""
     xp = min(max(xp, 0.0), 1.0)

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import hot, jit
 from .coupled import (
     T_PER_FRACTION,
     accept_or_retry,
@@ -106,7 +106,7 @@ from .sma import (
     stress,
 )
 from .stability import solve_in_place, unstable_modes
-from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, wire_lengths
+from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, solve_shape_in, wire_lengths
 
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
 BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
@@ -114,7 +114,7 @@ NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes 
 SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 
 
-@jit
+@hot
 def wire_mechanics(dth, xpr, xmr, xpl, xml, kp):
     """Strains, stresses and the moment they produce, for a given shape (MODEL.md §3.6, §4.4, §4.8).
 
@@ -130,7 +130,7 @@ def wire_mechanics(dth, xpr, xmr, xpl, xml, kp):
     return er, el, sr, sl, kp[K_NW] * kp[K_AW] * kp[K_A] * (sr - sl)
 
 
-@jit
+@hot
 def length_per_moment(dth, s, kp):
     """dL_R/dM and dL_L/dM [m/(N m)] of the shape response s = dΔθ/dM (MODEL.md §4.8).
 
@@ -148,13 +148,13 @@ def length_per_moment(dth, s, kp):
     return sum_c - sum_k, sum_c + sum_k
 
 
-@jit
+@hot
 def _taut_stiffness(sigma, xp, xm, kp):
     """Tangent modulus dσ/dε [Pa] of a wire for the Newton slopes: 1/compliance, 0 when slack."""
     return 1.0 / compliance(xp, xm, kp) if sigma > 0.0 else 0.0
 
 
-@jit
+@hot
 def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
     """dG/dM = Σ_n ∂G/∂Δθ_n s_n ≤ 0: how the wire moment answers a change of the applied moment.
 
@@ -168,7 +168,7 @@ def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
     return pref * (k_r * dl_r - k_l * dl_l)
 
 
-@jit
+@hot
 def stress_sensitivity(dth, s, sr, sl, xpr, xmr, xpl, xml, kp, out):
     """dσ_w/dx of the composite equilibrium (§5) under fixed loads, written into ``out`` (2, 4).
 
@@ -202,7 +202,7 @@ def stress_sensitivity(dth, s, sr, sl, xpr, xmr, xpl, xml, kp, out):
     out[1, 3] = al_m * (1.0 - cl)
 
 
-@jit
+@hot
 def _tangent_moduli(er, el, xpr, xmr, xpl, xml, kp):
     """Tangent moduli dσ/dε [Pa] of the right and left wire for the stability check (§3.6).
 
@@ -226,7 +226,7 @@ def _tangent_moduli(er, el, xpr, xmr, xpl, xml, kp):
     return kr, kl
 
 
-@jit
+@hot
 def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
     """Jacobian of the coupled shape map Δθ ↦ f(Δθ, G(Δθ)) (MODEL.md §4.9 with §5), into ``jac``.
 
@@ -240,7 +240,7 @@ def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
     lref = kp[K_LREF]
     kr, kl = _tangent_moduli(lr / lref - 1.0, ll / lref - 1.0, xpr, xmr, xpl, xml, kp)
     if kr == 0.0 and kl == 0.0:
-        return jac
+        return
     a = kp[K_A]
     ls = kp[K_LS]
     pref = kp[K_NW] * kp[K_AW] * a / lref * ls / kp[K_EI]
@@ -251,7 +251,6 @@ def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
         col = pref * (kr * (cs - lever) - kl * (cs + lever))
         for i in range(n):
             jac[i, j] += col
-    return jac
 
 
 @jit
@@ -262,24 +261,31 @@ def is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
     :func:`needs_stability_check` first.
     """
     n = dth.shape[0]
-    jac = np.empty((n, n))
-    equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac)
-    return unstable_modes(jac, np.empty((n, n))) > 0
+    return is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, np.empty((2, n, n)))
 
 
-@jit
-def _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape):
-    """g(M) = G(M) − M with a full (warm-started) shape solve at M; returns (status, passes, g)."""
-    st, it = solve_shape(dth, m, vforce, kp, tol_th, max_shape)
+@hot
+def is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, mats):
+    """:func:`is_buckled` with the scratch ``mats`` (2, N, N) (no allocation: the sub-step kernels)."""
+    equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, mats[0])
+    return unstable_modes(mats[0], mats[1]) > 0
+
+
+@hot
+def _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new):
+    """g(M) = G(M) − M with a full (warm-started) shape solve at M (scratch ``new`` (N,));
+    returns (status, passes, g)."""
+    st, it = solve_shape_in(dth, m, vforce, kp, tol_th, max_shape, new)
     er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     return st, it, gm - m
 
 
-@jit
-def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinois):
+@hot
+def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinois, new):
     """Bracketed composite solve (MODEL.md §5.2): bisection (seed) or Illinois regula falsi.
 
     The bracket is [min, max](M_prev, G(M_prev)); for a non-increasing G the root lies inside.
+    ``new`` (N,) is the shape solves' scratch.
 
     Returns:
         (status, M, passes): ``dth`` holds the converged shape for M.
@@ -289,7 +295,7 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
     max_shape = int(ks[S_MAXSHAPE])
     max_root = int(ks[S_MAXROOT])
     passes = 0
-    st, it, g0 = _residual_full(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape)
+    st, it, g0 = _residual_full(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
     passes += it
     if st != OK:
         return st, m_prev, passes
@@ -306,10 +312,10 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
         for _ in range(max_root):
             if hi - lo <= tol_m:
                 m = 0.5 * (lo + hi)
-                st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape)
+                st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
                 return st, m, passes + it
             m = 0.5 * (lo + hi)
-            st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape)
+            st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
             passes += it
             if st != OK:
                 return st, m, passes
@@ -319,7 +325,7 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
                 hi = m
         return ERR_ROOT, 0.5 * (lo + hi), passes
     # Illinois: needs g at the second end of the bracket
-    st, it, g_end = _residual_full(dth, m_other, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape)
+    st, it, g_end = _residual_full(dth, m_other, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
     passes += it
     if st != OK:
         return st, m_other, passes
@@ -339,7 +345,7 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
             m = 0.5 * (lo + hi)
         if not (lo < m < hi):  # guard against roundoff at the ends
             m = 0.5 * (lo + hi)
-        st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape)
+        st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
         passes += it
         if st != OK:
             return st, m, passes
@@ -358,7 +364,7 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
     return ERR_ROOT, m, passes
 
 
-@jit
+@hot
 def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     """Coupled Newton composite solve: one shape pass per iteration (see the module docstring).
 
@@ -389,23 +395,24 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     return ERR_ROOT, m, passes, 0.0, 0.0, 0.0, 0.0
 
 
-@jit
-def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
+@hot
+def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, mats, vecs):
     """Newton on the whole shape: solve R(Δθ) = Δθ − f(Δθ, G(Δθ)) = 0 with the exact tangent I − J.
 
     The fallback of the coupled Newton near buckling, where the fixed-point shape iteration
     contracts only by ≈ (load / critical load) per pass and runs out of iterations. J is
-    :func:`equilibrium_jacobian`; each iteration costs O(N³).
+    :func:`equilibrium_jacobian`; each iteration costs O(N³). Scratch: ``mats`` (2, N, N) and
+    ``vecs`` (3, N) (the first two rows).
 
     Returns:
         (status, M, iterations, ε_R, ε_L, σ_R, σ_L) with ``dth`` the converged shape.
     """
     tol_th = ks[S_TOLTH]
     n = dth.shape[0]
-    jac = np.empty((n, n))
-    lu = np.empty((n, n))
-    trial = np.empty(n)
-    f_trial = np.empty(n)
+    jac = mats[0]
+    lu = mats[1]
+    trial = vecs[0]
+    f_trial = vecs[1]
     for it in range(int(ks[S_MAXROOT])):
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
         e = shape_pass(dth, gm, vforce, kp, work)
@@ -436,10 +443,11 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     return ERR_ROOT, 0.0, int(ks[S_MAXROOT]), 0.0, 0.0, 0.0, 0.0
 
 
-@jit
-def _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
+@hot
+def _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved, mats, vecs):
     """After the coupled Newton failed: Newton on the whole shape (needed near buckling), then the
-    bracketed Illinois solve as the last safeguard, each from the starting shape ``saved``.
+    bracketed Illinois solve as the last safeguard, each from the starting shape ``saved``
+    (scratch ``mats``, ``vecs`` as :func:`composite_full_newton`).
 
     Returns:
         (status, M, passes, ε_R, ε_L, σ_R, σ_L).
@@ -447,18 +455,20 @@ def _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved):
     n = dth.shape[0]
     for i in range(n):
         dth[i] = saved[i]
-    st, m, passes, er, el, sr, sl = composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work)
+    st, m, passes, er, el, sr, sl = composite_full_newton(
+        dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, mats, vecs
+    )
     if st == OK:
         return st, m, passes, er, el, sr, sl
     for i in range(n):
         dth[i] = saved[i]
-    st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True)
+    st, m, p2 = composite_bracketed(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, True, vecs[2])
     er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     return st, m, passes + p2, er, el, sr, sl
 
 
-@jit
-def _buckling_status(state, st, vforce, kp, check, saved):
+@hot
+def _buckling_status(state, st, vforce, kp, check, saved, mats):
     """Status of a solve after the stability test (see :func:`composite`); restores Δθ on failure."""
     n = saved.shape[0]
     dth = state[X_HEAD : X_HEAD + n]
@@ -466,17 +476,29 @@ def _buckling_status(state, st, vforce, kp, check, saved):
     xmr = state[X_MR]
     xpl = state[X_PL]
     xml = state[X_ML]
-    if st == OK and not is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+    if st == OK and not is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, mats):
         return OK
     for i in range(n):
         dth[i] = saved[i]
-    if st == OK or (not check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp)):
+    if st == OK or (not check and is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, mats)):
         return ERR_BUCKLING
     return st
 
 
 @jit
 def composite(state, vforce, kp, ks, work, saved, check):
+    """Solve the composite module for the state's fractions and the loads ``vforce``, in place:
+    :func:`composite_in` with its scratch allocated here.
+
+    Returns:
+        (status, shape passes used).
+    """
+    n = work.shape[0]
+    return composite_in(state, vforce, kp, ks, work, saved, check, np.empty((2, n, n)), np.empty((3, n)))
+
+
+@hot
+def composite_in(state, vforce, kp, ks, work, saved, check, mats, vecs):
     """Solve the composite module for the state's fractions and the loads ``vforce``, in place.
 
     Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. Default solver:
@@ -487,7 +509,7 @@ def composite(state, vforce, kp, ks, work, saved, check):
     limit, even if the solver would find a distant post-buckled equilibrium (a snap the
     quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING if its
     starting shape is unstable, else with the solver's own status; Δθ is left at the starting
-    shape.
+    shape. Scratch (no allocation): ``work``, ``saved`` (N,), ``mats`` (2, N, N), ``vecs`` (3, N).
 
     Returns:
         (status, shape passes used).
@@ -503,20 +525,22 @@ def composite(state, vforce, kp, ks, work, saved, check):
     method = int(ks[S_METHOD])
     for i in range(n):
         saved[i] = dth[i]
-    if check and is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
+    if check and is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, mats):
         return ERR_BUCKLING, 0
     if method == METHOD_NEWTON:
         st, m, passes, er, el, sr, sl = composite_newton(dth, s, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work)
         if st != OK:
-            st, m, p2, er, el, sr, sl = _fallbacks(dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved)
+            st, m, p2, er, el, sr, sl = _fallbacks(
+                dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, work, saved, mats, vecs
+            )
             passes += p2
     else:
         st, m, passes = composite_bracketed(
-            dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT
+            dth, m0, xpr, xmr, xpl, xml, vforce, kp, ks, method != METHOD_BISECT, vecs[2]
         )
         er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
     if st != OK or check:
-        st = _buckling_status(state, st, vforce, kp, check, saved)
+        st = _buckling_status(state, st, vforce, kp, check, saved, mats)
         if st != OK:
             return st, passes
     state[X_MW] = m
@@ -527,7 +551,7 @@ def composite(state, vforce, kp, ks, work, saved, check):
     return OK, passes
 
 
-@jit
+@hot
 def needs_stability_check(vforce, kp):
     """False when the loads cannot buckle the spine in any shape (Dunkerley screen, §4.9).
 
@@ -538,7 +562,7 @@ def needs_stability_check(vforce, kp):
     return load_ratio(vforce, kp) > BUCKLING_SCREEN
 
 
-@jit
+@hot
 def _heat(t, xp, xm, xp2, xm2, sigma, j_num, h, kp):
     """Heat balance of one wire over a sub-step (MODEL.md §6.1 d–f).
 
@@ -558,7 +582,7 @@ def _heat(t, xp, xm, xp2, xm2, sigma, j_num, h, kp):
     return t2, h * j, h * asv * (t2 - t_e), q
 
 
-@jit
+@hot
 def _apply_heat(state, xs, h, jr_num, jl_num, kp):
     """Advance both wires' temperatures and energy accumulators from the fractions in the state
     to ``xs`` (x₊R, x₋R, x₊L, x₋L) over h; returns OK, ERR_NONFINITE or ERR_TEMPERATURE."""
@@ -579,8 +603,8 @@ def _apply_heat(state, xs, h, jr_num, jl_num, kp):
     return OK
 
 
-@jit
-def _mechanics_update(state, xs, vforce, kp, ks, work, saved):
+@hot
+def _mechanics_update(state, xs, vforce, kp, ks, work, saved, mats, vecs):
     """Store the new fractions ``xs`` and re-solve the composite module if any moved (§6.1 g).
 
     The stresses depend on x and the shape only, so an unchanged x needs no solve. With the
@@ -597,7 +621,7 @@ def _mechanics_update(state, xs, vforce, kp, ks, work, saved):
     state[X_PL] = xs[2]
     state[X_ML] = xs[3]
     m_old = state[X_MW]
-    st, p = composite(state, vforce, kp, ks, work, saved, False)  # saved ← starting shape
+    st, p = composite_in(state, vforce, kp, ks, work, saved, False, mats, vecs)  # saved ← starting shape
     if st != OK or int(ks[S_METHOD]) != METHOD_NEWTON:
         return st, p, True
     n = work.shape[0]
@@ -610,7 +634,7 @@ def _mechanics_update(state, xs, vforce, kp, ks, work, saved):
     return OK, p, True
 
 
-@jit
+@hot
 def _last_h(rem, dt, h):
     """Clip a proposed sub-step to what is left of the output step, without leaving a sliver."""
     if h > rem or rem - h < 1e-9 * dt:
@@ -618,8 +642,8 @@ def _last_h(rem, dt, h):
     return h
 
 
-@jit
-def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, xs):
+@hot
+def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, xs, mats, vecs):
     """One sub-step of MODEL.md §6.1 as written: rates frozen at its start, r·h <= c, implicit Euler.
 
     Returns:
@@ -641,11 +665,19 @@ def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved,
     st = _apply_heat(state, xs, h, jr_num, jl_num, kp)  # d.–f.
     if st != OK:
         return st, h, 0, False
-    st, p, solved = _mechanics_update(state, xs, vforce, kp, ks, work, saved)  # g.
+    st, p, solved = _mechanics_update(state, xs, vforce, kp, ks, work, saved, mats, vecs)  # g.
     return st, h, p, solved
 
 
-@jit
+@hot
+def _copy2(src, dst):
+    """dst[:, :] = src[:, :] (a slice assignment needs NRT, which the sub-step kernels run without)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@hot
 def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_AMAT] keeps its matrix
     (the identity for a :func:`.coupled.quiet` step).
@@ -679,7 +711,7 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
         cw[CW_B_T][w, 0] = b_p
         cw[CW_B_T][w, 1] = b_m
     linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
-    cw[CW_LU][:, :] = cw[CW_AMAT]
+    _copy2(cw[CW_AMAT], cw[CW_LU])
     if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
         return False
     for w in range(2):
@@ -688,7 +720,7 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     return True
 
 
-@jit
+@hot
 def _coupled_error(state, h, jr_num, jl_num, kp, cw):
     """Local error estimate of the coupled step, in units of the fractions (see :func:`_substep_coupled`).
 
@@ -713,7 +745,7 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
         trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
         cw[CW_VEC][i] = h * f1p - (cw[CW_XS][i] - cw[CW_X0][i])
         cw[CW_VEC][i + 1] = h * f1m - (cw[CW_XS][i + 1] - cw[CW_X0][i + 1])
-    cw[CW_LU][:, :] = cw[CW_AMAT]
+    _copy2(cw[CW_AMAT], cw[CW_LU])
     if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
         return np.inf
     e = 0.0
@@ -722,8 +754,8 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
     return max(e, trunc)
 
 
-@jit
-def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw):
+@hot
+def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw, mats, vecs):
     """One accepted sub-step of the coupled scheme (the default ``scheme``).
 
     The step is the linearly implicit Euler step of :func:`.coupled.linear_system`: the rates are taken at
@@ -756,7 +788,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         st = _apply_heat(state, cw[CW_XS], hh, jr_num, jl_num, kp)
         solved = False
         if st == OK:
-            st, p, solved = _mechanics_update(state, cw[CW_XS], vforce, kp, ks, work, saved)
+            st, p, solved = _mechanics_update(state, cw[CW_XS], vforce, kp, ks, work, saved, mats, vecs)
             passes += p
         if st != OK:
             return st, hh, passes, solved
@@ -765,7 +797,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
         accepted, h = accept_or_retry(err, hh, h, h_min)
         if accepted:
-            cw[CW_RT][:, :] = cw[CW_RT_NEW]
+            _copy2(cw[CW_RT_NEW], cw[CW_RT])
             state[X_HNEXT] = h
             return OK, hh, passes, solved
         for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
@@ -807,7 +839,7 @@ def coupled_work(buf):
 _KEY = 4 + len(RATE_KP)  # (σ_R, T_R, σ_L, T_L) and the RATE_KP constants
 
 
-@jit
+@hot
 def _cached_rates(state, kp, rt):
     """Rates and slopes (2, 12) at the state's stresses and temperatures into ``rt``: from the
     state's cache if it was filled at exactly these (σ_R, T_R, σ_L, T_L) and constants, else computed."""
@@ -829,7 +861,7 @@ def _cached_rates(state, kp, rt):
     rates_and_slopes(state[X_SL], state[X_TL], kp, rt[1])
 
 
-@jit
+@hot
 def _cache_rates(state, kp, rt):
     """Keep the rates ``rt`` at the state's (σ_R, T_R, σ_L, T_L) and constants for the next output step."""
     c = X_RCACHE
@@ -886,7 +918,7 @@ def advance_held(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0)
     return _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0)
 
 
-@jit
+@hot
 def _complete_outputs(state, start, mid, kp, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span) reached
     (:func:`.dense.output_fraction`): the model time and, with ``out``, their records, interpolated
@@ -915,17 +947,30 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
     n = (state.shape[0] - X_HEAD) // 2
     size = state.shape[0]
     rows = 0 if out is None else 2 * size
-    buf = np.empty(2 * n + COUPLED_WORK_SIZE + rows)  # one allocation per call
+    buf = np.empty(2 * n + COUPLED_WORK_SIZE + 2 * n * n + 3 * n + rows)  # one allocation per call
     work = buf[:n]
     saved = buf[n : 2 * n]
     cw = coupled_work(buf[2 * n : 2 * n + COUPLED_WORK_SIZE])
-    start = buf[2 * n + COUPLED_WORK_SIZE : 2 * n + COUPLED_WORK_SIZE + size]
-    mid = buf[2 * n + COUPLED_WORK_SIZE + size :]
+    k = 2 * n + COUPLED_WORK_SIZE  # the fallbacks' and the stability test's scratch
+    mats = buf[k : k + 2 * n * n].reshape((2, n, n))
+    vecs = buf[k + 2 * n * n : k + 2 * n * n + 3 * n].reshape((3, n))
+    k += 2 * n * n + 3 * n
+    start = buf[k : k + size]
+    mid = buf[k + size :]
+    return _span(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0, (work, saved, mats, vecs, start, mid), cw)
+
+
+@hot
+def _span(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0, scratch, cw):
+    """The body of :func:`_advance` on its scratch arrays ``scratch`` = (work, saved, mats, vecs,
+    start, mid) and ``cw`` (:func:`coupled_work`), allocated by the caller (no allocation here)."""
+    work, saved, mats, vecs, start, mid = scratch
+    n = work.shape[0]
     # 0. loads may have changed since the last call: re-solve the mechanics with the current x
     passes = 0
     check = needs_stability_check(vforce, kp)
     if resolve:
-        st, passes = composite(state, vforce, kp, ks, work, saved, check)
+        st, passes = composite_in(state, vforce, kp, ks, work, saved, check, mats, vecs)
         if st != OK:
             return st, 0, 0, passes
     l0sq = kp[K_L0] * kp[K_L0]
@@ -943,13 +988,16 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
         _cached_rates(state, kp, cw[CW_RT])
     while rem > 0.0:
         if out is not None:
-            start[:] = state
+            for i in range(start.shape[0]):
+                start[i] = state[i]
         e0 = span - rem
         if coupled:
-            st, h, p, sol = _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw)
+            st, h, p, sol = _substep_coupled(
+                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw, mats, vecs
+            )
         else:
             st, h, p, sol = _substep_frozen(
-                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw[CW_XS]
+                state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, cw[CW_XS], mats, vecs
             )
         passes += p
         solved = solved or sol
@@ -971,7 +1019,7 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
             if (
                 check
                 and solved
-                and is_buckled(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp)
+                and is_buckled_in(dth, state[X_PR], state[X_MR], state[X_PL], state[X_ML], vforce, kp, mats)
             ):
                 return ERR_BUCKLING, done, nsub, passes
             done = _complete_outputs(state, start, mid, kp, out, row0, dt, n_out, done, sub)

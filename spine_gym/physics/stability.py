@@ -24,12 +24,12 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._jit import hot
 
 PIVOT_TOL = 1e-12  # |pivot| below this counts as singular (I − J has a unit diagonal scale)
 
 
-@jit
+@hot
 def unstable_modes(jac, work):
     """Number of unstable modes of the equilibrium whose fixed-point map has Jacobian ``jac``.
 
@@ -61,7 +61,7 @@ def unstable_modes(jac, work):
     return count
 
 
-@jit
+@hot
 def dunkerley_weight(ei):
     """4 / (π² E I) [1/(N m²)]: a point load F at arc length h above the clamp of a clamped-free
     column of bending stiffness E I adds F h² · this to Dunkerley's sum (MODEL.md §4.9).
@@ -76,13 +76,13 @@ def dunkerley_weight(ei):
     return 4.0 / (math.pi * math.pi * ei)
 
 
-@jit
+@hot
 def euler_critical_load(height, ei):
     """Euler load π² E I / (4 h²) [N] of a clamped-free column of length ``height`` [m] (§4.9)."""
     return 1.0 / (height * height * dunkerley_weight(ei))
 
 
-@jit
+@hot
 def solve_in_place(a, b):
     """Solve a x = b by Gaussian elimination with partial pivoting; ``a`` is destroyed, x → ``b``.
 
@@ -133,7 +133,7 @@ def solve_in_place(a, b):
     return True
 
 
-@jit
+@hot
 def lu_factor(a, piv):
     """LU factorisation with partial pivoting of ``a`` in place (L below the diagonal, unit
     diagonal implied; U on and above), row exchanges into ``piv``: for one matrix and several
@@ -167,7 +167,7 @@ def lu_factor(a, piv):
     return True
 
 
-@jit
+@hot
 def lu_solve(lu, piv, b):
     """Solve a x = b in place (x → ``b``) with the factors of :func:`lu_factor`."""
     n = lu.shape[0]

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import hot, jit
 from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
 from .stability import dunkerley_weight
 
@@ -32,7 +32,7 @@ _C2, _C4, _C6, _C8, _C10, _C12 = (
 _K2, _K4, _K6, _K8, _K10 = -1.0 / 24.0, 1.0 / 1920.0, -1.0 / 322560.0, 1.0 / 92897280.0, -1.0 / 40874803200.0
 
 
-@jit
+@hot
 def sincos_small(d):
     """(sin d, cos d), by their Taylor series for |d| <= SERIES_MAX (truncation < 1e-16) else libm.
 
@@ -47,7 +47,7 @@ def sincos_small(d):
     return sn, cs
 
 
-@jit
+@hot
 def chord(dth, ls):
     """Chord length of an arc of length ls bent by dth [rad] (MODEL.md §4.3).
 
@@ -60,7 +60,7 @@ def chord(dth, ls):
     return ls + ls * x2 * (_K2 + x2 * (_K4 + x2 * (_K6 + x2 * (_K8 + x2 * _K10))))
 
 
-@jit
+@hot
 def shape_pass(dth, m_w, vforce, kp, out):
     """One pass of the iterative shape algorithm (MODEL.md §4.3–4.7).
 
@@ -116,13 +116,19 @@ def solve_shape(dth, m_w, vforce, kp, tol, max_iter):
     """Fixed-point shape iteration for a given wire moment (MODEL.md §4.9), in place on ``dth``.
 
     Warm-started from the incoming ``dth``. If the update grows (near buckling) the iteration
-    under-relaxes, Δθ ← Δθ + ω (Δθ_new − Δθ), halving ω each time (§6.3.7).
+    under-relaxes, Δθ ← Δθ + ω (Δθ_new − Δθ), halving ω each time (§6.3.7). :func:`solve_shape_in`
+    with its scratch array allocated here.
 
     Returns:
         (status, iterations): status is OK or ERR_SHAPE when ``max_iter`` passes were not enough.
     """
+    return solve_shape_in(dth, m_w, vforce, kp, tol, max_iter, np.empty(dth.shape[0]))
+
+
+@hot
+def solve_shape_in(dth, m_w, vforce, kp, tol, max_iter, new):
+    """:func:`solve_shape` with the scratch ``new`` (N,) (no allocation: the sub-step kernels)."""
     n = dth.shape[0]
-    new = np.empty(n)
     omega = 1.0
     err_prev = np.inf
     for it in range(1, max_iter + 1):
@@ -139,7 +145,7 @@ def solve_shape(dth, m_w, vforce, kp, tol, max_iter):
     return ERR_SHAPE, max_iter
 
 
-@jit
+@hot
 def wire_lengths(dth, kp):
     """Right and left wire lengths [m] from the segment angles (MODEL.md §4.8)."""
     ls = kp[K_LS]
@@ -174,7 +180,7 @@ def vertices(dth, kp):
     return p
 
 
-@jit
+@hot
 def tip_position(dth, kp):
     """Position (x, y) [m] of the top-disk vertex P_0 (no allocation; same geometry as vertices)."""
     n = dth.shape[0]
@@ -192,7 +198,7 @@ def tip_position(dth, kp):
     return x, y
 
 
-@jit
+@hot
 def chord_slope(dth, ls):
     """dc/dΔθ of the chord of §4.3 [m/rad] (series −ls(Δθ/12 − Δθ³/480) near 0, no cancellation)."""
     if abs(dth) < 1e-2:
@@ -201,7 +207,7 @@ def chord_slope(dth, ls):
     return ls * (math.cos(h) / dth - 2.0 * math.sin(h) / (dth * dth))
 
 
-@jit
+@hot
 def shape_jacobian(dth, vforce, kp, jac):
     """Jacobian ∂out/∂Δθ of :func:`shape_pass` at a fixed wire moment, written into ``jac`` (N, N).
 
@@ -247,10 +253,9 @@ def shape_jacobian(dth, vforce, kp, jac):
                 jac[i + 1, j] = cur
             jac[i, j] = k_ang * (prev + cur)
         fy -= w_seg
-    return jac
 
 
-@jit
+@hot
 def load_ratio(vforce, kp):
     """Dunkerley screen of the loads on the tube without wires (see :func:`.stability.dunkerley_weight`).
 
