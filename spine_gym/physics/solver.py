@@ -105,7 +105,7 @@ from .sma import (
     resistivity,
     stress,
 )
-from .stability import solve_in_place, unstable_modes
+from .stability import lu_factor, lu_solve, solve_in_place, unstable_modes
 from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, solve_shape_in, wire_lengths
 
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
@@ -679,8 +679,9 @@ def _copy2(src, dst):
 
 @hot
 def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
-    """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_AMAT] keeps its matrix
-    (the identity for a :func:`.coupled.quiet` step).
+    """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_LU], cw[CW_PIV] keep
+    the LU factors of its matrix (the identity's for a :func:`.coupled.quiet` step) for the error
+    estimate's solve (:func:`_coupled_error`).
 
     Returns False if the matrix is singular.
     """
@@ -699,7 +700,8 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
             cw[CW_XS][i], cw[CW_XS][i + 1] = phase_step(x0[i], x0[i + 1], h, r[0], r[1], r[2], r[3])
         for i in range(4):
             for j in range(4):
-                cw[CW_AMAT][i, j] = 1.0 if i == j else 0.0
+                cw[CW_LU][i, j] = 1.0 if i == j else 0.0
+            cw[CW_PIV][i] = i
         return True
     stress_sensitivity(dth, s, state[X_SR], state[X_SL], x0[0], x0[1], x0[2], x0[3], kp, cw[CW_SENS])
     for w in range(2):
@@ -710,10 +712,10 @@ def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
         cw[CW_A_T][w] = a_t
         cw[CW_B_T][w, 0] = b_p
         cw[CW_B_T][w, 1] = b_m
-    linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_AMAT], cw[CW_VEC])
-    _copy2(cw[CW_AMAT], cw[CW_LU])
-    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
+    linear_system(x0, cw[CW_RT], cw[CW_SENS], h, cw[CW_A_T], cw[CW_B_T], cw[CW_LU], cw[CW_VEC])
+    if not lu_factor(cw[CW_LU], cw[CW_PIV]):
         return False
+    lu_solve(cw[CW_LU], cw[CW_PIV], cw[CW_VEC])
     for w in range(2):
         i = 2 * w
         cw[CW_XS][i], cw[CW_XS][i + 1] = clip_fractions(x0[i] + cw[CW_VEC][i], x0[i + 1] + cw[CW_VEC][i + 1])
@@ -745,9 +747,7 @@ def _coupled_error(state, h, jr_num, jl_num, kp, cw):
         trunc = max(trunc, 0.5 * h * abs(d1 - d0) / T_PER_FRACTION)
         cw[CW_VEC][i] = h * f1p - (cw[CW_XS][i] - cw[CW_X0][i])
         cw[CW_VEC][i + 1] = h * f1m - (cw[CW_XS][i + 1] - cw[CW_X0][i + 1])
-    _copy2(cw[CW_AMAT], cw[CW_LU])
-    if not solve_in_place(cw[CW_LU], cw[CW_VEC]):
-        return np.inf
+    lu_solve(cw[CW_LU], cw[CW_PIV], cw[CW_VEC])  # the step's own factors (the same elimination)
     e = 0.0
     for i in range(4):
         e = max(e, abs(cw[CW_VEC][i]))
@@ -808,18 +808,18 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
 
 
 # the coupled sub-step's scratch arrays: a tuple indexed by these (compile-time) constants
-CW_X0, CW_XS, CW_RT, CW_RT_NEW, CW_SENS, CW_A_T, CW_B_T, CW_AMAT, CW_LU, CW_VEC, CW_BACKUP = range(11)
+CW_X0, CW_XS, CW_RT, CW_RT_NEW, CW_SENS, CW_A_T, CW_B_T, CW_PIV, CW_LU, CW_VEC, CW_BACKUP = range(11)
 
 
-COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 16 + 16 + 4 + X_RCACHE  # floats of the CW_* scratch
+COUPLED_WORK_SIZE = 4 + 4 + 24 + 24 + 8 + 2 + 4 + 4 + 16 + 4 + X_RCACHE  # floats of the CW_* scratch
 
 
 @jit
 def coupled_work(buf):
     """Scratch arrays of the coupled sub-step (the CW_* fields) as views of one flat ``buf``:
     fractions at the start and end (4), rates and slopes at the start and end (2, 12), dσ/dx (2, 4),
-    the temperature terms a_t (2) and b_t (2, 2), the step matrix and its copy (4, 4), a vector (4),
-    the state's head before the step (X_RCACHE)."""
+    the temperature terms a_t (2) and b_t (2, 2), the row exchanges (4, int64 over 4 floats) and LU
+    factors (4, 4) of the step matrix, a vector (4), the state's head before the step (X_RCACHE)."""
     v = buf[:COUPLED_WORK_SIZE]
     return (
         v[0:4],
@@ -829,10 +829,10 @@ def coupled_work(buf):
         v[56:64].reshape((2, 4)),
         v[64:66],
         v[66:70].reshape((2, 2)),
-        v[70:86].reshape((4, 4)),
-        v[86:102].reshape((4, 4)),
-        v[102:106],
-        v[106:COUPLED_WORK_SIZE],
+        v[70:74].view(np.int64),
+        v[74:90].reshape((4, 4)),
+        v[90:94],
+        v[94:COUPLED_WORK_SIZE],
     )
 
 
