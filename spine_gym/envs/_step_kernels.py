@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numba
 
-from ..physics._jit import dealt, jit, pjit
+from ..physics._jit import jit, pjit
 from ..physics.env_kernels import step_spine, step_spine_spatial
 from . import _bookkeeping as bk
 
@@ -112,7 +112,7 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     return True
 
 
-planar_step = dealt(pjit(_planar_step))
+planar_step = pjit(_planar_step)
 planar_step_serial = jit(_planar_step)
-spatial_step = dealt(pjit(_spatial_step))
+spatial_step = pjit(_spatial_step)
 spatial_step_serial = jit(_spatial_step)

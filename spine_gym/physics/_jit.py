@@ -9,13 +9,7 @@ from __future__ import annotations
 
 import numba
 
-__all__ = ["ROW_CHUNK", "dealt", "hot", "jit", "jit_inline", "pjit"]
-
-# Rows of a ``prange`` loop per chunk of numba's scheduler (:func:`dealt`): one spine's step costs from
-# one sub-step (quiet) to ~100 (a transformation under a drive change), so numba's default static
-# blocks leave a thread idle behind the costliest block; chunks of one row are dealt out as threads
-# free up.
-ROW_CHUNK = 1
+__all__ = ["hot", "jit", "jit_inline", "pjit"]
 
 
 def jit(func):
@@ -46,29 +40,6 @@ def pjit(func):
     twin.__module__ = func.__module__
     twin.__doc__ = func.__doc__
     return numba.njit(cache=True, nogil=True, parallel=True)(twin)
-
-
-def dealt(kernel):
-    """A :func:`pjit` kernel called with numba's parallel chunk size set to :data:`ROW_CHUNK` (and set
-    back after): its rows are dealt out to the threads one at a time, not in static blocks.
-
-    Set around the call, from Python: ``numba.set_parallel_chunksize`` inside a kernel would make it
-    uncachable (numba: "uses dynamic globals"), and the setting is per calling thread, so leaving it
-    set would change the scheduling of the user's own ``prange`` code. Costs ~3 µs per call (two
-    ctypes calls), against the tens of µs of a batch's step. ``.kernel`` is the dispatcher itself.
-    """
-
-    def call(*args):
-        old = numba.set_parallel_chunksize(ROW_CHUNK)
-        try:
-            return kernel(*args)
-        finally:
-            numba.set_parallel_chunksize(old)
-
-    call.kernel = kernel
-    call.__name__ = getattr(kernel, "__name__", "kernel")
-    call.__doc__ = kernel.__doc__
-    return call
 
 
 def hot(func):

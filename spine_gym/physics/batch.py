@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ._jit import dealt, jit, pjit
+from ._jit import jit, pjit
 from .dense import held_steps, span_options, spans_outputs
 from .layout import OK
 from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
@@ -93,7 +93,7 @@ def _advance_many(states, kps, ks, v_r, v_l, loads, dt, n_steps, status):
                 break
 
 
-advance_many = dealt(pjit(_advance_many))
+advance_many = pjit(_advance_many)
 advance_many_serial = jit(_advance_many)
 
 

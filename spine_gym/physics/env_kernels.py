@@ -26,7 +26,7 @@ import math
 
 import numba
 
-from ._jit import dealt, jit, pjit
+from ._jit import jit, pjit
 from .batch import record
 from .layout import ERR_NONFINITE, OK
 from .solver import advance
@@ -92,7 +92,7 @@ def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_
             )
 
 
-step_many = dealt(pjit(_step_many))
+step_many = pjit(_step_many)
 step_many_serial = jit(_step_many)
 
 
@@ -167,7 +167,7 @@ def _step_many_spatial(
             )
 
 
-step_many_spatial = dealt(pjit(_step_many_spatial))
+step_many_spatial = pjit(_step_many_spatial)
 step_many_spatial_serial = jit(_step_many_spatial)
 
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ._jit import dealt, jit, pjit
+from ._jit import jit, pjit
 from .layout import ERR_NONFINITE, OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
 from .solver import advance
 from .spatial_solver import advance_in as spatial_advance_in
@@ -106,7 +106,7 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
                 _record_planar(state0, n, angle[i], temp[i], joule[i], h)
 
 
-rollout_many = dealt(pjit(_rollout_many))
+rollout_many = pjit(_rollout_many)
 rollout_many_serial = jit(_rollout_many)
 
 
@@ -157,5 +157,5 @@ def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_s
                 spatial_record(st, kp, kw, km, wk, rec[i, h])
 
 
-rollout_many_spatial = dealt(pjit(_rollout_many_spatial))
+rollout_many_spatial = pjit(_rollout_many_spatial)
 rollout_many_spatial_serial = jit(_rollout_many_spatial)

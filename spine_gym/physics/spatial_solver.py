@@ -33,7 +33,7 @@ import math
 import numba
 import numpy as np
 
-from ._jit import dealt, hot, jit, pjit
+from ._jit import hot, jit, pjit
 from .coupled import (
     T_PER_FRACTION,
     accept_or_retry,
@@ -1493,5 +1493,5 @@ def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
                 break
 
 
-advance_many = dealt(pjit(_advance_many))
+advance_many = pjit(_advance_many)
 advance_many_serial = jit(_advance_many)
