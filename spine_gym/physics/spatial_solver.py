@@ -1232,7 +1232,7 @@ def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk
     return _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0)
 
 
-@jit
+@hot
 def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
     reached, as :func:`.solver._complete_outputs`. Only the recorded head of the state (up to S)
