@@ -2,7 +2,8 @@
 
 * :mod:`.baselines` — the paper's step voltage, a bang-bang relay and a PID (the classical baselines).
 * :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
-  true state (``oracle``, privileged) or an estimated one (``estimated``).
+  true state (``oracle``, privileged; ``oracle_causal``, privileged state but only the current
+  load and the observed target preview) or an estimated one (``estimated``).
 * :mod:`.mpc_spatial` — the same MPPI for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (one voltage
   sequence per wire, the spatial core's batched rollouts).
 * :mod:`.estimator` — the phase-fraction estimators behind the ``estimated`` mode.
