@@ -6,7 +6,9 @@ Example::
     python -m agents.ceiling --oracle mpc_oracle_causal --distributions hard_like --w-energy 0.05 1
 
 ``--oracle mpc_oracle_causal`` sweeps the causal privileged planner instead (true state and plant,
-the current load held over the horizon, the observed target preview; no future loads or targets).
+the current load held over the horizon, the observed target preview; no future loads or targets);
+``--target-preview 3`` gives the planner the 3-s preview the shipped policies observe (the PID keeps
+the env's 1 s it was tuned with; the episodes are the same, the preview draws nothing).
 
 The privileged ``mpc_oracle`` (true state, parameters, future targets and loads) runs the
 validation episodes (reset seeds ``VALIDATION_SEED_BASE + i``, never the evaluation suite) of the
@@ -50,15 +52,18 @@ def ceiling_rows(
     distributions: list[str],
     duration: float | None = None,
     oracle: str = "mpc_oracle",
+    target_preview: float | None = None,
 ) -> list[dict]:
     """PID and privileged-MPC scores (mean RMSE [deg], energy [J], ratios to the PID) per
     distribution (``duration``: episode length [s], default the env's 60 s; ``oracle``: one of
-    :data:`agents.runtime.ORACLE_NAMES`)."""
+    :data:`agents.runtime.ORACLE_NAMES`; ``target_preview``: the MPC's env preview [s], default the env's)."""
     rows = []
     jobs = [(d, w) for d in distributions for w in [None, *weights]]
     ref = {}
     for dist, w in tqdm(jobs, desc="ceiling", unit="run"):
         kw = dict(DISTRIBUTIONS[dist]) | ({} if duration is None else {"episode_duration": float(duration)})
+        if w is not None and target_preview is not None:
+            kw["target_preview"] = float(target_preview)
         env = make_env(kw)
         ctrl = build_controller("pid", env) if w is None else energy_weighted_oracle(env, w, oracle)
         rmse, energy = validation_scores(ctrl, episodes, kw)
@@ -110,15 +115,24 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--episodes", type=int, default=4, help="validation episodes per run (default: %(default)s)")
     p.add_argument("--w-energy", type=float, nargs="+", default=[0.05, 0.3, 1.0, 3.0], help="oracle energy weights [1/J]")
     p.add_argument("--distributions", nargs="+", choices=list(DISTRIBUTIONS), default=list(DISTRIBUTIONS))
-    p.add_argument("--oracle", choices=ORACLE_NAMES, default="mpc_oracle", help="privileged MPC to sweep (default: %(default)s)")
-    p.add_argument("--duration", type=float, default=None, help="episode length [s] (default: the env's 60 s)")
+    p.add_argument(
+        "--oracle", choices=ORACLE_NAMES, default="mpc_oracle", help="privileged MPC to sweep (default: %(default)s)"
+    )
+    p.add_argument(
+        "--target-preview", type=float, default=None, help="the MPC's target preview [s] (default: the env's)"
+    )
+    p.add_argument(
+        "--duration", type=float, default=None, help="episode length [s] (default: the env's 60 s)"
+    )
     p.add_argument("--target", type=float, default=0.7, help="RMSE ratio of the target (default: %(default)s)")
     p.add_argument("--out", default="results/ceiling", help="output folder (default: %(default)s)")
     args = p.parse_args(argv)
     for w in args.w_energy:
         if not w >= 0.0:
             raise SystemExit(f"--w-energy must be >= 0, got {w}")
-    rows = ceiling_rows(args.episodes, args.w_energy, args.distributions, args.duration, args.oracle)
+    rows = ceiling_rows(
+        args.episodes, args.w_energy, args.distributions, args.duration, args.oracle, args.target_preview
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "ceiling.csv", "w", newline="") as f:

@@ -28,8 +28,7 @@ import numpy as np
 import yaml
 
 import spine_gym  # noqa: F401 - registers the env
-from spine_gym.controllers import MPPIConfig, MPPIController
-from spine_gym.controllers.mpc import PRIVILEGED_MODES
+from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .common import ENV_ID
 from .history import HistoryObsPolicy, HistorySpec

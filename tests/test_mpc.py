@@ -442,7 +442,8 @@ def _pushed_env_at(k: int):
     """An env 20 s long with a 0.6-N push from 2 s to 4 s and a 50-g payload, after ``k`` steps at
     1 V each side, and its last observation."""
     env = _env()
-    obs, _ = env.reset(seed=3, options={"loads": LATER_PUSH, "target": TargetProfile.step((0.0, 2.5), (0.0, 20.0))})
+    target = TargetProfile.step((0.0, 2.5), (0.0, 20.0))
+    obs, _ = env.reset(seed=3, options={"loads": LATER_PUSH, "target": target})
     for _ in range(k):
         obs, *_ = env.step(np.array([-0.6, -0.6], dtype=np.float32))
     return env, obs

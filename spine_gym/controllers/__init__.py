@@ -23,7 +23,7 @@ from .baselines import (
     volts_to_action,
 )
 from .estimator import DisturbanceConfig, PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
-from .mpc import MODES, MPPIConfig, MPPIController
+from .mpc import MODES, PRIVILEGED_MODES, MPPIConfig, MPPIController
 from .mpc_spatial import SpatialMPPIController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
 
@@ -40,6 +40,7 @@ __all__ = [
     "MPPIConfig",
     "MPPIController",
     "MODES",
+    "PRIVILEGED_MODES",
     "SpatialMPPIController",
     "DisturbanceConfig",
     "PhaseEstimator",
