@@ -52,6 +52,7 @@ from .envs import make_vec_env
 from .history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec
 from .integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec
 from .runtime import (
+    ORACLE_NAMES,
     VALIDATION_SEED_BASE,
     SavedPolicy,
     build_controller,
@@ -143,14 +144,15 @@ def make_student(obs_history: int | None = None, obs_integral: float | None = No
 
 
 def build_expert(env, name: str = "mpc_oracle", w_energy: float | None = None):
-    """The registry's ``name`` for ``env``; for ``mpc_oracle`` with ``w_energy`` [1/J] set, the same
-    planner with that energy weight (:func:`agents.runtime.energy_weighted_oracle`)."""
+    """The registry's ``name`` for ``env``; for a privileged MPC (``mpc_oracle``,
+    ``mpc_oracle_causal``) with ``w_energy`` [1/J] set, the same planner with that energy weight
+    (:func:`agents.runtime.energy_weighted_oracle`)."""
     if w_energy is None:
         return build_controller(name, env)
     _check("w_energy", float(w_energy) >= 0.0, w_energy, "a weight >= 0 [1/J] or None")
-    if name != "mpc_oracle":
-        raise ValueError(f"w_energy applies to the expert 'mpc_oracle' only, got expert {name!r}")
-    return energy_weighted_oracle(env, w_energy)
+    if name not in ORACLE_NAMES:
+        raise ValueError(f"w_energy applies to the experts {ORACLE_NAMES} only, got expert {name!r}")
+    return energy_weighted_oracle(env, w_energy, name)
 
 
 def _saved(model, obs_rms, meta: dict) -> SavedPolicy:

@@ -126,6 +126,14 @@ REGISTRY: dict[str, ControllerSpec] = {
         plans_on_env=True,
         in_default=False,
     ),
+    "mpc_oracle_causal": ControllerSpec(
+        MPPIController,
+        "MPPI on the env's physics, true state and plant, current load held, observed target preview "
+        "(privileged, causal)",
+        kwargs={"mode": "oracle_causal"},
+        plans_on_env=True,
+        in_default=False,
+    ),
     "mpc_estimated": ControllerSpec(
         MPPIController,
         "MPPI on the env's physics from the observation (phase-fraction estimator)",
@@ -159,6 +167,14 @@ def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
             SpatialMPPIController,
             "MPPI on the spatial core, true state, future targets and loads (privileged upper bound)",
             kwargs={"mode": "oracle"},
+            from_env=True,
+            in_default=False,
+        ),
+        "mpc_oracle_causal": ControllerSpec(
+            SpatialMPPIController,
+            "MPPI on the spatial core, true state and plant, current load held, observed target "
+            "preview (privileged, causal)",
+            kwargs={"mode": "oracle_causal"},
             from_env=True,
             in_default=False,
         ),

@@ -28,13 +28,13 @@ import numpy as np
 import yaml
 
 import spine_gym  # noqa: F401 - registers the env
-from spine_gym.controllers import MPPIConfig, MPPIController
+from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .common import ENV_ID
 from .history import HistoryObsPolicy, HistorySpec
 from .integral import IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory
-from .registry import GUARD_MARGIN_K, get_spec, load_tuned
+from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import Scenario
 
@@ -45,6 +45,7 @@ __all__ = [
     "env_temperature_limit",
     "build_controller",
     "energy_weighted_oracle",
+    "ORACLE_NAMES",
     "run_episode",
     "SavedPolicy",
     "load_policy",
@@ -57,6 +58,12 @@ __all__ = [
     "VALIDATION_SEED_BASE",
     "validation_scores",
 ]
+
+
+# the planar registry's privileged MPC entries (the env's true state): energy_weighted_oracle builds them
+ORACLE_NAMES = tuple(
+    name for name, spec in REGISTRY.items() if spec.kwargs.get("mode") in PRIVILEGED_MODES
+)
 
 
 def make_env(env_kwargs: dict | None = None, env_id: str = ENV_ID):
@@ -231,16 +238,19 @@ class SavedPolicy:
         return f"SavedPolicy({self.name}, algo={self.meta.get('algo')})"
 
 
-def energy_weighted_oracle(env, w_energy: float) -> MPPIController:
-    """The registry's ``mpc_oracle`` for the planar ``env`` with the energy weight ``w_energy``
-    [1/J] of its cost (the other settings its defaults): the expert of :mod:`agents.distill` and
-    the trade-off sweep of :mod:`agents.ceiling`."""
+def energy_weighted_oracle(env, w_energy: float, name: str = "mpc_oracle") -> MPPIController:
+    """The registry's privileged MPC ``name`` (one of :data:`ORACLE_NAMES`: ``mpc_oracle``,
+    ``mpc_oracle_causal``) for the planar ``env`` with the energy weight ``w_energy`` [1/J] of its
+    cost (the other settings its defaults): the expert of :mod:`agents.distill` and the trade-off
+    sweep of :mod:`agents.ceiling`."""
+    if name not in ORACLE_NAMES:
+        raise ValueError(f"name must be one of {ORACLE_NAMES}, got {name!r}")
     return MPPIController(
         env.config,
-        "oracle",
         env=env,
         settings=MPPIConfig(w_energy=float(w_energy)),
         temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
+        **get_spec(name).kwargs,
     )
 
 

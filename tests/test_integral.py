@@ -194,3 +194,24 @@ def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weigh
     assert rows[2]["energy_J"] < rows[1]["energy_J"]
     plot(rows, 0.7, tmp_path / "c.png")
     assert (tmp_path / "c.png").stat().st_size > 1000
+
+
+def test_ceiling_rows_sweep_the_causal_oracle_with_its_own_preview(monkeypatch):
+    """--oracle mpc_oracle_causal --target-preview 3: the rows name the causal planner, which is
+    built on a 3-s-preview env; the PID reference keeps the env's 1-s preview."""
+    import agents.ceiling as ceiling
+
+    built = []
+    real = ceiling.energy_weighted_oracle
+
+    def spy(env, w, name):
+        built.append((env.config.target_preview, name))
+        return real(env, w, name)
+
+    monkeypatch.setattr(ceiling, "energy_weighted_oracle", spy)
+    rows = ceiling.ceiling_rows(
+        1, [0.05], ["default"], duration=2.0, oracle="mpc_oracle_causal", target_preview=3.0
+    )
+    assert [r["controller"] for r in rows] == ["pid", "mpc_oracle_causal w_energy=0.05"]
+    assert built == [(3.0, "mpc_oracle_causal")]
+    assert rows[1]["rmse_deg"] > 0.0 and rows[1]["energy_J"] > 0.0

@@ -265,7 +265,7 @@ def test_mpc_estimated_needs_no_env_and_oracle_needs_one():
         oracle.bind(_env(v_max=4.0))
 
 
-@pytest.mark.parametrize("name", ["mpc_oracle", "mpc_estimated"])
+@pytest.mark.parametrize("name", ["mpc_oracle", "mpc_oracle_causal", "mpc_estimated"])
 def test_mpc_runs_behind_predict_in_the_evaluation_path(name):
     from agents.runtime import build_controller, make_env, run_episode
 
@@ -431,3 +431,85 @@ def test_mpc_estimated_tracks_a_randomised_loaded_plant_better_with_the_disturba
         rmse[name] = float(np.sqrt(np.mean(np.square(err))))
     print(rmse)
     assert rmse["with"] < 0.93 * rmse["without"]
+
+
+# ---------------------------------------------------------------- oracle_causal: privileged but causal
+LATER_PUSH = LoadSchedule(tip_force_events=((2.0, 4.0, (0.6, 0.2)),), payload=0.05)
+CAUSAL = MPPIConfig(n_samples=8, horizon=3.0)
+
+
+def _pushed_env_at(k: int):
+    """An env 20 s long with a 0.6-N push from 2 s to 4 s and a 50-g payload, after ``k`` steps at
+    1 V each side, and its last observation."""
+    env = _env()
+    target = TargetProfile.step((0.0, 2.5), (0.0, 20.0))
+    obs, _ = env.reset(seed=3, options={"loads": LATER_PUSH, "target": target})
+    for _ in range(k):
+        obs, *_ = env.step(np.array([-0.6, -0.6], dtype=np.float32))
+    return env, obs
+
+
+def test_oracle_causal_plans_with_the_current_load_held_not_the_scheduled_push():
+    """At t = 0.5 s the push (2-4 s) is inside the 3-s horizon: the oracle's loads carry it, the
+    causal oracle's are the payload weight alone at every step; during the push (t = 2.5 s) the
+    causal loads are push + weight held, also past the push's end at 4 s; at the push's onset
+    step (k = 20) the first step re-solves the mechanics, no later one does."""
+    weight = np.array([0.0, -0.05 * 9.81])
+    push = np.array([0.6, 0.2])
+    # (step, held load, steps of the oracle's horizon where the load changes: onset 20, end 40)
+    for k, held, changes in ((5, weight, [15]), (20, weight + push, [0, 20]), (25, weight + push, [15])):
+        env, obs = _pushed_env_at(k)
+        causal = MPPIController(env.config, "oracle_causal", env=env, settings=CAUSAL)
+        oracle = MPPIController(env.config, "oracle", env=env, settings=CAUSAL)
+        _, _, loads, resolve, *_ = causal._problem(obs)
+        _, _, future, future_resolve, *_ = oracle._problem(obs)
+        assert loads.shape == (30, env.model_params.n_seg, 2)
+        np.testing.assert_allclose(loads[:, 0, :], np.broadcast_to(held, (30, 2)), rtol=0, atol=1e-12)
+        assert not np.any(loads[:, 1:, :])
+        assert not np.allclose(future[:, 0, :], loads[:, 0, :])  # the oracle sees the push change
+        assert np.flatnonzero(future_resolve).tolist() == changes
+        assert np.flatnonzero(resolve).tolist() == ([0] if k == 20 else [])
+
+
+def test_oracle_causal_targets_are_the_estimated_modes_preview_targets():
+    """Same observations, same targets over the horizon as the estimated mode (observed target and
+    its 1-s preview); the step at 2.5 s is beyond the preview at t = 0.5 s, so the causal targets
+    stay 0 while the oracle's jump to 20 deg."""
+    env, _ = _pushed_env_at(0)
+    obs, _ = env.reset(seed=3, options={"target": TargetProfile.sine(25.0, 20.0)})
+    causal = MPPIController(env.config, "oracle_causal", env=env, settings=CAUSAL)
+    est = MPPIController(env.config, "estimated", settings=CAUSAL)
+    for _ in range(6):  # the second call on extrapolates the preview's rate
+        t_causal = causal._problem(obs)[4]
+        t_est = est._problem(obs)[4]
+        assert np.array_equal(t_causal, t_est)
+        obs, *_ = env.step(np.array([-0.6, -0.6], dtype=np.float32))
+    assert np.ptp(t_causal) > 10.0  # a moving sine target, not a constant
+    env, obs = _pushed_env_at(5)
+    causal = MPPIController(env.config, "oracle_causal", env=env, settings=CAUSAL)
+    oracle = MPPIController(env.config, "oracle", env=env, settings=CAUSAL)
+    assert np.array_equal(causal._problem(obs)[4], np.zeros(30))
+    assert oracle._problem(obs)[4].max() == pytest.approx(20.0)
+
+
+def test_mpc_mode_errors_name_every_allowed_mode_and_causal_needs_the_env():
+    env = _env()
+    obs, _ = env.reset(seed=1)
+    with pytest.raises(ValueError) as err:
+        MPPIController(env.config, "causal")
+    for mode in ("oracle", "oracle_causal", "estimated"):
+        assert repr(mode) in str(err.value)
+    with pytest.raises(ValueError, match="oracle_causal mode needs the env"):
+        MPPIController(env.config, "oracle_causal", settings=CAUSAL).predict(obs)
+
+
+def test_energy_weighted_oracle_builds_either_privileged_entry_and_rejects_others():
+    from agents.runtime import ORACLE_NAMES, energy_weighted_oracle
+
+    env = _env()
+    assert ORACLE_NAMES == ("mpc_oracle", "mpc_oracle_causal")
+    ctrl = energy_weighted_oracle(env, 2.0, "mpc_oracle_causal")
+    assert ctrl.mode == "oracle_causal" and ctrl.settings.w_energy == 2.0 and ctrl.env is env
+    assert energy_weighted_oracle(env, 0.5).mode == "oracle"
+    with pytest.raises(ValueError, match="name must be one of"):
+        energy_weighted_oracle(env, 1.0, "mpc_estimated")

@@ -175,7 +175,7 @@ def test_spatial_mpc_oracle_tracks_better_than_the_tuned_pid(target, loads, whol
 
 
 @pytest.mark.parametrize("env_id", [SPATIAL_ENV_ID, CHAIN_ENV_ID])
-@pytest.mark.parametrize("name", ["mpc_oracle", "mpc_estimated"])
+@pytest.mark.parametrize("name", ["mpc_oracle", "mpc_oracle_causal", "mpc_estimated"])
 def test_spatial_mpc_runs_behind_predict_in_the_evaluation_path(env_id, name):
     probe = make_env(env_id=env_id)
     ctrl = build_controller(name, probe)  # built for the default 60-s env ...
@@ -218,3 +218,27 @@ def test_drive_patterns_heat_the_wires_toward_each_of_eight_directions():
     ]  # fmt: skip
     chain = drive_patterns(_env(CHAIN_ENV_ID).config.layout)
     assert np.array_equal(chain, np.hstack([one, one]))
+
+
+def test_spatial_oracle_causal_holds_the_current_load_and_plans_on_the_observed_preview():
+    """``oracle_causal`` on ``SmaSpine3D-v0``: with a push scheduled inside the horizon the loads
+    are the current one (the payload weight) at every step, where the oracle's carry the push; the
+    targets are those of the estimated mode for the same observations."""
+    env = _env()
+    loads = LoadSchedule(tip_force_events=((1.0, 2.0, (0.3, -0.2, 0.1)),), payload=0.03, dim=3)
+    obs, _ = env.reset(seed=5, options={"loads": loads})
+    settings = MPPIConfig(n_samples=10, horizon=2.0)
+    causal = SpatialMPPIController(env, "oracle_causal", settings=settings)
+    oracle = SpatialMPPIController(env, "oracle", settings=settings)
+    est = SpatialMPPIController(env, "estimated", settings=settings)
+    w = env.action_space.shape[0]
+    for _ in range(3):
+        t_est = est._problem(obs)[6]
+        problem = causal._problem(obs)
+        obs, *_ = env.step(np.zeros(w, dtype=np.float32))
+    assert np.array_equal(problem[6], t_est) and np.ptp(t_est) > 0.0
+    held = np.broadcast_to([0.0, 0.0, -0.03 * 9.81], (20, 3))
+    np.testing.assert_allclose(problem[4][:, 0, :], held, rtol=0, atol=1e-12)
+    assert not problem[5].any()
+    future = oracle._problem(obs)[4][:, 0, :]
+    assert np.abs(future - held).max() > 0.2  # the oracle sees the push coming

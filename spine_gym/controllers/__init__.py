@@ -2,7 +2,8 @@
 
 * :mod:`.baselines` — the paper's step voltage, a bang-bang relay and a PID (the classical baselines).
 * :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
-  true state (``oracle``, privileged) or an estimated one (``estimated``).
+  true state (``oracle``, privileged; ``oracle_causal``, privileged state but only the current
+  load and the observed target preview) or an estimated one (``estimated``).
 * :mod:`.mpc_spatial` — the same MPPI for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (one voltage
   sequence per wire, the spatial core's batched rollouts).
 * :mod:`.estimator` — the phase-fraction estimators behind the ``estimated`` mode.
@@ -22,7 +23,7 @@ from .baselines import (
     volts_to_action,
 )
 from .estimator import DisturbanceConfig, PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
-from .mpc import MODES, MPPIConfig, MPPIController
+from .mpc import MODES, PRIVILEGED_MODES, MPPIConfig, MPPIController
 from .mpc_spatial import SpatialMPPIController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
 
@@ -39,6 +40,7 @@ __all__ = [
     "MPPIConfig",
     "MPPIController",
     "MODES",
+    "PRIVILEGED_MODES",
     "SpatialMPPIController",
     "DisturbanceConfig",
     "PhaseEstimator",

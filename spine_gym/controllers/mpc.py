@@ -21,6 +21,14 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
     ``env.snapshot()`` (phase fractions, the episode's randomised parameters) and plans with the
     episode's future targets and loads (tip-force pulses, payload). No real controller has this;
     it is the upper bound of what the plant allows with this planner.
+  - ``"oracle_causal"`` — **privileged, but causal**: the true full state and the episode's
+    parameters as ``"oracle"`` (``env.snapshot()``), but nothing of the future: the load over the
+    horizon is the current one held constant (the tip force plus payload weight the env applies
+    over the coming step, i.e. the force at the current instant, held for the whole horizon), and
+    the targets come from the observed target and its preview as in ``"estimated"``. It sees the
+    plant and the current load, which no real controller does, but not a push before it starts
+    nor a target beyond the preview: what a controller with perfect state, parameter and force
+    sensing could reach.
   - ``"estimated"`` — only the observation: a :class:`~spine_gym.controllers.estimator.PhaseEstimator`
     infers the state (phase fractions from the resistances) and identifies the ambient
     temperature and the martensite resistivity from the episode's first observation; the other
@@ -55,12 +63,21 @@ from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
 
-__all__ = ["MPPIConfig", "MPPIBase", "MPPIController", "MODES", "FAILED_COST", "min_samples"]
+__all__ = [
+    "MPPIConfig",
+    "MPPIBase",
+    "MPPIController",
+    "MODES",
+    "PRIVILEGED_MODES",
+    "FAILED_COST",
+    "min_samples",
+]
 
 OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
 OBS_PREVIEW = planar_obs_index("target_preview")
 
-MODES = ("oracle", "estimated")
+MODES = ("oracle", "oracle_causal", "estimated")
+PRIVILEGED_MODES = ("oracle", "oracle_causal")  # read the env's snapshot()
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
 # EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
 MAX_EXTRAPOLATED_RATE = 10.0  # [deg/s] faster preview changes are taken as steps (not extrapolated)
@@ -266,7 +283,7 @@ class MPPIBase(BaseController):
         self.estimator = None  # the subclass's state estimator (estimated mode)
 
     def bind(self, env) -> None:
-        """Plan on ``env`` (oracle mode reads its state each step; ``agents.runtime.run_episode``
+        """Plan on ``env`` (the privileged modes read its state each step; ``agents.runtime.run_episode``
         binds each episode's env); ValueError if its configuration is of another type or differs
         in a field of :attr:`plan_fields`."""
         env = getattr(env, "unwrapped", env)
@@ -316,9 +333,32 @@ class MPPIBase(BaseController):
     def _oracle_env(self):
         if self.env is None:
             raise ValueError(
-                f"oracle mode needs the env: {type(self).__name__}(..., 'oracle', env=env) or bind(env)"
+                f"{self.mode} mode needs the env: {type(self).__name__}(..., {self.mode!r}, env=env) "
+                "or bind(env)"
             )
         return self.env
+
+    def _snapshot_loads(self, snap, n_seg: int) -> tuple[np.ndarray, np.ndarray]:
+        """Loads (H, n_seg, dim) on the top disk and resolve flags (H,) over the horizon from an env
+        snapshot: the episode's future loads (``oracle``), or the load of the current step held
+        for the whole horizon (``oracle_causal``: resolved at the first step if it just changed,
+        as the env does, never again)."""
+        a = snap.arrays
+        h, k = self.horizon_steps, snap.step_index
+        n_steps = a["forces"].shape[0]
+        steps = np.full(h, k) if self.mode == "oracle_causal" else np.arange(k, k + h)
+        idx = np.minimum(steps, n_steps - 1)
+        loads = np.zeros((h, n_seg, a["forces"].shape[1]))
+        loads[:, 0, :] = a["forces"][idx]
+        resolve = a["resolve_plan"][idx] & (steps < n_steps)
+        if self.mode == "oracle_causal":
+            resolve[1:] = False
+        return loads, resolve
+
+    def _snapshot_targets(self, snap) -> np.ndarray:
+        """The episode's targets over the horizon (``oracle``; (H,) or (H, d))."""
+        t, k = snap.arrays["targets"], snap.step_index
+        return t[np.minimum(np.arange(k + 1, k + 1 + self.horizon_steps), t.shape[0] - 1)]
 
     # ------------------------------------------------------------------ one MPPI update
     def _sample(self) -> np.ndarray:
@@ -394,8 +434,10 @@ class MPPIController(MPPIBase):
 
     Args:
         config: the env's :class:`~spine_gym.envs.EnvConfig` (``env.config``).
-        mode: ``"oracle"`` (privileged: needs ``env``) or ``"estimated"``.
-        env: the :class:`~spine_gym.envs.SmaSpineEnv` whose state the oracle reads (``snapshot()``);
+        mode: ``"oracle"`` (privileged: needs ``env``), ``"oracle_causal"`` (privileged state and
+            parameters, current load held, observed targets: needs ``env``) or ``"estimated"``.
+        env: the :class:`~spine_gym.envs.SmaSpineEnv` whose state the privileged modes read
+            (``snapshot()``);
             it can also be given later with :meth:`bind`.
         settings: :class:`MPPIConfig` (default settings if None).
         **kwargs: ``temperature_limit`` guard of :class:`BaseController` (``v_max`` and ``dt``
@@ -443,17 +485,13 @@ class MPPIController(MPPIBase):
     def _problem(self, obs):
         """Start state, constants, loads and resolve flags, targets [deg] and angle offset [deg]."""
         h = self.horizon_steps
-        if self.mode == "oracle":
+        if self.mode in PRIVILEGED_MODES:
             snap = self._oracle_env().snapshot()
-            a = snap.arrays
-            k = snap.step_index
-            n_steps = a["forces"].shape[0]
-            idx = np.minimum(np.arange(k, k + h), n_steps - 1)
-            loads = np.zeros((h, self.env_config.params.n_seg, 2))
-            loads[:, 0, :] = a["forces"][idx]
-            resolve = a["resolve_plan"][idx] & (np.arange(k, k + h) < n_steps)
-            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), a["targets"].shape[0] - 1), 0]
-            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(a["wvol"][0])
+            loads, resolve = self._snapshot_loads(snap, self.env_config.params.n_seg)
+            targets = (
+                self._snapshot_targets(snap)[:, 0] if self.mode == "oracle" else self._planar_targets(obs)
+            )
+            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(snap.arrays["wvol"][0])
         est = self.estimator
         state0 = est.update(obs)
         loads = np.broadcast_to(est.loads, (h, *est.loads.shape))

@@ -24,7 +24,9 @@ shorter wires get them times :attr:`SpineLayout.voltage_scale`, exactly as the e
 action (``volts = (a + 1) · volt_coef``), so the action of wire j is ``2 V_j / v_max − 1``.
 
 State modes as the planar MPC: ``"oracle"`` (**privileged**: the env's true state through its
-public ``snapshot()``, the episode's parameters, future targets and loads) and ``"estimated"``
+public ``snapshot()``, the episode's parameters, future targets and loads), ``"oracle_causal"``
+(**privileged** state and parameters as ``"oracle"``, but the current load held over the horizon
+and the targets from the observed target and its preview, as ``"estimated"``) and ``"estimated"``
 (:class:`~.estimator.SpatialPhaseEstimator` per wire from the observed temperatures and
 resistances; nominal parameters but T_E and λ_M identified; no loads; targets from the observed
 target and its preview; the observed tracked entry minus the estimated one held over the horizon
@@ -45,7 +47,7 @@ from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from ..physics.spatial_solver import make_work, record, record_size
 from .baselines import volts_to_action
 from .estimator import SpatialPhaseEstimator
-from .mpc import PLAN_FIELDS, MPPIBase, MPPIConfig
+from .mpc import PLAN_FIELDS, PRIVILEGED_MODES, MPPIBase, MPPIConfig
 
 __all__ = [
     "SpatialMPPIController",
@@ -127,9 +129,10 @@ class SpatialMPPIController(MPPIBase):
 
     Args:
         env: the spatial env it plans for (``SmaSpine3D-v0``, ``SmaSpineChain-v0``; its
-            configuration, table and batch class); oracle mode reads its state, and
+            configuration, table and batch class); the privileged modes read its state, and
             :meth:`bind` follows each episode's env.
-        mode: ``"oracle"`` (privileged) or ``"estimated"``.
+        mode: ``"oracle"`` (privileged), ``"oracle_causal"`` (privileged state, current load,
+            observed targets) or ``"estimated"``.
         settings: :class:`~.mpc.MPPIConfig` (default :meth:`default_settings` of the env).
         temperature_limit: guard of :class:`~.baselines.BaseController` [K] (a wire observed at or
             above it gets 0 V), or None.
@@ -229,17 +232,11 @@ class SpatialMPPIController(MPPIBase):
     def _problem(self, obs):
         """(state0, kp, kw, km, loads, resolve, targets (H, d), offset (d,), ohm, wvol)."""
         h = self.horizon_steps
-        if self.mode == "oracle":
+        if self.mode in PRIVILEGED_MODES:
             snap = self._oracle_env().snapshot()
             a = snap.arrays
-            k = snap.step_index
-            n_steps = a["forces"].shape[0]
-            idx = np.minimum(np.arange(k, k + h), n_steps - 1)
-            loads = np.zeros((h, self._shape[2], 3))
-            loads[:, 0, :] = a["forces"][idx]
-            resolve = a["resolve_plan"][idx] & (np.arange(k, k + h) < n_steps)
-            last = a["targets"].shape[0] - 1
-            targets = a["targets"][np.minimum(np.arange(k + 1, k + 1 + h), last)]
+            loads, resolve = self._snapshot_loads(snap, self._shape[2])
+            targets = self._snapshot_targets(snap) if self.mode == "oracle" else self._observed_targets(obs)
             offset = np.zeros(targets.shape[1])
             return (
                 snap.state,
@@ -260,11 +257,16 @@ class SpatialMPPIController(MPPIBase):
         r = self.readings
         now = self._readings_of(state0, est.kp, est.kw, est.km, r.ohm, r.wvol)
         offset = obs[self._task_obs] - now[r.task]
+        targets = self._observed_targets(obs)
+        return state0, est.kp, est.kw, est.km, loads, resolve, targets, offset, r.ohm, r.wvol
+
+    def _observed_targets(self, obs) -> np.ndarray:
+        """(H, d) targets from the observed target and its preview (:meth:`MPPIBase._preview_targets`),
+        clipped to the env's target bounds."""
         targets = self._preview_targets(
             obs[self._target_obs], obs[self._preview_obs], self.env_config.preview_steps, self._rate_limit
         )
-        targets = np.clip(targets, self._target_low, self._target_high)
-        return state0, est.kp, est.kw, est.km, loads, resolve, targets, offset, r.ohm, r.wvol
+        return np.clip(targets, self._target_low, self._target_high)
 
     def _readings_of(self, state, kp, kw, km, ohm, wvol) -> np.ndarray:
         """Probe row of one spatial state (the env's readings of it)."""
