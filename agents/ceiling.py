@@ -116,7 +116,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--w-energy", type=float, nargs="+", default=[0.05, 0.3, 1.0, 3.0], help="oracle energy weights [1/J]")
     p.add_argument("--distributions", nargs="+", choices=list(DISTRIBUTIONS), default=list(DISTRIBUTIONS))
     p.add_argument(
-        "--oracle", choices=ORACLE_NAMES, default="mpc_oracle", help="privileged MPC to sweep (default: %(default)s)"
+        "--oracle",
+        choices=ORACLE_NAMES,
+        default="mpc_oracle",
+        help="privileged MPC to sweep (default: %(default)s)",
     )
     p.add_argument(
         "--target-preview", type=float, default=None, help="the MPC's target preview [s] (default: the env's)"

@@ -151,3 +151,12 @@ def accept_or_retry(err, hh, h, h_min):
             h_next = max(h_next, h)
         return True, h_next
     return False, max(hh * min(fac, 0.5), h_min)
+
+
+@hot
+def copy_rows(dst, src):
+    """dst[:, :] = src for (W, 12) rate rows (an explicit loop: cheaper than a 2-D slice assignment,
+    which an NRT-free kernel cannot lower anyway); both cores keep an accepted step's end rates so."""
+    for j in range(src.shape[0]):
+        for q in range(src.shape[1]):
+            dst[j, q] = src[j, q]

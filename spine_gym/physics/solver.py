@@ -27,6 +27,7 @@ from ._jit import hot, jit
 from .coupled import (
     T_PER_FRACTION,
     accept_or_retry,
+    copy_rows,
     first_try,
     heat_terms,
     heating_rate,
@@ -106,7 +107,15 @@ from .sma import (
     stress,
 )
 from .stability import lu_factor, lu_solve, solve_in_place, unstable_modes
-from .tube import chord_slope, load_ratio, shape_jacobian, shape_pass, solve_shape, solve_shape_in, wire_lengths
+from .tube import (
+    chord_slope,
+    load_ratio,
+    shape_jacobian,
+    shape_pass,
+    solve_shape,
+    solve_shape_in,
+    wire_lengths,
+)
 
 SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
 BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
@@ -670,14 +679,6 @@ def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved,
 
 
 @hot
-def _copy2(src, dst):
-    """dst[:, :] = src[:, :] (a slice assignment needs NRT, which the sub-step kernels run without)."""
-    for i in range(src.shape[0]):
-        for j in range(src.shape[1]):
-            dst[i, j] = src[i, j]
-
-
-@hot
 def _predict_coupled(state, kp, h, jr_num, jl_num, cw):
     """Linearly implicit Euler step of the fractions over h into cw[CW_XS]; cw[CW_LU], cw[CW_PIV] keep
     the LU factors of its matrix (the identity's for a :func:`.coupled.quiet` step) for the error
@@ -797,7 +798,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         err = _coupled_error(state, hh, jr_num, jl_num, kp, cw) / tol
         accepted, h = accept_or_retry(err, hh, h, h_min)
         if accepted:
-            _copy2(cw[CW_RT_NEW], cw[CW_RT])
+            copy_rows(cw[CW_RT], cw[CW_RT_NEW])
             state[X_HNEXT] = h
             return OK, hh, passes, solved
         for i in range(X_RCACHE):  # rejected: back to the start of the sub-step
@@ -957,7 +958,8 @@ def _advance(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0):
     k += 2 * n * n + 3 * n
     start = buf[k : k + size]
     mid = buf[k + size :]
-    return _span(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0, (work, saved, mats, vecs, start, mid), cw)
+    scratch = (work, saved, mats, vecs, start, mid)
+    return _span(state, kp, ks, v_r, v_l, vforce, dt, n_out, resolve, out, row0, scratch, cw)
 
 
 @hot

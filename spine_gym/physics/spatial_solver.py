@@ -37,6 +37,7 @@ from ._jit import hot, jit, pjit
 from .coupled import (
     T_PER_FRACTION,
     accept_or_retry,
+    copy_rows,
     first_try,
     heat_terms,
     heating_rate,
@@ -1052,14 +1053,6 @@ def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, 
 
 
 @hot
-def _copy_rows(dst, src):
-    """dst[:, :] = src for (W, 12) rate rows (an explicit loop: cheaper than a 2-D slice assignment)."""
-    for j in range(src.shape[0]):
-        for q in range(src.shape[1]):
-            dst[j, q] = src[j, q]
-
-
-@hot
 def _end_rates(sig, temp, kp, back, rt, rt1):
     """Rates and slopes at the end of a sub-step into ``rt1`` (``rt``: at its start, ``back``: the
     state's head at its start). They are a function of (σ, T) only: a wire whose (σ, T) did not
@@ -1135,7 +1128,7 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         err /= tol
         accepted, h = accept_or_retry(err, hh, h, h_min)
         if accepted:
-            _copy_rows(wk[WK_RT], wk[WK_RT_NEW])
+            copy_rows(wk[WK_RT], wk[WK_RT_NEW])
             state[io] = h
             return OK, hh, passes, solved
         for i in range(nb):  # rejected: back to the start of the sub-step
