@@ -53,6 +53,7 @@ from .layout import (
     K_L0,
     K_LREF,
     K_LS,
+    K_NSEG,
     K_NW,
     K_RHOC,
     K_TE,
@@ -110,6 +111,7 @@ from .stability import lu_factor, lu_solve, solve_in_place, unstable_modes
 from .tube import (
     chord_slope,
     load_ratio,
+    segment_lengths,
     shape_jacobian,
     shape_pass,
     solve_shape,
@@ -131,12 +133,45 @@ def wire_mechanics(dth, xpr, xmr, xpl, xml, kp):
         (ε_R, ε_L, σ_R [Pa], σ_L [Pa], G = n_w A_w a (σ_R − σ_L) [N m]).
     """
     lr, ll = wire_lengths(dth, kp)
+    return _wire_state(lr, ll, xpr, xmr, xpl, xml, kp)
+
+
+@hot
+def _wire_state(lr, ll, xpr, xmr, xpl, xml, kp):
+    """(ε_R, ε_L, σ_R, σ_L, G) of :func:`wire_mechanics` from the wire lengths L_R, L_L [m]."""
     lref = kp[K_LREF]
     er = lr / lref - 1.0
     el = ll / lref - 1.0
     sr = stress(er, xpr, xmr, kp)
     sl = stress(el, xpl, xml, kp)
     return er, el, sr, sl, kp[K_NW] * kp[K_AW] * kp[K_A] * (sr - sl)
+
+
+@hot
+def mechanics_and_gain(dth, s, xpr, xmr, xpl, xml, kp):
+    """:func:`wire_mechanics` and :func:`moment_gain` of one shape in one pass over its segments
+    (the coupled Newton needs both every iteration; the same arithmetic, bit for bit).
+
+    Returns:
+        (ε_R, ε_L, σ_R, σ_L, G, dG/dM).
+    """
+    ls = kp[K_LS]
+    a = kp[K_A]
+    lr = kp[K_L0] - kp[K_NSEG] * ls
+    ll = lr
+    sum_c = 0.0
+    sum_k = 0.0
+    for i in range(dth.shape[0]):
+        x = dth[i]
+        dr, dl = segment_lengths(x, ls, a)
+        lr += dr
+        ll += dl
+        pc, pk = _segment_response(x, s[i], ls, a)
+        sum_c += pc
+        sum_k += pk
+    er, el, sr, sl, gm = _wire_state(lr, ll, xpr, xmr, xpl, xml, kp)
+    gain = _gain(sum_c - sum_k, sum_c + sum_k, sr, sl, xpr, xmr, xpl, xml, kp)
+    return er, el, sr, sl, gm, gain
 
 
 @hot
@@ -151,10 +186,16 @@ def length_per_moment(dth, s, kp):
     sum_c = 0.0
     sum_k = 0.0
     for i in range(dth.shape[0]):
-        x = dth[i]
-        sum_c += (-ls * x / 12.0) * s[i]
-        sum_k += a * (1.0 - x * x / 8.0) * s[i]
+        pc, pk = _segment_response(dth[i], s[i], ls, a)
+        sum_c += pc
+        sum_k += pk
     return sum_c - sum_k, sum_c + sum_k
+
+
+@hot
+def _segment_response(x, s_n, ls, a):
+    """One segment's terms (c'_n s_n, a cos(Δθ_n/2) s_n) of :func:`length_per_moment`, small-angle forms."""
+    return (-ls * x / 12.0) * s_n, a * (1.0 - x * x / 8.0) * s_n
 
 
 @hot
@@ -171,6 +212,12 @@ def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
     slack wire (σ = 0) has zero tangent stiffness.
     """
     dl_r, dl_l = length_per_moment(dth, s, kp)
+    return _gain(dl_r, dl_l, sr, sl, xpr, xmr, xpl, xml, kp)
+
+
+@hot
+def _gain(dl_r, dl_l, sr, sl, xpr, xmr, xpl, xml, kp):
+    """dG/dM of :func:`moment_gain` from dL_R/dM, dL_L/dM (:func:`length_per_moment`)."""
     k_r = _taut_stiffness(sr, xpr, xmr, kp)
     k_l = _taut_stiffness(sl, xpl, xml, kp)
     pref = kp[K_NW] * kp[K_AW] * kp[K_A] / kp[K_LREF]
@@ -387,8 +434,8 @@ def composite_newton(dth, s, m, xpr, xmr, xpl, xml, vforce, kp, ks, work):
     e = np.inf
     passes = 0
     for _ in range(max_root):
-        er, el, sr, sl, gm = wire_mechanics(dth, xpr, xmr, xpl, xml, kp)
-        slope = 1.0 - moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp)  # = −g'(M) >= 1
+        er, el, sr, sl, gm, gain = mechanics_and_gain(dth, s, xpr, xmr, xpl, xml, kp)
+        slope = 1.0 - gain  # = −g'(M) >= 1
         dm = (gm - m) / slope
         if e < tol_th and abs(dm) < tol_m:
             return OK, m, passes, er, el, sr, sl

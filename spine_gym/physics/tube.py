@@ -150,16 +150,22 @@ def wire_lengths(dth, kp):
     """Right and left wire lengths [m] from the segment angles (MODEL.md §4.8)."""
     ls = kp[K_LS]
     a = kp[K_A]
-    n = dth.shape[0]
     lr = kp[K_L0] - kp[K_NSEG] * ls
     ll = lr
-    for i in range(n):
-        x = dth[i]
-        sh = sincos_small(0.5 * x)[0]
-        c = chord(x, ls)
-        lr += c - 2.0 * a * sh
-        ll += c + 2.0 * a * sh
+    for i in range(dth.shape[0]):
+        dr, dl = segment_lengths(dth[i], ls, a)
+        lr += dr
+        ll += dl
     return lr, ll
+
+
+@hot
+def segment_lengths(x, ls, a):
+    """What a segment bent by ``x`` [rad] adds to the right and the left wire's length [m] (§4.8):
+    its chord ∓ 2 a sin(x/2) (``a`` the wires' offset from the axis)."""
+    sh = sincos_small(0.5 * x)[0]
+    c = chord(x, ls)
+    return c - 2.0 * a * sh, c + 2.0 * a * sh
 
 
 @jit
