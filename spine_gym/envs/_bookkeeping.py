@@ -27,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..physics._jit import jit, jit_inline
+from ..physics._jit import hot, jit, jit_inline
 from ..physics.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
 from ..physics.layout import OK, X_QJL, X_QJR, X_TL, X_TR
 
@@ -167,78 +167,101 @@ def finish_rows(rows, step, mem, spec, out, fresh):
         spec: :data:`Spec` of the env's table.
         out: :data:`Out`, written at ``rows`` (other rows are left as they are).
     """
+    width = out.row.shape[1]
+    scratch = np.empty(row_scratch_size(spec, width))
+    for j in range(rows.shape[0]):
+        _finish_row(rows[j], step, mem, spec, out, fresh, scratch)
+
+
+@jit_inline
+def row_scratch_size(spec, width):
+    """Floats of :func:`finish_row`'s scratch: the true and measured channels, a measured row."""
+    return 2 * spec.chan_src.shape[0] + width
+
+
+@hot
+def finish_row(i, step, mem, spec, out, fresh, scratch):
+    """:func:`finish_rows` of the one environment ``i`` with its own scratch (>= :func:`row_scratch_size`
+    floats), the groups as plain tuples: rows are independent, so the parallel step kernels run it
+    per row inside their ``prange`` loop. A real call without reference counting (``hot``): numba's
+    parfor lowering cannot type this module's namedtuples inside a ``prange`` body (it looks their
+    names up in the kernel's module), so they are built here."""
+    _finish_row(i, Step(*step), Memory(*mem), Spec(*spec), Out(*out), fresh, scratch)
+
+
+@jit_inline
+def _finish_row(i, step, mem, spec, out, fresh, scratch):
+    """The body of :func:`finish_row` on the groups as namedtuples."""
     st = spec.settings
     period = st[S_PERIOD]
     qc = spec.qcol
     tchan, d = spec.task[1], spec.task[2]
     nc = spec.chan_src.shape[0]
     nw = mem.joule.shape[1]
-    true = np.empty(nc)
-    measured = np.empty(nc)
-    meas_row = np.empty(out.row.shape[1])
-    for j in range(rows.shape[0]):
-        i = rows[j]
-        if fresh:
-            mem.k[i] = 0
-        else:
-            mem.k[i] += 1
-        kk = mem.k[i]
-        row = out.row[i]
-        energy = _energy(i, step, mem, spec, fresh, row, period)
-        _sensors(i, step, mem, spec, fresh, true, measured)
-        for c in range(nc):
-            row[spec.chan_dst[c]] = true[c]
-        err = _tracking(i, kk, step, spec, row)
-        # cost on the true temperatures
-        tc = spec.probe_cols[PB_TEMP]
-        cost = 0.0
-        for w in range(nw):
-            cost += max(step.probe[i, tc + w] - st[S_T_LIMIT], 0.0)
-        for w in range(nw):
-            mem.prev_action[i, w] = step.actions[i, w]
-            if qc[Q_ACTION] >= 0:
-                row[qc[Q_ACTION] + w] = step.actions[i, w]
-            if qc[Q_VOLT] >= 0:
-                row[qc[Q_VOLT] + w] = 0.0 if fresh else step.volts[i, w]
-        if qc[Q_FORCE] >= 0:
-            for q in range(step.loads.shape[2]):
-                row[qc[Q_FORCE] + q] = step.loads[i, 0, q]
-        if fresh:
-            r_track = 0.0
-            r_energy = 0.0
-            reward = 0.0
-        else:
-            r_track = -err / st[S_ERROR_SCALE]
-            r_energy = -st[S_ENERGY_COEF] * energy
-            reward = r_track + r_energy - st[S_COST_WEIGHT] * cost
-        _put(row, qc[Q_ENERGY], energy)
-        _put(row, qc[Q_COST], cost)
-        _put(row, qc[Q_TIME], kk * period)
-        _put(row, qc[Q_REWARD], reward)
-        _put(row, qc[Q_R_TRACK], r_track)
-        _put(row, qc[Q_R_ENERGY], r_energy)
-        # the measured copy: sensor columns as measured, rate from the measured tracked entry
-        for q in range(row.shape[0]):
-            meas_row[q] = row[q]
-        for c in range(nc):
-            meas_row[spec.chan_dst[c]] = measured[c]
-        for q in range(d):
-            m = measured[tchan + q]
-            rate = 0.0 if fresh else (m - mem.prev_task[i, q]) / period
-            mem.prev_task[i, q] = m
-            if qc[Q_RATE] >= 0:
-                row[qc[Q_RATE] + q] = rate
-                meas_row[qc[Q_RATE] + q] = rate
-        for q in range(spec.obs_cols.shape[0]):
-            v = meas_row[spec.obs_cols[q]]
-            if v < spec.low[q]:
-                v = spec.low[q]
-            elif v > spec.high[q]:
-                v = spec.high[q]
-            out.obs[i, q] = v
-        ok = step.status[i] == OK
-        out.terminated[i] = not fresh and not ok
-        out.truncated[i] = not fresh and kk >= spec.counts[C_MAX_STEPS] and ok
+    true = scratch[:nc]
+    measured = scratch[nc : 2 * nc]
+    meas_row = scratch[2 * nc : 2 * nc + out.row.shape[1]]
+    if fresh:
+        mem.k[i] = 0
+    else:
+        mem.k[i] += 1
+    kk = mem.k[i]
+    row = out.row[i]
+    energy = _energy(i, step, mem, spec, fresh, row, period)
+    _sensors(i, step, mem, spec, fresh, true, measured)
+    for c in range(nc):
+        row[spec.chan_dst[c]] = true[c]
+    err = _tracking(i, kk, step, spec, row)
+    # cost on the true temperatures
+    tc = spec.probe_cols[PB_TEMP]
+    cost = 0.0
+    for w in range(nw):
+        cost += max(step.probe[i, tc + w] - st[S_T_LIMIT], 0.0)
+    for w in range(nw):
+        mem.prev_action[i, w] = step.actions[i, w]
+        if qc[Q_ACTION] >= 0:
+            row[qc[Q_ACTION] + w] = step.actions[i, w]
+        if qc[Q_VOLT] >= 0:
+            row[qc[Q_VOLT] + w] = 0.0 if fresh else step.volts[i, w]
+    if qc[Q_FORCE] >= 0:
+        for q in range(step.loads.shape[2]):
+            row[qc[Q_FORCE] + q] = step.loads[i, 0, q]
+    if fresh:
+        r_track = 0.0
+        r_energy = 0.0
+        reward = 0.0
+    else:
+        r_track = -err / st[S_ERROR_SCALE]
+        r_energy = -st[S_ENERGY_COEF] * energy
+        reward = r_track + r_energy - st[S_COST_WEIGHT] * cost
+    _put(row, qc[Q_ENERGY], energy)
+    _put(row, qc[Q_COST], cost)
+    _put(row, qc[Q_TIME], kk * period)
+    _put(row, qc[Q_REWARD], reward)
+    _put(row, qc[Q_R_TRACK], r_track)
+    _put(row, qc[Q_R_ENERGY], r_energy)
+    # the measured copy: sensor columns as measured, rate from the measured tracked entry
+    for q in range(row.shape[0]):
+        meas_row[q] = row[q]
+    for c in range(nc):
+        meas_row[spec.chan_dst[c]] = measured[c]
+    for q in range(d):
+        m = measured[tchan + q]
+        rate = 0.0 if fresh else (m - mem.prev_task[i, q]) / period
+        mem.prev_task[i, q] = m
+        if qc[Q_RATE] >= 0:
+            row[qc[Q_RATE] + q] = rate
+            meas_row[qc[Q_RATE] + q] = rate
+    for q in range(spec.obs_cols.shape[0]):
+        v = meas_row[spec.obs_cols[q]]
+        if v < spec.low[q]:
+            v = spec.low[q]
+        elif v > spec.high[q]:
+            v = spec.high[q]
+        out.obs[i, q] = v
+    ok = step.status[i] == OK
+    out.terminated[i] = not fresh and not ok
+    out.truncated[i] = not fresh and kk >= spec.counts[C_MAX_STEPS] and ok
 
 
 @jit
@@ -285,18 +308,23 @@ def begin_step(rows, actions, act, volts, coef, k, forces, plan, loads, resolve)
 def planar_probe(rows, meas, ohm, vol, probe_cols, probe):
     """Probe rows of planar spines from their ``batch.record`` rows (``ohm`` (B, 2) L0/A_w [1/m],
     ``vol`` (B, 2) wire volume of each side [m^3]); tip position and module bending stay 0."""
-    tb, te, rs, jl = probe_cols[PB_TIPB], probe_cols[PB_TEMP], probe_cols[PB_RES], probe_cols[PB_JOULE]
     for j in range(rows.shape[0]):
-        i = rows[j]
-        m = meas[i]
-        p = probe[i]
-        p[tb] = m[OUT_ANGLE] * (180.0 / math.pi)
-        p[te] = m[X_TR]
-        p[te + 1] = m[X_TL]
-        p[rs] = m[OUT_RES_R] * ohm[i, 0]
-        p[rs + 1] = m[OUT_RES_L] * ohm[i, 1]
-        p[jl] = m[X_QJR] * vol[i, 0]
-        p[jl + 1] = m[X_QJL] * vol[i, 1]
+        planar_probe_row(rows[j], meas, ohm, vol, probe_cols, probe)
+
+
+@hot
+def planar_probe_row(i, meas, ohm, vol, probe_cols, probe):
+    """:func:`planar_probe` of the one spine ``i`` (the parallel step kernels call it per row)."""
+    tb, te, rs, jl = probe_cols[PB_TIPB], probe_cols[PB_TEMP], probe_cols[PB_RES], probe_cols[PB_JOULE]
+    m = meas[i]
+    p = probe[i]
+    p[tb] = m[OUT_ANGLE] * (180.0 / math.pi)
+    p[te] = m[X_TR]
+    p[te + 1] = m[X_TL]
+    p[rs] = m[OUT_RES_R] * ohm[i, 0]
+    p[rs + 1] = m[OUT_RES_L] * ohm[i, 1]
+    p[jl] = m[X_QJR] * vol[i, 0]
+    p[jl + 1] = m[X_QJL] * vol[i, 1]
 
 
 # columns of a spatial_solver.record row the probe reads (SpatialPlant.record_cols)
@@ -307,23 +335,28 @@ R_MODB, R_TIPB, R_TIPP, R_RHO, R_TEMP, R_QJ, N_R = range(7)
 def spatial_probe(rows, rec, record_cols, ohm, vol, probe_cols, probe):
     """Probe rows of spatial spines from their ``spatial_solver.record`` rows (``ohm`` (B, W)
     L0/A_w of each wire [1/m], ``vol`` (B, W) wire volume of each group [m^3])."""
+    for j in range(rows.shape[0]):
+        spatial_probe_row(rows[j], rec, record_cols, ohm, vol, probe_cols, probe)
+
+
+@hot
+def spatial_probe_row(i, rec, record_cols, ohm, vol, probe_cols, probe):
+    """:func:`spatial_probe` of the one spine ``i`` (the parallel step kernels call it per row)."""
     deg = 180.0 / math.pi
     nmb = probe_cols[PB_TEMP] - probe_cols[PB_MODB]
     nw = ohm.shape[1]
-    for j in range(rows.shape[0]):
-        i = rows[j]
-        r = rec[i]
-        p = probe[i]
-        for q in range(2):
-            p[probe_cols[PB_TIPB] + q] = r[record_cols[R_TIPB] + q] * deg
-        for q in range(3):
-            p[probe_cols[PB_TIPP] + q] = r[record_cols[R_TIPP] + q] * 1000.0
-        for q in range(nmb):
-            p[probe_cols[PB_MODB] + q] = r[record_cols[R_MODB] + q] * deg
-        for w in range(nw):
-            p[probe_cols[PB_TEMP] + w] = r[record_cols[R_TEMP] + w]
-            p[probe_cols[PB_RES] + w] = r[record_cols[R_RHO] + w] * ohm[i, w]
-            p[probe_cols[PB_JOULE] + w] = r[record_cols[R_QJ] + w] * vol[i, w]
+    r = rec[i]
+    p = probe[i]
+    for q in range(2):
+        p[probe_cols[PB_TIPB] + q] = r[record_cols[R_TIPB] + q] * deg
+    for q in range(3):
+        p[probe_cols[PB_TIPP] + q] = r[record_cols[R_TIPP] + q] * 1000.0
+    for q in range(nmb):
+        p[probe_cols[PB_MODB] + q] = r[record_cols[R_MODB] + q] * deg
+    for w in range(nw):
+        p[probe_cols[PB_TEMP] + w] = r[record_cols[R_TEMP] + w]
+        p[probe_cols[PB_RES] + w] = r[record_cols[R_RHO] + w] * ohm[i, w]
+        p[probe_cols[PB_JOULE] + w] = r[record_cols[R_QJ] + w] * vol[i, w]
 
 
 def probe_cols(n_wires: int, n_modules: int) -> np.ndarray:

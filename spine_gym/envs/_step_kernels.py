@@ -17,14 +17,18 @@ its fast C path; :class:`.table_batch.TableBatch` holds them):
 * ``step``, ``mem``, ``spec``, ``out``: :data:`._bookkeeping.Step`, ``Memory``, ``Spec``, ``Out``.
 
 Each kernel is one body compiled twice (STYLE.md): ``*_serial`` loops over the spines serially,
-the other runs that loop with ``prange`` on all numba threads (the bookkeeping around it is serial,
-it costs well under a microsecond per spine). Each returns False, changing nothing, if an action
-is not finite (the caller raises the documented ValueError).
+the other runs that loop with ``prange`` on all numba threads. A spine's probe and bookkeeping
+(:func:`._bookkeeping.planar_probe_row`, :func:`._bookkeeping.finish_row`) run inside the loop, right
+after its physics, on its own row of scratch: rows are independent, and run after the loop they
+were a serial tail that capped the 1 → 2 thread scaling at large N (~1 µs per spine). Only
+``begin_step`` (clipping, voltages, loads) stays before the loop. Each returns False, changing
+nothing, if an action is not finite (the caller raises the documented ValueError).
 """
 
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 from ..physics._jit import jit, pjit
 from ..physics.env_kernels import step_spine, step_spine_spatial
@@ -62,7 +66,8 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     states, backup, kps, ks, ohm, wvol, meas, dt, n_sub = plant
     if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
-    volts, loads, status = st.volts, st.loads, st.status
+    volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
+    scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
     for j in numba.prange(rows.shape[0]):
         i = rows[j]
         status[i] = step_spine(
@@ -78,8 +83,8 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
             n_sub,
             meas[i],
         )
-    bk.planar_probe(rows, meas, ohm, wvol, sp.probe_cols, st.probe)
-    bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)
+        bk.planar_probe_row(i, meas, ohm, wvol, probe_cols, probe)
+        bk.finish_row(i, step, mem, spec, out, False, scratch[j])
     return True
 
 
@@ -90,7 +95,8 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
     if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
-    volts, loads, status = st.volts, st.loads, st.status
+    volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
+    scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
     for j in numba.prange(rows.shape[0]):
         i = rows[j]
         status[i] = step_spine_spatial(
@@ -107,8 +113,8 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
             n_sub,
             meas[i],
         )
-    bk.spatial_probe(rows, meas, record_cols, ohm, wvol, sp.probe_cols, st.probe)
-    bk.finish_rows(rows, st, m, sp, bk.Out(*out), False)
+        bk.spatial_probe_row(i, meas, record_cols, ohm, wvol, probe_cols, probe)
+        bk.finish_row(i, step, mem, spec, out, False, scratch[j])
     return True
 
 
