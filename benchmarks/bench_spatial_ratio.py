@@ -9,26 +9,35 @@ shared machine), median of ``repeats``. Prints one JSON line: per run the median
 
 A/B against another commit (what docs/SPATIAL.md §8.7 reports): export it and alternate processes,
 
-    git archive main | tar -x -C /tmp/spine_main
+    git archive main spine_gym | tar -x -C /tmp/spine_main
     for i in 1 2 3 4; do
-      PYTHONPATH=/tmp/spine_main .venv/bin/python benchmarks/bench_spatial_ratio.py 9
+      SPINE_GYM_TREE=/tmp/spine_main .venv/bin/python benchmarks/bench_spatial_ratio.py 9
       .venv/bin/python benchmarks/bench_spatial_ratio.py 9
     done
 
-(``PYTHONPATH`` comes before the editable install, so the first line times the exported tree.)
+``PYTHONPATH`` alone does not do it: the editable install's import finder (``sys.meta_path``) is
+asked before ``sys.path``, so ``spine_gym`` would still come from the checkout. With
+``SPINE_GYM_TREE`` set, this script drops that finder and imports ``spine_gym`` from the given tree
+(it prints which one on stderr).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import sys
 import time
 
 import numpy as np
 
-from spine_gym import SpineLayout, simulate
-from spine_gym.experiments import hysteresis_voltages
+if os.environ.get("SPINE_GYM_TREE"):  # A/B against an exported tree (module docstring)
+    sys.meta_path[:] = [f for f in sys.meta_path if "editable" not in repr(f).lower()]
+    sys.path.insert(0, os.environ["SPINE_GYM_TREE"])
+
+import spine_gym  # noqa: E402 - after the optional tree switch
+from spine_gym import SpineLayout, simulate  # noqa: E402
+from spine_gym.experiments import hysteresis_voltages  # noqa: E402
 
 DURATION = 20.0  # [s] the timed run of bench_physics.py
 DT = 0.01  # [s] output step
@@ -57,6 +66,7 @@ def main(argv=None) -> int:
     repeats = int(args[0]) if args else 9
     if repeats < 1:
         raise ValueError(f"repeats must be >= 1, got {repeats}")
+    print(f"spine_gym from {spine_gym.__file__}", file=sys.stderr)
     calls = runs()
     first = {k: c() for k, c in calls.items()}  # compile / load, and the sub-step counts
     times: dict[str, list[float]] = {k: [] for k in calls}
