@@ -170,7 +170,7 @@ def mechanics_and_gain(dth, s, xpr, xmr, xpl, xml, kp):
         sum_c += pc
         sum_k += pk
     er, el, sr, sl, gm = _wire_state(lr, ll, xpr, xmr, xpl, xml, kp)
-    gain = _gain(sum_c - sum_k, sum_c + sum_k, sr, sl, xpr, xmr, xpl, xml, kp)
+    gain = moment_gain(sum_c - sum_k, sum_c + sum_k, sr, sl, xpr, xmr, xpl, xml, kp)
     return er, el, sr, sl, gm, gain
 
 
@@ -205,19 +205,13 @@ def _taut_stiffness(sigma, xp, xm, kp):
 
 
 @hot
-def moment_gain(dth, s, sr, sl, xpr, xmr, xpl, xml, kp):
+def moment_gain(dl_r, dl_l, sr, sl, xpr, xmr, xpl, xml, kp):
     """dG/dM = Σ_n ∂G/∂Δθ_n s_n ≤ 0: how the wire moment answers a change of the applied moment.
 
-    G = n_w A_w a (σ_R − σ_L) with dσ_w = E*_w dL_w / L_ref (see :func:`length_per_moment`); a
-    slack wire (σ = 0) has zero tangent stiffness.
+    G = n_w A_w a (σ_R − σ_L) with dσ_w = E*_w dL_w / L_ref, from dL_R/dM and dL_L/dM of the shape
+    response s (:func:`length_per_moment`, summed in :func:`mechanics_and_gain`); a slack wire
+    (σ = 0) has zero tangent stiffness.
     """
-    dl_r, dl_l = length_per_moment(dth, s, kp)
-    return _gain(dl_r, dl_l, sr, sl, xpr, xmr, xpl, xml, kp)
-
-
-@hot
-def _gain(dl_r, dl_l, sr, sl, xpr, xmr, xpl, xml, kp):
-    """dG/dM of :func:`moment_gain` from dL_R/dM, dL_L/dM (:func:`length_per_moment`)."""
     k_r = _taut_stiffness(sr, xpr, xmr, kp)
     k_l = _taut_stiffness(sl, xpl, xml, kp)
     pref = kp[K_NW] * kp[K_AW] * kp[K_A] / kp[K_LREF]
