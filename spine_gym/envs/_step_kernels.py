@@ -20,9 +20,12 @@ Each kernel is one body compiled twice (STYLE.md): ``*_serial`` loops over the s
 the other runs that loop with ``prange`` on all numba threads. A spine's probe and bookkeeping
 (:func:`._bookkeeping.planar_probe_row`, :func:`._bookkeeping.finish_row`) run inside the loop, right
 after its physics, on its own row of scratch: rows are independent, and run after the loop they
-were a serial tail that capped the 1 → 2 thread scaling at large N (~1 µs per spine). Only
-``begin_step`` (clipping, voltages, loads) stays before the loop. Each returns False, changing
-nothing, if an action is not finite (the caller raises the documented ValueError).
+were a serial tail that capped the 1 → 2 thread scaling at large N (~1 µs per spine). The
+parallel loop deals the rows out one at a time (:mod:`spine_gym.physics._deal`): spines differ in
+cost per control period by up to ~10×, and with fixed blocks of rows a step waits for the thread
+that drew the expensive ones. Only ``begin_step`` (clipping, voltages, loads) stays before the
+loop. Each returns False, changing nothing, if an action is not finite (the caller raises the
+documented ValueError).
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..physics._deal import counter, take
 from ..physics._jit import jit, pjit
 from ..physics.env_kernels import step_spine, step_spine_spatial
 from . import _bookkeeping as bk
@@ -68,23 +72,27 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
-    for j in numba.prange(rows.shape[0]):
-        i = rows[j]
-        status[i] = step_spine(
-            states[i],
-            backup[i],
-            kps[i],
-            ks,
-            volts[i, 0],
-            volts[i, 1],
-            loads[i],
-            resolve[i],
-            dt,
-            n_sub,
-            meas[i],
-        )
-        bk.planar_probe_row(i, meas, ohm, wvol, probe_cols, probe)
-        bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+    todo = counter()
+    for _ in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
+        j = take(todo, rows.shape[0])
+        while j >= 0:
+            i = rows[j]
+            status[i] = step_spine(
+                states[i],
+                backup[i],
+                kps[i],
+                ks,
+                volts[i, 0],
+                volts[i, 1],
+                loads[i],
+                resolve[i],
+                dt,
+                n_sub,
+                meas[i],
+            )
+            bk.planar_probe_row(i, meas, ohm, wvol, probe_cols, probe)
+            bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+            j = take(todo, rows.shape[0])
     return True
 
 
@@ -97,24 +105,28 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
-    for j in numba.prange(rows.shape[0]):
-        i = rows[j]
-        status[i] = step_spine_spatial(
-            states[i],
-            backup[i],
-            kps[i],
-            ks,
-            kws[i],
-            kms[i],
-            volts[i],
-            loads[i],
-            resolve[i],
-            dt,
-            n_sub,
-            meas[i],
-        )
-        bk.spatial_probe_row(i, meas, record_cols, ohm, wvol, probe_cols, probe)
-        bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+    todo = counter()
+    for _ in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
+        j = take(todo, rows.shape[0])
+        while j >= 0:
+            i = rows[j]
+            status[i] = step_spine_spatial(
+                states[i],
+                backup[i],
+                kps[i],
+                ks,
+                kws[i],
+                kms[i],
+                volts[i],
+                loads[i],
+                resolve[i],
+                dt,
+                n_sub,
+                meas[i],
+            )
+            bk.spatial_probe_row(i, meas, record_cols, ohm, wvol, probe_cols, probe)
+            bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+            j = take(todo, rows.shape[0])
     return True
 
 

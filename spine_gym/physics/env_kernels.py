@@ -9,7 +9,8 @@ when the loads changed since the last solve, as ``batch.run`` does).
 
 :func:`step_spine` is one spine's control period; the envs call it from their one jitted call per
 step (:mod:`spine_gym.envs._step_kernels`: inputs, physics, readings and bookkeeping together).
-``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``;
+``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``
+(the spines dealt out to the threads one at a time, :mod:`._deal`);
 ``step_many_serial`` is its serial twin (one body compiled twice, STYLE.md; each twin has its own
 on-disk cache entry, ``_jit.pjit``, so a serial kernel never runs parallel machine code). They are
 the physics alone, as the benchmarks time it against the env.
@@ -26,6 +27,7 @@ import math
 
 import numba
 
+from ._deal import counter, take
 from ._jit import jit, pjit
 from .batch import record
 from .layout import ERR_NONFINITE, OK
@@ -85,11 +87,15 @@ def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_
         status: (B,) int64 out; ``layout`` status code of the step (OK or the first failure).
         meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step.
     """
-    for i in numba.prange(states.shape[0]):
-        if active[i]:
-            status[i] = step_spine(
-                states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
-            )
+    todo = counter()
+    for _ in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
+        i = take(todo, states.shape[0])
+        while i >= 0:
+            if active[i]:
+                status[i] = step_spine(
+                    states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
+                )
+            i = take(todo, states.shape[0])
 
 
 step_many = pjit(_step_many)
@@ -149,22 +155,26 @@ def _step_many_spatial(
     """:func:`step_spine_spatial` of every active spine (args as :func:`_step_many`, except ``kws``
     (B, W, KW_SIZE), ``kms`` (B, K, KM_SIZE), ``volts`` (B, W) [V], ``loads`` (B, N, 3) and ``rec``
     (B, record_size) out)."""
-    for i in numba.prange(states.shape[0]):
-        if active[i]:
-            status[i] = step_spine_spatial(
-                states[i],
-                backup[i],
-                kps[i],
-                ks,
-                kws[i],
-                kms[i],
-                volts[i],
-                loads[i],
-                resolve[i],
-                dt,
-                n_sub,
-                rec[i],
-            )
+    todo = counter()
+    for _ in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
+        i = take(todo, states.shape[0])
+        while i >= 0:
+            if active[i]:
+                status[i] = step_spine_spatial(
+                    states[i],
+                    backup[i],
+                    kps[i],
+                    ks,
+                    kws[i],
+                    kms[i],
+                    volts[i],
+                    loads[i],
+                    resolve[i],
+                    dt,
+                    n_sub,
+                    rec[i],
+                )
+            i = take(todo, states.shape[0])
 
 
 step_many_spatial = pjit(_step_many_spatial)
