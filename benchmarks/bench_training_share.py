@@ -28,7 +28,9 @@ and 1 → 2 numba threads (issue 11). One command prints all three against the i
    kernel choice: the smallest N from which the parallel kernel on 2 threads beats the serial one.
    Two peers in the same run say where a shortfall comes from: the **kernel alone** (the recorded
    physics calls of item 2 replayed through the parallel kernel on 1 and 2 threads: no Python,
-   the envs' uneven sub-step counts and the threads' start-up remain) and the **machine's ceiling**
+   the envs' uneven sub-step counts and the threads' start-up remain; also with numba's own fixed
+   blocks of rows per thread instead of rows dealt out one at a time, the kernel before
+   ``spine_gym.physics._deal``) and the **machine's ceiling**
    (a compute-bound ``prange`` loop of equal iterations, no memory traffic: what a second thread
    can give on this machine at all).
 
@@ -338,25 +340,45 @@ def thread_scaling(sizes: list[int], warm: int, steps: int, repeats: int, n_thre
     return out
 
 
+@numba.njit(parallel=True)
+def _fixed_blocks(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
+    """``env_kernels.step_many`` as it was before its rows were dealt out (``physics._deal``): numba's
+    own ``prange`` schedule, one fixed block of rows per thread (the peer of item 3)."""
+    for i in numba.prange(states.shape[0]):
+        if active[i]:
+            status[i] = env_kernels.step_spine(
+                states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
+            )
+
+
 def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) -> dict:
     """Env steps/s of SmaSpine-v0's physics alone (item 2's recorded calls, replayed through the
-    parallel kernel ``env_kernels.step_many``) on 1 and ``n_threads`` numba threads."""
+    parallel kernel ``env_kernels.step_many``, rows dealt out one at a time) on 1 and ``n_threads``
+    numba threads, and the same with fixed blocks of rows per thread (:func:`_fixed_blocks`),
+    interleaved."""
     numba.set_num_threads(1)
     acts = env_actions("SmaSpine-v0", warm + steps, n)
     venv = gym.make_vec("SmaSpine-v0", num_envs=n, parallel=False)
     calls, start, final = record_kernel_calls(venv, acts, warm)
     venv.close()
-    twin = {env_kernels.step_many_serial: env_kernels.step_many}
-    calls = [(twin[fn], args) for fn, args in calls]
-    time_replay(calls, start, final)  # untimed: compiles the parallel replay
-    best = {1: np.inf, n_threads: np.inf}
+    kernels = {"dealt": env_kernels.step_many, "blocks": _fixed_blocks}
+    replays = {key: [(fn, args) for _, args in calls] for key, fn in kernels.items()}
+    for key in replays:
+        time_replay(replays[key], start, final)  # untimed: compiles the parallel replay
+    best = {(key, k): np.inf for key in replays for k in (1, n_threads)}
     for _ in range(repeats):
-        for k in best:
+        for key, k in best:
             numba.set_num_threads(k)
-            best[k] = min(best[k], time_replay(calls, start, final)[0])
+            best[key, k] = min(best[key, k], time_replay(replays[key], start, final)[0])
     numba.set_num_threads(n_threads)
-    rate = {f"threads_{k}": n * steps / t for k, t in best.items()}
-    return {**rate, "speedup": rate[f"threads_{n_threads}"] / rate["threads_1"]}
+    rate = {f"threads_{k}": n * steps / best["dealt", k] for k in (1, n_threads)}
+    blocks = {f"blocks_threads_{k}": n * steps / best["blocks", k] for k in (1, n_threads)}
+    return {
+        **rate,
+        **blocks,
+        "speedup": rate[f"threads_{n_threads}"] / rate["threads_1"],
+        "blocks_speedup": blocks[f"blocks_threads_{n_threads}"] / blocks["blocks_threads_1"],
+    }
 
 
 @numba.njit(parallel=True)
@@ -381,7 +403,8 @@ def machine_ceiling(n_threads: int, repeats: int, iterations: int = 256, work: i
             _busy(out, work)
             best[k] = min(best[k], time.perf_counter() - t0)
     numba.set_num_threads(n_threads)
-    return {"seconds_1": best[1], f"seconds_{n_threads}": best[n_threads], "speedup": best[1] / best[n_threads]}
+    speedup = best[1] / best[n_threads]
+    return {"seconds_1": best[1], f"seconds_{n_threads}": best[n_threads], "speedup": speedup}
 
 
 # ---------------------------------------------------------------- report
@@ -514,6 +537,7 @@ def report(res: dict, n_threads: int) -> None:
         print(
             f"   kernel alone N={n:5s} 1 thread {r['threads_1']:8.0f}  {n_threads} threads"
             f" {r[f'threads_{n_threads}']:8.0f} steps/s  scaling {r['speedup']:.2f}x"
+            f" (rows dealt out; fixed blocks of rows: {r['blocks_speedup']:.2f}x)"
         )
     print(f"   machine ceiling (compute-bound prange loop): {res['machine_ceiling']['speedup']:.2f}x")
     wins = [int(n) for n, r in res["threads"].items() if r["parallel_over_serial"] > 1.0]
@@ -549,7 +573,8 @@ def main(argv=None) -> int:
     torch.set_num_threads(1)
     info = machine()
     n_threads = numba.config.NUMBA_NUM_THREADS
-    res: dict = {"ppo": [], "native_vs_kernel": {}, "threads": {}, "kernel_threads": {}, "machine_ceiling": {}}
+    res: dict = {k: {} for k in ("native_vs_kernel", "threads", "kernel_threads", "machine_ceiling")}
+    res["ppo"] = []
     t_start = time.perf_counter()
     for parallel in (None, True):
         print(f"1. PPO, {args.rollouts} rollouts, parallel={parallel} ...", flush=True)
@@ -566,7 +591,10 @@ def main(argv=None) -> int:
     )
     res["kernel_threads"] = {
         str(n): kernel_scaling(n, args.warm, args.steps, args.repeats, n_threads)
-        for n in sorted({min(args.scaling_sizes), max(args.scaling_sizes)})
+        for n in sorted(
+            {min(args.scaling_sizes), max(args.scaling_sizes)}
+            | ({PARALLEL_MIN_ENVS} & set(args.scaling_sizes))
+        )
     }
     res["machine_ceiling"] = machine_ceiling(n_threads, args.repeats)
     info["load_average_end"] = os.getloadavg()
