@@ -18,7 +18,7 @@ def _dealt(hits, order, tid, spin):
     todo = counter()
     seq = counter()
     n = hits.shape[0]
-    for _ in numba.prange(n):
+    for _slot in numba.prange(n):
         j = take(todo, n)
         while j >= 0:
             s = 0.0

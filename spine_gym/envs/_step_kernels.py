@@ -73,7 +73,7 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
     todo = counter()
-    for _ in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
+    for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
         j = take(todo, rows.shape[0])
         while j >= 0:
             i = rows[j]
@@ -106,7 +106,7 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
     todo = counter()
-    for _ in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
+    for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
         j = take(todo, rows.shape[0])
         while j >= 0:
             i = rows[j]

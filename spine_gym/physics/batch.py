@@ -3,7 +3,8 @@
 The per-spine physics is :func:`spine_gym.physics.solver.advance`; nothing here repeats an
 equation. ``run`` records one spine's trajectory (used by :func:`spine_gym.simulate`);
 ``advance_many`` steps a batch of spines by one control period (used by the vector environment and
-the design sweeps), in parallel across cores with ``prange``.
+the design sweeps), in parallel across cores with ``prange`` (the spines dealt out to the threads one
+at a time, :mod:`._deal`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ._deal import counter, take
 from ._jit import jit, pjit
 from .dense import held_steps, span_options, spans_outputs
 from .layout import OK
@@ -84,13 +86,17 @@ def _advance_many(states, kps, ks, v_r, v_l, loads, dt, n_steps, status):
     spine is left at its failing state and skipped afterwards.
     """
     b = states.shape[0]
-    for i in numba.prange(b):
-        status[i] = OK
-        for _ in range(n_steps):
-            st, a, c = advance(states[i], kps[i], ks, v_r[i], v_l[i], loads[i], dt)
-            if st != OK:
-                status[i] = st
-                break
+    todo = counter()
+    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
+        i = take(todo, b)
+        while i >= 0:
+            status[i] = OK
+            for _step in range(n_steps):
+                st, a, c = advance(states[i], kps[i], ks, v_r[i], v_l[i], loads[i], dt)
+                if st != OK:
+                    status[i] = st
+                    break
+            i = take(todo, b)
 
 
 advance_many = pjit(_advance_many)

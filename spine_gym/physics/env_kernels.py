@@ -88,7 +88,7 @@ def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_
         meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step.
     """
     todo = counter()
-    for _ in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
+    for _slot in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
         i = take(todo, states.shape[0])
         while i >= 0:
             if active[i]:
@@ -156,7 +156,7 @@ def _step_many_spatial(
     (B, W, KW_SIZE), ``kms`` (B, K, KM_SIZE), ``volts`` (B, W) [V], ``loads`` (B, N, 3) and ``rec``
     (B, record_size) out)."""
     todo = counter()
-    for _ in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
+    for _slot in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
         i = take(todo, states.shape[0])
         while i >= 0:
             if active[i]:

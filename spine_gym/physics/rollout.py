@@ -11,7 +11,8 @@ wires' accumulated Joule heat per unit volume [J/m^3] (the env's energy accounti
 last valid values for the rest of the horizon and reports the status, so the caller can reject it.
 
 Compiled twice from one body (STYLE.md): ``rollout_many`` runs the rollouts in parallel with
-``prange``; ``rollout_many_serial`` is the serial twin.
+``prange`` (dealt out to the threads one at a time, :mod:`._deal`: sampled voltage sequences
+differ in cost); ``rollout_many_serial`` is the serial twin.
 
 ``rollout_many_spatial`` / ``rollout_many_spatial_serial`` are the same for a spatial or chained
 spine (SPATIAL.md): every rollout is advanced with :func:`spatial_solver.advance`, exactly the loop
@@ -27,13 +28,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ._deal import counter, take
 from ._jit import jit, pjit
 from .layout import ERR_NONFINITE, OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
 from .solver import advance
 from .spatial_solver import advance_in as spatial_advance_in
 from .spatial_solver import make_work, sizes
 from .spatial_solver import record as spatial_record
-
 
 RECORD, START, HOLD = 0, 1, 2  # what a rollout records after a control step (_record_source)
 
@@ -81,29 +82,33 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
     horizon = v_r.shape[1]
     s = state0.shape[0]
     n = (s - X_HEAD) // 2
-    for i in numba.prange(b):
-        st = work[i]
-        for q in range(s):
-            st[q] = state0[q]
-        status[i] = OK
-        for h in range(horizon):
-            if status[i] == OK:
-                for j in range(n_sub):
-                    code, _, _ = advance(
-                        st, kp, ks, v_r[i, h], v_l[i, h], loads[h], dt, resolve[h] and j == 0
-                    )
-                    if code != OK:
-                        status[i] = code
-                        break
-            src = _record_source(status[i], h)
-            if src == HOLD:
-                angle[i, h] = angle[i, h - 1]
-                temp[i, h, :] = temp[i, h - 1, :]
-                joule[i, h, :] = joule[i, h - 1, :]
-            elif src == RECORD:
-                _record_planar(st, n, angle[i], temp[i], joule[i], h)
-            else:
-                _record_planar(state0, n, angle[i], temp[i], joule[i], h)
+    todo = counter()
+    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
+        i = take(todo, b)
+        while i >= 0:
+            st = work[i]
+            for q in range(s):
+                st[q] = state0[q]
+            status[i] = OK
+            for h in range(horizon):
+                if status[i] == OK:
+                    for j in range(n_sub):
+                        code, _, _ = advance(
+                            st, kp, ks, v_r[i, h], v_l[i, h], loads[h], dt, resolve[h] and j == 0
+                        )
+                        if code != OK:
+                            status[i] = code
+                            break
+                src = _record_source(status[i], h)
+                if src == HOLD:
+                    angle[i, h] = angle[i, h - 1]
+                    temp[i, h, :] = temp[i, h - 1, :]
+                    joule[i, h, :] = joule[i, h - 1, :]
+                elif src == RECORD:
+                    _record_planar(st, n, angle[i], temp[i], joule[i], h)
+                else:
+                    _record_planar(state0, n, angle[i], temp[i], joule[i], h)
+            i = take(todo, b)
 
 
 rollout_many = pjit(_rollout_many)
@@ -130,31 +135,35 @@ def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_s
     horizon = volts.shape[1]
     s = state0.shape[0]
     nw, nm, ns = sizes(kw, km)
-    for i in numba.prange(b):
-        st = work[i]
-        wk = make_work(nw, nm, ns)
-        for q in range(s):
-            st[q] = state0[q]
-        status[i] = OK
-        for h in range(horizon):
-            if status[i] == OK:
-                for j in range(n_sub):
-                    code, _, _ = spatial_advance_in(
-                        st, kp, ks, kw, km, volts[i, h], loads[h], dt, resolve[h] and j == 0, wk
-                    )
-                    if code == OK and not np.all(np.isfinite(st)):
-                        code = ERR_NONFINITE
-                    if code != OK:
-                        status[i] = code
-                        break
-            src = _record_source(status[i], h)
-            if src == HOLD:
-                rec[i, h, :] = rec[i, h - 1, :]
-            else:
-                if src == START:
-                    for q in range(s):
-                        st[q] = state0[q]
-                spatial_record(st, kp, kw, km, wk, rec[i, h])
+    todo = counter()
+    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
+        i = take(todo, b)
+        while i >= 0:
+            st = work[i]
+            wk = make_work(nw, nm, ns)
+            for q in range(s):
+                st[q] = state0[q]
+            status[i] = OK
+            for h in range(horizon):
+                if status[i] == OK:
+                    for j in range(n_sub):
+                        code, _, _ = spatial_advance_in(
+                            st, kp, ks, kw, km, volts[i, h], loads[h], dt, resolve[h] and j == 0, wk
+                        )
+                        if code == OK and not np.all(np.isfinite(st)):
+                            code = ERR_NONFINITE
+                        if code != OK:
+                            status[i] = code
+                            break
+                src = _record_source(status[i], h)
+                if src == HOLD:
+                    rec[i, h, :] = rec[i, h - 1, :]
+                else:
+                    if src == START:
+                        for q in range(s):
+                            st[q] = state0[q]
+                    spatial_record(st, kp, kw, km, wk, rec[i, h])
+            i = take(todo, b)
 
 
 rollout_many_spatial = pjit(_rollout_many_spatial)
