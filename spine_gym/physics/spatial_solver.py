@@ -121,9 +121,9 @@ from .spatial_tube import (
     gain_sums,
     kinematics,
     length_slope,
-    positions,
     shape_pass,
     solve_shape,
+    tip_point,
     wire_length,
 )
 from .stability import lu_factor, lu_solve, solve_in_place
@@ -181,7 +181,6 @@ def wire_block(state, field, nw):
     WK_WTRIAL,  # (N, 2) trial ω
     WK_RATES,  # (W, 4) rates
     WK_XNEW,  # (W, 2) new fractions
-    WK_POS,  # (N + 1, 3) vertex positions
     WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial_tube.gain_sums)
     # the coupled time step (MODEL.md §6.5; x and Δx ordered (x+, x-) of wire 0, wire 1, ...)
     WK_JNUM,  # (W,) U²/L0² of every wire [V²/m²] (Joule heating j = this / resistivity)
@@ -201,7 +200,7 @@ def wire_block(state, field, nw):
     WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(34)
+) = range(33)
 
 
 @jit
@@ -223,7 +222,6 @@ def make_work(nw, nm, ns):
         np.empty((ns, 2)),
         np.empty((nw, 4)),
         np.empty((nw, 2)),
-        np.empty((ns + 1, 3)),
         np.empty((nm, 2 * nm, 3)),
         np.empty(nw),
         np.empty(2 * nw),
@@ -247,7 +245,7 @@ def make_work(nw, nm, ns):
 
 # ---------------------------------------------------------------- mechanics
 # The kernels called on every sub-step take the work arrays they use, not the work tuple: passing
-# the 34-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
+# the 33-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
 # reference-counted one by one), about as much as the arithmetic of a whole shape pass.
 @jit
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
@@ -1226,11 +1224,12 @@ def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk
 
 
 @hot
-def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, row0, dt, n_out, done, sub):
+def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
     reached, as :func:`.solver._complete_outputs`. Only the recorded head of the state (up to S)
-    is interpolated, and the record gets its work arrays (frames, chords, vertex positions), not
-    the work tuple. Returns the outputs completed."""
+    is interpolated, and the record gets its work arrays (frames, chords), not the work tuple;
+    after the span's first output it reuses the previous row's shape columns where ω did not
+    change (:func:`_record`). Returns the outputs completed."""
     e0, e1, at_end = sub
     nw, nm, ns = sizes(kw, km)
     head = sens_offset(nw, nm, ns)
@@ -1238,12 +1237,12 @@ def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, r
     while theta >= 0.0:
         state[S_TIME] += dt
         if out is not None:
-            if theta == 1.0:
-                _record(state, kp, kw, km, frames, chords, pos, out[row0 + done])
-            else:
+            src = state
+            if theta != 1.0:
                 interpolate(start[:head], state[:head], theta, mid[:head])
                 mid[S_TIME] = state[S_TIME]
-                _record(mid, kp, kw, km, frames, chords, pos, out[row0 + done])
+                src = mid
+            _record(src, kp, kw, km, frames, chords, out[row0 + done], out[row0 + done - 1], done > 0)
         done += 1
         if done == n_out:
             break
@@ -1317,7 +1316,7 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
             if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
                 return ERR_BUCKLING, done, nsub, passes
             done = _complete_outputs(
-                state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out, row0, dt, n_out, done, sub
+                state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], out, row0, dt, n_out, done, sub
             )
             since = 0
             solved = False
@@ -1382,13 +1381,16 @@ def record_size(nw, nm, ns):
 def record(state, kp, kw, km, wk, row):
     """Write state (without S) | module bending vectors (K, 2) [rad] | tip bending vector (2) [rad]
     | tip position (3) [m] | tip frame (rows d1, d2, t) (9) | resistivity per wire (W) [Ω m]."""
-    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], row)
+    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], row, row, False)
 
 
 @hot
-def _record(state, kp, kw, km, frames, chords, pos, row):
-    """:func:`record` with its work arrays (frames, chords, vertex positions), as the time loop calls it.
+def _record(state, kp, kw, km, frames, chords, row, prev, reuse):
+    """:func:`record` with its work arrays (frames, chords), as the time loop calls it.
 
+    With ``reuse``, ``prev`` is an earlier record row: if its ω is bitwise this state's, the shape
+    columns (bending vectors, tip position and frame: functions of ω alone) are copied from it
+    instead of computed again (the same numbers; the spine at rest between transformations).
     Compiled without reference counting (:func:`._jit.hot`: 2 000 calls in the 20-s run), so it
     indexes the state instead of taking :func:`views` and :func:`wire_block`.
     """
@@ -1397,30 +1399,49 @@ def _record(state, kp, kw, km, frames, chords, pos, row):
     for j in range(head):
         row[j] = state[j]
     oo = omega_offset(nw, nm)
-    kinematics(state[oo : oo + 2 * ns].reshape((ns, 2)), km, frames, chords)
-    positions(chords, pos)
-    o = head
-    for k in range(nm):
-        seg0 = int(km[k, M_SEG0])
-        b1, b2 = bending_vector(frames[seg0 + int(km[k, M_NSEG])], frames[seg0])
-        row[o + 2 * k] = b1
-        row[o + 2 * k + 1] = b2
-    o += 2 * nm
-    b1, b2 = bending_vector(frames[ns], frames[0])
-    row[o] = b1
-    row[o + 1] = b2
-    o += 2
-    for c in range(3):
-        row[o + c] = pos[0, c]
-    o += 3
-    for r in range(3):
-        for c in range(3):
-            row[o + 3 * r + c] = frames[0, r, c]
-    o += 9
+    o = head + 2 * nm + 2 + 3 + 9  # after the shape columns
+    if reuse and _same_span(row, prev, oo, head):
+        for j in range(head, o):
+            row[j] = prev[j]
+    else:
+        _record_shape(row[oo:head].reshape((ns, 2)), km, frames, chords, row[head:o])
     op = wire_offset(F_XP, nw)
     om = wire_offset(F_XM, nw)
     for j in range(nw):
         row[o + j] = resistivity(state[op + j], state[om + j], kp)
+
+
+@hot
+def _same_span(a, b, lo, hi):
+    """True if a[lo:hi] and b[lo:hi] are the same numbers."""
+    for j in range(lo, hi):
+        if a[j] != b[j]:
+            return False
+    return True
+
+
+@hot
+def _record_shape(omega, km, frames, chords, cols):
+    """The shape columns of :func:`record` for the rotations ``omega`` into ``cols``: module
+    bending vectors (K, 2), tip bending vector (2), tip position (3), tip frame (9)."""
+    nm = km.shape[0]
+    ns = omega.shape[0]
+    kinematics(omega, km, frames, chords)
+    for k in range(nm):
+        seg0 = int(km[k, M_SEG0])
+        b1, b2 = bending_vector(frames[seg0 + int(km[k, M_NSEG])], frames[seg0])
+        cols[2 * k] = b1
+        cols[2 * k + 1] = b2
+    o = 2 * nm
+    b1, b2 = bending_vector(frames[ns], frames[0])
+    cols[o] = b1
+    cols[o + 1] = b2
+    o += 2
+    cols[o], cols[o + 1], cols[o + 2] = tip_point(chords)
+    o += 3
+    for r in range(3):
+        for c in range(3):
+            cols[o + 3 * r + c] = frames[0, r, c]
 
 
 @jit

@@ -343,6 +343,20 @@ def positions(chords, out):
             out[i, c] = out[i + 1, c] + chords[i, c]
 
 
+@hot
+def tip_point(chords):
+    """P_0 of :func:`positions` (the tip vertex, global x, y, z in m), bit for bit (the same sums
+    in the same order), without the other vertices."""
+    x = 0.0
+    y = 0.0
+    z = 0.0
+    for i in range(chords.shape[0] - 1, -1, -1):
+        x = x + chords[i, 0]
+        y = y + chords[i, 1]
+        z = z + chords[i, 2]
+    return x, y, z
+
+
 @jit
 def bending_vector(base, top):
     """Bending vector (Θ cos β, Θ sin β) [rad] of frame ``top`` relative to frame ``base`` (§2).
