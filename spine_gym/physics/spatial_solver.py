@@ -114,7 +114,13 @@ from .spatial_layout import (
     sens_offset,
     wire_offset,
 )
-from .spatial_stability import add_wire_term, is_buckled, needs_stability_check, tube_jacobian
+from .spatial_stability import (
+    add_wire_term,
+    is_buckled_in,
+    needs_stability_check,
+    stability_work,
+    tube_jacobian,
+)
 from .spatial_tube import (
     bending_vector,
     chord_sums,
@@ -200,7 +206,13 @@ def wire_block(state, field, nw):
     WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(33)
+    # dense output: the recorded head of the state (up to S) at a sub-step's start, and interpolated
+    WK_START,  # (sens_offset,)
+    WK_MID,  # (sens_offset,)
+    # the whole-shape Newton and the stability test
+    WK_STEP,  # (2N,) Newton step on ω
+    WK_STAB,  # the tuple of spatial_stability.stability_work
+) = range(37)
 
 
 @jit
@@ -240,14 +252,18 @@ def make_work(nw, nm, ns):
         np.zeros(2 * nw, dtype=np.int64),
         np.empty(2 * nw),
         np.empty(omega_offset(nw, nm)),
+        np.empty(sens_offset(nw, nm, ns)),
+        np.empty(sens_offset(nw, nm, ns)),
+        np.empty(2 * ns),
+        stability_work(nw, nm, ns),
     )
 
 
 # ---------------------------------------------------------------- mechanics
 # The kernels called on every sub-step take the work arrays they use, not the work tuple: passing
-# the 33-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
+# the 37-member work tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
 # reference-counted one by one), about as much as the arithmetic of a whole shape pass.
-@jit
+@hot
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
 
@@ -312,7 +328,7 @@ def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
             jac[2 * k + 1, c] += ey * g
 
 
-@jit
+@hot
 def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
     :func:`wire_mechanics` in ``wk`` (:func:`newton_update` on the work tuple).
@@ -430,7 +446,7 @@ def _newton_solve(
     return ERR_ROOT, passes
 
 
-@jit
+@hot
 def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
     """S = dω/dM by forward differences of full shape solves (tolerance ``tol``) at the shape for ``mw``.
 
@@ -458,7 +474,7 @@ def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
     return OK, passes
 
 
-@jit
+@hot
 def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol):
     """Try M + λ ΔM (ΔM in wk[WK_DM]), λ = 1, ½, ¼ …, each with a full shape solve from the shape
     predicted by S; accept the first that lowers max|G − M| (then written into mw, omega).
@@ -488,7 +504,7 @@ def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
     return False, passes
 
 
-@jit
+@hot
 def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     """The safeguard of §5: Newton with full shape solves, a finite-difference S refreshed at every
     iterate, and back-tracking; if no Newton step lowers the residual, the fixed-point direction
@@ -536,7 +552,7 @@ def copy_pairs(dst, src):
         dst[i, 1] = src[i, 1]
 
 
-@jit
+@hot
 def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     """Newton on the whole shape, R(ω) = ω − f(ω, G(ω)) = 0 with the tangent I − J (cf.
     :func:`.solver.composite_full_newton`): the fallback near buckling, where the coupled Newton's
@@ -551,8 +567,9 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
     trial = wk[WK_WTRIAL]
     gm = wk[WK_G]
-    jac = np.empty((n2, n2))
-    step = np.empty(n2)
+    step = wk[WK_STEP]
+    mats, rows, s_frames, s_chords, sums, dg, wires = wk[WK_STAB]
+    jac = mats[0]
     for it in range(int(ks[S_MAXROOT])):
         wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         copy_pairs(mw, gm)
@@ -561,8 +578,8 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
             return ERR_NONFINITE, it
         if e < ks[S_TOLTH]:
             return OK, it + 1
-        tube_jacobian(omega, mw, vforce, kp, km, jac)
-        add_wire_term(omega, xp, xm, kp, kw, km, jac)
+        tube_jacobian(omega, mw, vforce, kp, km, jac, rows, s_frames, s_chords)
+        add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires)
         for r in range(n2):
             for c in range(n2):
                 jac[r, c] = (1.0 if r == c else 0.0) - jac[r, c]
@@ -582,7 +599,7 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     return ERR_ROOT, int(ks[S_MAXROOT])
 
 
-@jit
+@hot
 def solve_mechanics(
     mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False, sums_known=False
 ):
@@ -598,7 +615,7 @@ def solve_mechanics(
     loop-gain sums (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
-    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+    if check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
         return ERR_BUCKLING, 0
     st, passes = _newton_attempt(
         mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_FRAMES],
@@ -610,7 +627,7 @@ def solve_mechanics(
         passes += p2
         if st != OK:
             return st, passes
-    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+    if check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
         copy_pairs(omega, wk[WK_SAVED_W])
         copy_pairs(mw, wk[WK_SAVED_M])
         return ERR_BUCKLING, passes
@@ -637,7 +654,7 @@ def _newton_attempt(
     )  # fmt: skip
 
 
-@jit
+@hot
 def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check):
     """After a failed coupled Newton, from the untouched start (wk[WK_SAVED_W], wk[WK_SAVED_M]): the
     whole-shape Newton, then the safeguard. If both fail the start is restored and the failure
@@ -655,7 +672,7 @@ def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
-        if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        if not check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
             return ERR_BUCKLING, passes
     return st, passes
 
@@ -725,7 +742,7 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
 
 
 # ---------------------------------------------------------------- time step (MODEL.md §6.1, §6.5)
-@jit
+@hot
 def _choose_h(rem, dt, r, ks):
     """Sub-step size of MODEL.md §6.1 b, exactly as solver.advance."""
     c_crit = ks[S_C]
@@ -825,7 +842,7 @@ def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, su
     return st, p
 
 
-@jit
+@hot
 def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
     """One sub-step of MODEL.md §6.1 as written (rates frozen at its start, r·h <= c), as
     :func:`.solver._substep_frozen` for every wire. Returns (status, h, shape passes, solved)."""
@@ -1135,41 +1152,41 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
             copy_pairs(omega, saved_w)
 
 
-@jit
+@hot
 def _load_rates(state, kp, kw, km, ns, rt):
     """Every wire's rates and slopes at its (σ, T) into ``rt`` (W, 12): from the state's rate cache
     where it was filled at exactly this (σ, T) and these constants, else computed."""
     nw, nm = kw.shape[0], km.shape[0]
     ko = rate_key_offset(nw, nm, ns)
     co = rate_cache_offset(nw, nm, ns)
-    sig = wire_block(state, F_SIG, nw)
-    temp = wire_block(state, F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    o_t = wire_offset(F_T, nw)
     same_kp = True
     for k in range(len(RATE_KP)):
         same_kp = same_kp and state[ko + k] == kp[RATE_KP[k]]
     for j in range(nw):
         c = co + RCACHE_WIRE * j
-        if same_kp and state[c] == sig[j] and state[c + 1] == temp[j]:
+        if same_kp and state[c] == state[o_s + j] and state[c + 1] == state[o_t + j]:
             for q in range(12):
                 rt[j, q] = state[c + 2 + q]
         else:
-            rates_and_slopes(sig[j], temp[j], kp, rt[j])
+            rates_and_slopes(state[o_s + j], state[o_t + j], kp, rt[j])
 
 
-@jit
+@hot
 def _store_rates(state, kp, kw, km, ns, rt):
     """Keep the rates ``rt`` at every wire's (σ, T) and the constants for the next output step."""
     nw, nm = kw.shape[0], km.shape[0]
     ko = rate_key_offset(nw, nm, ns)
     co = rate_cache_offset(nw, nm, ns)
-    sig = wire_block(state, F_SIG, nw)
-    temp = wire_block(state, F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    o_t = wire_offset(F_T, nw)
     for k in range(len(RATE_KP)):
         state[ko + k] = kp[RATE_KP[k]]
     for j in range(nw):
         c = co + RCACHE_WIRE * j
-        state[c] = sig[j]
-        state[c + 1] = temp[j]
+        state[c] = state[o_s + j]
+        state[c + 1] = state[o_t + j]
         for q in range(12):
             state[c + 2 + q] = rt[j, q]
 
@@ -1252,7 +1269,11 @@ def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, out, row0, 
 
 @jit
 def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
-    """:func:`advance_held_in`; ``out`` None records nothing (and copies nothing per sub-step)."""
+    """:func:`advance_held_in`; ``out`` None records nothing (and copies nothing per sub-step).
+
+    Takes the state's views and per-wire blocks (kernels that make views return arrays, so the
+    ``hot`` span loop cannot) and runs :func:`_span` on them.
+    """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
     wb = (
@@ -1265,6 +1286,14 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
         wire_block(state, F_QC, nw),
         wire_block(state, F_QL, nw),
     )
+    return _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0)
+
+
+@hot
+def _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
+    """The span loop of :func:`_advance_in` on the state's views (M_w, ω, S) and wire blocks ``wb``
+    (x+, x-, T, σ, ε, Q_J, Q_C, Q_L); no allocation (the work tuple ``wk`` holds the scratch)."""
+    nw, nm, ns = sizes(kw, km)
     xp, xm, sig, eps = wb[0], wb[1], wb[3], wb[4]
     passes = 0
     check = needs_stability_check(vforce, kp, km)
@@ -1278,11 +1307,10 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
     if coupled:
         _load_rates(state, kp, kw, km, ns, wk[WK_RT])
-    # with ``out``: the state at the start of a sub-step and one interpolated (dense output)
-    # (only the head up to S is recorded: the rest of ``mid`` is the state at the span's start)
-    start = state[:0] if out is None else state.copy()
-    mid = state[:0] if out is None else state.copy()
-    head = sens_offset(nw, nm, ns)
+    # with ``out``: the recorded head of the state at the start of a sub-step and one interpolated
+    start = wk[WK_START]
+    mid = wk[WK_MID]
+    head = start.shape[0]
     solved = False
     max_sub = int(ks[S_MAXSUB])
     span = dt * n_out
@@ -1292,7 +1320,8 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     done = 0  # output steps completed
     while rem > 0.0:
         if out is not None:
-            start[:head] = state[:head]
+            for i in range(head):
+                start[i] = state[i]
         e0 = span - rem
         if coupled:
             st, h, p, sol = _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
@@ -1313,7 +1342,7 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
         if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
             # h. the sub-step reached an output: stability of the shape it ends on (once per output
             # step at most, as solver.advance)
-            if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+            if check and solved and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
                 return ERR_BUCKLING, done, nsub, passes
             done = _complete_outputs(
                 state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], out, row0, dt, n_out, done, sub

@@ -221,7 +221,7 @@ def shape_pass(omega, mw, vforce, kp, km, frames, chords, out):
     return loads_pass(omega, mw, vforce, kp, km, frames, chords, out)
 
 
-@jit
+@hot
 def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
     """Fixed-point shape iteration for given wire moments, in place on ``omega`` (cf. tube.solve_shape).
 
