@@ -719,12 +719,10 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
     With ΔM along one axis (the planar case) this is the planar secant s = Δθ/ΔM of that column.
     """
     nm = mw.shape[0]
-    mf = mw.reshape(2 * nm)  # flat views: column c of S is component c of M
-    sf = saved_m.reshape(2 * nm)
     big = 0.0
     nrm = 0.0
-    for c in range(2 * nm):
-        d = mf[c] - sf[c]
+    for c in range(2 * nm):  # column c of S is component c of M
+        d = mw[c // 2, c % 2] - saved_m[c // 2, c % 2]
         big = max(big, abs(d))
         nrm += d * d
     if big <= SECANT_MIN_DM:
@@ -735,10 +733,10 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
             r = 2 * i + b
             miss = omega[i, b] - saved_w[i, b]
             for c in range(2 * nm):
-                miss -= sens[r, c] * (mf[c] - sf[c])
+                miss -= sens[r, c] * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
             f = miss * inv
             for c in range(2 * nm):
-                sens[r, c] += f * (mf[c] - sf[c])
+                sens[r, c] += f * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
 
 
 # ---------------------------------------------------------------- time step (MODEL.md §6.1, §6.5)
@@ -1456,15 +1454,19 @@ def _record_shape(omega, km, frames, chords, cols):
     nm = km.shape[0]
     ns = omega.shape[0]
     kinematics(omega, km, frames, chords)
+    t1, t2 = bending_vector(frames[ns], frames[0])
     for k in range(nm):
         seg0 = int(km[k, M_SEG0])
-        b1, b2 = bending_vector(frames[seg0 + int(km[k, M_NSEG])], frames[seg0])
+        top = seg0 + int(km[k, M_NSEG])
+        if seg0 == 0 and top == ns:  # a single module: the tip's
+            b1, b2 = t1, t2
+        else:
+            b1, b2 = bending_vector(frames[top], frames[seg0])
         cols[2 * k] = b1
         cols[2 * k + 1] = b2
     o = 2 * nm
-    b1, b2 = bending_vector(frames[ns], frames[0])
-    cols[o] = b1
-    cols[o + 1] = b2
+    cols[o] = t1
+    cols[o + 1] = t2
     o += 2
     cols[o], cols[o + 1], cols[o + 2] = tip_point(chords)
     o += 3
