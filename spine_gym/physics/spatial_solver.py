@@ -114,16 +114,22 @@ from .spatial_layout import (
     sens_offset,
     wire_offset,
 )
-from .spatial_stability import add_wire_term, is_buckled, needs_stability_check, tube_jacobian
+from .spatial_stability import (
+    add_wire_term,
+    is_buckled_in,
+    needs_stability_check,
+    stability_work,
+    tube_jacobian,
+)
 from .spatial_tube import (
     bending_vector,
     chord_sums,
     gain_sums,
     kinematics,
     length_slope,
-    positions,
     shape_pass,
     solve_shape,
+    tip_point,
     wire_length,
 )
 from .stability import lu_factor, lu_solve, solve_in_place
@@ -181,7 +187,6 @@ def wire_block(state, field, nw):
     WK_WTRIAL,  # (N, 2) trial ω
     WK_RATES,  # (W, 4) rates
     WK_XNEW,  # (W, 2) new fractions
-    WK_POS,  # (N + 1, 3) vertex positions
     WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial_tube.gain_sums)
     # the coupled time step (MODEL.md §6.5; x and Δx ordered (x+, x-) of wire 0, wire 1, ...)
     WK_JNUM,  # (W,) U²/L0² of every wire [V²/m²] (Joule heating j = this / resistivity)
@@ -201,7 +206,13 @@ def wire_block(state, field, nw):
     WK_PIV,  # (2W,) int: their row exchanges
     WK_VEC,  # (2W,) right-hand side, solution
     WK_BACKUP,  # (omega_offset,) the state up to ω (time, wire blocks, M_w) at the sub-step's start
-) = range(34)
+    # dense output: the recorded head of the state (up to S) at a sub-step's start, and interpolated
+    WK_START,  # (sens_offset,)
+    WK_MID,  # (sens_offset,)
+    # the whole-shape Newton and the stability test
+    WK_STEP,  # (2N,) Newton step on ω
+    WK_STAB,  # the tuple of spatial_stability.stability_work
+) = range(37)
 
 
 @jit
@@ -223,7 +234,6 @@ def make_work(nw, nm, ns):
         np.empty((ns, 2)),
         np.empty((nw, 4)),
         np.empty((nw, 2)),
-        np.empty((ns + 1, 3)),
         np.empty((nm, 2 * nm, 3)),
         np.empty(nw),
         np.empty(2 * nw),
@@ -242,14 +252,18 @@ def make_work(nw, nm, ns):
         np.zeros(2 * nw, dtype=np.int64),
         np.empty(2 * nw),
         np.empty(omega_offset(nw, nm)),
+        np.empty(sens_offset(nw, nm, ns)),
+        np.empty(sens_offset(nw, nm, ns)),
+        np.empty(2 * ns),
+        stability_work(nw, nm, ns),
     )
 
 
 # ---------------------------------------------------------------- mechanics
 # The kernels called on every sub-step take the work arrays they use, not the work tuple: passing
-# the 34-array tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
+# the 37-member work tuple down a call costs ~0.1-0.2 µs per call (its members are passed and
 # reference-counted one by one), about as much as the arithmetic of a whole shape pass.
-@jit
+@hot
 def wire_mechanics(omega, xp, xm, kp, kw, km, wk):
     """Strains, stresses (MODEL.md §3.6, SPATIAL.md §4) and G(M) (SPATIAL.md §3) of a shape.
 
@@ -314,7 +328,7 @@ def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
             jac[2 * k + 1, c] += ey * g
 
 
-@jit
+@hot
 def newton_step(mw, omega, sens, xp, xm, kp, kw, km, wk, sums_known=False):
     """ΔM = (I − J)⁻¹ (G(M) − M) into wk[WK_DM] at the shape ``omega``, given its
     :func:`wire_mechanics` in ``wk`` (:func:`newton_update` on the work tuple).
@@ -432,7 +446,7 @@ def _newton_solve(
     return ERR_ROOT, passes
 
 
-@jit
+@hot
 def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
     """S = dω/dM by forward differences of full shape solves (tolerance ``tol``) at the shape for ``mw``.
 
@@ -460,7 +474,7 @@ def refresh_sensitivity(mw, omega, sens, vforce, kp, ks, km, wk, tol):
     return OK, passes
 
 
-@jit
+@hot
 def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol):
     """Try M + λ ΔM (ΔM in wk[WK_DM]), λ = 1, ½, ¼ …, each with a full shape solve from the shape
     predicted by S; accept the first that lowers max|G − M| (then written into mw, omega).
@@ -490,7 +504,7 @@ def _line_search(mw, omega, sens, norm, xp, xm, vforce, kp, ks, kw, km, wk, tol)
     return False, passes
 
 
-@jit
+@hot
 def composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk):
     """The safeguard of §5: Newton with full shape solves, a finite-difference S refreshed at every
     iterate, and back-tracking; if no Newton step lowers the residual, the fixed-point direction
@@ -538,7 +552,7 @@ def copy_pairs(dst, src):
         dst[i, 1] = src[i, 1]
 
 
-@jit
+@hot
 def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     """Newton on the whole shape, R(ω) = ω − f(ω, G(ω)) = 0 with the tangent I − J (cf.
     :func:`.solver.composite_full_newton`): the fallback near buckling, where the coupled Newton's
@@ -553,8 +567,9 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
     trial = wk[WK_WTRIAL]
     gm = wk[WK_G]
-    jac = np.empty((n2, n2))
-    step = np.empty(n2)
+    step = wk[WK_STEP]
+    mats, rows, s_frames, s_chords, sums, dg, wires = wk[WK_STAB]
+    jac = mats[0]
     for it in range(int(ks[S_MAXROOT])):
         wire_mechanics(omega, xp, xm, kp, kw, km, wk)
         copy_pairs(mw, gm)
@@ -563,8 +578,8 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
             return ERR_NONFINITE, it
         if e < ks[S_TOLTH]:
             return OK, it + 1
-        tube_jacobian(omega, mw, vforce, kp, km, jac)
-        add_wire_term(omega, xp, xm, kp, kw, km, jac)
+        tube_jacobian(omega, mw, vforce, kp, km, jac, rows, s_frames, s_chords)
+        add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires)
         for r in range(n2):
             for c in range(n2):
                 jac[r, c] = (1.0 if r == c else 0.0) - jac[r, c]
@@ -584,7 +599,7 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     return ERR_ROOT, int(ks[S_MAXROOT])
 
 
-@jit
+@hot
 def solve_mechanics(
     mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check=False, known=False, sums_known=False
 ):
@@ -600,7 +615,7 @@ def solve_mechanics(
     loop-gain sums (see :func:`composite_newton`).
     Returns (status, shape passes used).
     """
-    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+    if check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
         return ERR_BUCKLING, 0
     st, passes = _newton_attempt(
         mw, omega, sens, xp, xm, eps, vforce, kp, ks, kw, km, wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_FRAMES],
@@ -612,7 +627,7 @@ def solve_mechanics(
         passes += p2
         if st != OK:
             return st, passes
-    if check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+    if check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
         copy_pairs(omega, wk[WK_SAVED_W])
         copy_pairs(mw, wk[WK_SAVED_M])
         return ERR_BUCKLING, passes
@@ -639,7 +654,7 @@ def _newton_attempt(
     )  # fmt: skip
 
 
-@jit
+@hot
 def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check):
     """After a failed coupled Newton, from the untouched start (wk[WK_SAVED_W], wk[WK_SAVED_M]): the
     whole-shape Newton, then the safeguard. If both fail the start is restored and the failure
@@ -657,7 +672,7 @@ def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
-        if not check and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+        if not check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
             return ERR_BUCKLING, passes
     return st, passes
 
@@ -704,12 +719,10 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
     With ΔM along one axis (the planar case) this is the planar secant s = Δθ/ΔM of that column.
     """
     nm = mw.shape[0]
-    mf = mw.reshape(2 * nm)  # flat views: column c of S is component c of M
-    sf = saved_m.reshape(2 * nm)
     big = 0.0
     nrm = 0.0
-    for c in range(2 * nm):
-        d = mf[c] - sf[c]
+    for c in range(2 * nm):  # column c of S is component c of M
+        d = mw[c // 2, c % 2] - saved_m[c // 2, c % 2]
         big = max(big, abs(d))
         nrm += d * d
     if big <= SECANT_MIN_DM:
@@ -720,14 +733,14 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
             r = 2 * i + b
             miss = omega[i, b] - saved_w[i, b]
             for c in range(2 * nm):
-                miss -= sens[r, c] * (mf[c] - sf[c])
+                miss -= sens[r, c] * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
             f = miss * inv
             for c in range(2 * nm):
-                sens[r, c] += f * (mf[c] - sf[c])
+                sens[r, c] += f * (mw[c // 2, c % 2] - saved_m[c // 2, c % 2])
 
 
 # ---------------------------------------------------------------- time step (MODEL.md §6.1, §6.5)
-@jit
+@hot
 def _choose_h(rem, dt, r, ks):
     """Sub-step size of MODEL.md §6.1 b, exactly as solver.advance."""
     c_crit = ks[S_C]
@@ -827,7 +840,7 @@ def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, su
     return st, p
 
 
-@jit
+@hot
 def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
     """One sub-step of MODEL.md §6.1 as written (rates frozen at its start, r·h <= c), as
     :func:`.solver._substep_frozen` for every wire. Returns (status, h, shape passes, solved)."""
@@ -1137,41 +1150,41 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
             copy_pairs(omega, saved_w)
 
 
-@jit
+@hot
 def _load_rates(state, kp, kw, km, ns, rt):
     """Every wire's rates and slopes at its (σ, T) into ``rt`` (W, 12): from the state's rate cache
     where it was filled at exactly this (σ, T) and these constants, else computed."""
     nw, nm = kw.shape[0], km.shape[0]
     ko = rate_key_offset(nw, nm, ns)
     co = rate_cache_offset(nw, nm, ns)
-    sig = wire_block(state, F_SIG, nw)
-    temp = wire_block(state, F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    o_t = wire_offset(F_T, nw)
     same_kp = True
     for k in range(len(RATE_KP)):
         same_kp = same_kp and state[ko + k] == kp[RATE_KP[k]]
     for j in range(nw):
         c = co + RCACHE_WIRE * j
-        if same_kp and state[c] == sig[j] and state[c + 1] == temp[j]:
+        if same_kp and state[c] == state[o_s + j] and state[c + 1] == state[o_t + j]:
             for q in range(12):
                 rt[j, q] = state[c + 2 + q]
         else:
-            rates_and_slopes(sig[j], temp[j], kp, rt[j])
+            rates_and_slopes(state[o_s + j], state[o_t + j], kp, rt[j])
 
 
-@jit
+@hot
 def _store_rates(state, kp, kw, km, ns, rt):
     """Keep the rates ``rt`` at every wire's (σ, T) and the constants for the next output step."""
     nw, nm = kw.shape[0], km.shape[0]
     ko = rate_key_offset(nw, nm, ns)
     co = rate_cache_offset(nw, nm, ns)
-    sig = wire_block(state, F_SIG, nw)
-    temp = wire_block(state, F_T, nw)
+    o_s = wire_offset(F_SIG, nw)
+    o_t = wire_offset(F_T, nw)
     for k in range(len(RATE_KP)):
         state[ko + k] = kp[RATE_KP[k]]
     for j in range(nw):
         c = co + RCACHE_WIRE * j
-        state[c] = sig[j]
-        state[c + 1] = temp[j]
+        state[c] = state[o_s + j]
+        state[c + 1] = state[o_t + j]
         for q in range(12):
             state[c + 2 + q] = rt[j, q]
 
@@ -1226,11 +1239,12 @@ def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk
 
 
 @hot
-def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, row0, dt, n_out, done, sub):
+def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
     reached, as :func:`.solver._complete_outputs`. Only the recorded head of the state (up to S)
-    is interpolated, and the record gets its work arrays (frames, chords, vertex positions), not
-    the work tuple. Returns the outputs completed."""
+    is interpolated, and the record gets its work arrays (frames, chords), not the work tuple;
+    after the span's first output it reuses the previous row's shape columns where ω did not
+    change (:func:`_record`). Returns the outputs completed."""
     e0, e1, at_end = sub
     nw, nm, ns = sizes(kw, km)
     head = sens_offset(nw, nm, ns)
@@ -1238,12 +1252,12 @@ def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, r
     while theta >= 0.0:
         state[S_TIME] += dt
         if out is not None:
-            if theta == 1.0:
-                _record(state, kp, kw, km, frames, chords, pos, out[row0 + done])
-            else:
+            src = state
+            if theta != 1.0:
                 interpolate(start[:head], state[:head], theta, mid[:head])
                 mid[S_TIME] = state[S_TIME]
-                _record(mid, kp, kw, km, frames, chords, pos, out[row0 + done])
+                src = mid
+            _record(src, kp, kw, km, frames, chords, out[row0 + done], out[row0 + done - 1], done > 0)
         done += 1
         if done == n_out:
             break
@@ -1253,7 +1267,11 @@ def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, pos, out, r
 
 @jit
 def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
-    """:func:`advance_held_in`; ``out`` None records nothing (and copies nothing per sub-step)."""
+    """:func:`advance_held_in`; ``out`` None records nothing (and copies nothing per sub-step).
+
+    Takes the state's views and per-wire blocks (kernels that make views return arrays, so the
+    ``hot`` span loop cannot) and runs :func:`_span` on them.
+    """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
     wb = (
@@ -1266,6 +1284,14 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
         wire_block(state, F_QC, nw),
         wire_block(state, F_QL, nw),
     )
+    return _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0)
+
+
+@hot
+def _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
+    """The span loop of :func:`_advance_in` on the state's views (M_w, ω, S) and wire blocks ``wb``
+    (x+, x-, T, σ, ε, Q_J, Q_C, Q_L); no allocation (the work tuple ``wk`` holds the scratch)."""
+    nw, nm, ns = sizes(kw, km)
     xp, xm, sig, eps = wb[0], wb[1], wb[3], wb[4]
     passes = 0
     check = needs_stability_check(vforce, kp, km)
@@ -1279,11 +1305,10 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
     if coupled:
         _load_rates(state, kp, kw, km, ns, wk[WK_RT])
-    # with ``out``: the state at the start of a sub-step and one interpolated (dense output)
-    # (only the head up to S is recorded: the rest of ``mid`` is the state at the span's start)
-    start = state[:0] if out is None else state.copy()
-    mid = state[:0] if out is None else state.copy()
-    head = sens_offset(nw, nm, ns)
+    # with ``out``: the recorded head of the state at the start of a sub-step and one interpolated
+    start = wk[WK_START]
+    mid = wk[WK_MID]
+    head = start.shape[0]
     solved = False
     max_sub = int(ks[S_MAXSUB])
     span = dt * n_out
@@ -1293,7 +1318,8 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     done = 0  # output steps completed
     while rem > 0.0:
         if out is not None:
-            start[:head] = state[:head]
+            for i in range(head):
+                start[i] = state[i]
         e0 = span - rem
         if coupled:
             st, h, p, sol = _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk)
@@ -1314,10 +1340,10 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
         if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
             # h. the sub-step reached an output: stability of the shape it ends on (once per output
             # step at most, as solver.advance)
-            if check and solved and is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
+            if check and solved and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
                 return ERR_BUCKLING, done, nsub, passes
             done = _complete_outputs(
-                state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], out, row0, dt, n_out, done, sub
+                state, start, mid, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], out, row0, dt, n_out, done, sub
             )
             since = 0
             solved = False
@@ -1382,13 +1408,16 @@ def record_size(nw, nm, ns):
 def record(state, kp, kw, km, wk, row):
     """Write state (without S) | module bending vectors (K, 2) [rad] | tip bending vector (2) [rad]
     | tip position (3) [m] | tip frame (rows d1, d2, t) (9) | resistivity per wire (W) [Ω m]."""
-    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_POS], row)
+    _record(state, kp, kw, km, wk[WK_FRAMES], wk[WK_CHORDS], row, row, False)
 
 
 @hot
-def _record(state, kp, kw, km, frames, chords, pos, row):
-    """:func:`record` with its work arrays (frames, chords, vertex positions), as the time loop calls it.
+def _record(state, kp, kw, km, frames, chords, row, prev, reuse):
+    """:func:`record` with its work arrays (frames, chords), as the time loop calls it.
 
+    With ``reuse``, ``prev`` is an earlier record row: if its ω is bitwise this state's, the shape
+    columns (bending vectors, tip position and frame: functions of ω alone) are copied from it
+    instead of computed again (the same numbers; the spine at rest between transformations).
     Compiled without reference counting (:func:`._jit.hot`: 2 000 calls in the 20-s run), so it
     indexes the state instead of taking :func:`views` and :func:`wire_block`.
     """
@@ -1397,30 +1426,53 @@ def _record(state, kp, kw, km, frames, chords, pos, row):
     for j in range(head):
         row[j] = state[j]
     oo = omega_offset(nw, nm)
-    kinematics(state[oo : oo + 2 * ns].reshape((ns, 2)), km, frames, chords)
-    positions(chords, pos)
-    o = head
-    for k in range(nm):
-        seg0 = int(km[k, M_SEG0])
-        b1, b2 = bending_vector(frames[seg0 + int(km[k, M_NSEG])], frames[seg0])
-        row[o + 2 * k] = b1
-        row[o + 2 * k + 1] = b2
-    o += 2 * nm
-    b1, b2 = bending_vector(frames[ns], frames[0])
-    row[o] = b1
-    row[o + 1] = b2
-    o += 2
-    for c in range(3):
-        row[o + c] = pos[0, c]
-    o += 3
-    for r in range(3):
-        for c in range(3):
-            row[o + 3 * r + c] = frames[0, r, c]
-    o += 9
+    o = head + 2 * nm + 2 + 3 + 9  # after the shape columns
+    if reuse and _same_span(row, prev, oo, head):
+        for j in range(head, o):
+            row[j] = prev[j]
+    else:
+        _record_shape(row[oo:head].reshape((ns, 2)), km, frames, chords, row[head:o])
     op = wire_offset(F_XP, nw)
     om = wire_offset(F_XM, nw)
     for j in range(nw):
         row[o + j] = resistivity(state[op + j], state[om + j], kp)
+
+
+@hot
+def _same_span(a, b, lo, hi):
+    """True if a[lo:hi] and b[lo:hi] are the same numbers."""
+    for j in range(lo, hi):
+        if a[j] != b[j]:
+            return False
+    return True
+
+
+@hot
+def _record_shape(omega, km, frames, chords, cols):
+    """The shape columns of :func:`record` for the rotations ``omega`` into ``cols``: module
+    bending vectors (K, 2), tip bending vector (2), tip position (3), tip frame (9)."""
+    nm = km.shape[0]
+    ns = omega.shape[0]
+    kinematics(omega, km, frames, chords)
+    t1, t2 = bending_vector(frames[ns], frames[0])
+    for k in range(nm):
+        seg0 = int(km[k, M_SEG0])
+        top = seg0 + int(km[k, M_NSEG])
+        if seg0 == 0 and top == ns:  # a single module: the tip's
+            b1, b2 = t1, t2
+        else:
+            b1, b2 = bending_vector(frames[top], frames[seg0])
+        cols[2 * k] = b1
+        cols[2 * k + 1] = b2
+    o = 2 * nm
+    cols[o] = t1
+    cols[o + 1] = t2
+    o += 2
+    cols[o], cols[o + 1], cols[o + 2] = tip_point(chords)
+    o += 3
+    for r in range(3):
+        for c in range(3):
+            cols[o + 3 * r + c] = frames[0, r, c]
 
 
 @jit

@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import hot, jit
 from .layout import K_AW, K_EI, K_EPST, K_G
 from .sma import compliance
 from .solver import BUCKLING_SCREEN, SLACK_TOL
@@ -86,17 +86,35 @@ def needs_stability_check(vforce, kp, km):
 
 
 @jit
-def tube_jacobian(omega, mw, vforce, kp, km, jac):
+def stability_work(nw, nm, ns):
+    """Scratch of :func:`is_buckled_in` (allocated once, no allocation in the test):
+    (mats (2, 2N, 2N), rows (3, N, 2), frames (N + 1, 3, 3), chords (N, 3), sums (K, 3),
+    dg (2, 2N), wires (3, W))."""
+    return (
+        np.empty((2, 2 * ns, 2 * ns)),
+        np.empty((3, ns, 2)),
+        np.empty((ns + 1, 3, 3)),
+        np.empty((ns, 3)),
+        np.empty((nm, 3)),
+        np.empty((2, 2 * ns)),
+        np.empty((3, nw)),
+    )
+
+
+@hot
+def tube_jacobian(omega, mw, vforce, kp, km, jac, rows, frames, chords):
     """∂ shape_pass / ∂ω at fixed wire moments by central differences, into ``jac`` (2N × 2N).
 
-    Row/column 2i + b is component b of segment i.
+    Row/column 2i + b is component b of segment i. Scratch: ``rows`` (3, N, 2) (the passes at
+    ω ± step, the perturbed ω), ``frames``, ``chords`` (of the passes).
     """
     n = omega.shape[0]
-    frames = np.empty((n + 1, 3, 3))
-    chords = np.empty((n, 3))
-    plus = np.empty((n, 2))
-    minus = np.empty((n, 2))
-    trial = omega.copy()
+    plus = rows[0]
+    minus = rows[1]
+    trial = rows[2]
+    for i in range(n):
+        trial[i, 0] = omega[i, 0]
+        trial[i, 1] = omega[i, 1]
     for c in range(2 * n):
         i = c // 2
         b = c % 2
@@ -133,25 +151,29 @@ def chord_shortening(omega, seg0, nk, ls):
     return ls * s / 24.0
 
 
-@jit
-def add_wire_term(omega, xp, xm, kp, kw, km, jac):
-    """Add the wires' stiffening term of the coupled map to ``jac`` (see the module docstring)."""
+@hot
+def add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires):
+    """Add the wires' stiffening term of the coupled map to ``jac`` (see the module docstring).
+
+    Scratch: ``sums`` (K, 3) (chord sums), ``dg`` (2, 2N) (∂G_k/∂ω of the current module),
+    ``wires`` (3, W) (the module's threshold wires: d_j, e_j).
+    """
     nw = kw.shape[0]
     ns = omega.shape[0]
     ei = kp[K_EI]
     aw = kp[K_AW]
-    sums = np.empty((km.shape[0], 3))
     chord_sums(omega, km, sums)
-    dg = np.zeros((2, 2 * ns))  # ∂G_k/∂ω of the current module
-    d = np.empty(nw)  # threshold wires of the module: d_j, and e_j below
-    e1 = np.empty(nw)
-    e2 = np.empty(nw)
+    d = wires[0]
+    e1 = wires[1]
+    e2 = wires[2]
     for k in range(km.shape[0]):
         seg0 = int(km[k, M_SEG0])
         nk = int(km[k, M_NSEG])
         ls = km[k, M_LS]
         short = chord_shortening(omega, seg0, nk, ls)
-        dg[:, :] = 0.0
+        for b in range(2):
+            for c in range(2 * ns):
+                dg[b, c] = 0.0
         m = 0
         for j in range(nw):
             if int(kw[j, W_MOD]) != k:
@@ -196,10 +218,17 @@ def is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
     """True if the spatial equilibrium ``omega`` under ``vforce`` is unstable (a load past buckling).
 
     O(N³) (the LU of :func:`.stability.unstable_modes`); callers screen with
-    :func:`needs_stability_check` first.
+    :func:`needs_stability_check` first. :func:`is_buckled_in` with its scratch allocated here.
     """
-    n2 = 2 * omega.shape[0]
-    jac = np.empty((n2, n2))
-    tube_jacobian(omega, mw, vforce, kp, km, jac)
-    add_wire_term(omega, xp, xm, kp, kw, km, jac)
-    return unstable_modes(jac, np.empty((n2, n2))) > 0
+    return is_buckled_in(
+        omega, mw, xp, xm, vforce, kp, kw, km, stability_work(kw.shape[0], km.shape[0], omega.shape[0])
+    )
+
+
+@hot
+def is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, work):
+    """:func:`is_buckled` on the scratch ``work`` of :func:`stability_work` (no allocation)."""
+    mats, rows, frames, chords, sums, dg, wires = work
+    tube_jacobian(omega, mw, vforce, kp, km, mats[0], rows, frames, chords)
+    add_wire_term(omega, xp, xm, kp, kw, km, mats[0], sums, dg, wires)
+    return unstable_modes(mats[0], mats[1]) > 0

@@ -221,7 +221,7 @@ def shape_pass(omega, mw, vforce, kp, km, frames, chords, out):
     return loads_pass(omega, mw, vforce, kp, km, frames, chords, out)
 
 
-@jit
+@hot
 def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
     """Fixed-point shape iteration for given wire moments, in place on ``omega`` (cf. tube.solve_shape).
 
@@ -341,6 +341,20 @@ def positions(chords, out):
     for i in range(n - 1, -1, -1):
         for c in range(3):
             out[i, c] = out[i + 1, c] + chords[i, c]
+
+
+@hot
+def tip_point(chords):
+    """P_0 of :func:`positions` (the tip vertex, global x, y, z in m), bit for bit (the same sums
+    in the same order), without the other vertices."""
+    x = 0.0
+    y = 0.0
+    z = 0.0
+    for i in range(chords.shape[0] - 1, -1, -1):
+        x = x + chords[i, 0]
+        y = y + chords[i, 1]
+        z = z + chords[i, 2]
+    return x, y, z
 
 
 @jit
