@@ -33,6 +33,7 @@ import math
 import numba
 import numpy as np
 
+from ._deal import counter, take
 from ._jit import hot, jit, pjit
 from .coupled import (
     T_PER_FRACTION,
@@ -1528,14 +1529,18 @@ def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
     """
     b = states.shape[0]
     nw, nm, ns = sizes(kw, km)
-    for i in numba.prange(b):
-        status[i] = OK
-        wk = make_work(nw, nm, ns)
-        for _ in range(n_steps):
-            st, _a, _c = advance_in(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt, True, wk)
-            if st != OK:
-                status[i] = st
-                break
+    todo = counter()
+    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
+        i = take(todo, b)
+        while i >= 0:
+            status[i] = OK
+            wk = make_work(nw, nm, ns)
+            for _step in range(n_steps):
+                st, _a, _c = advance_in(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt, True, wk)
+                if st != OK:
+                    status[i] = st
+                    break
+            i = take(todo, b)
 
 
 advance_many = pjit(_advance_many)
