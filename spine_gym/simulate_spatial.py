@@ -88,10 +88,15 @@ def build_loads_3d(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=
 def initial_state_spatial(layout: SpineLayout, solver: SolverOptions | None = None, loads=None) -> np.ndarray:
     """The MODEL.md §3.10 initial state of every wire, solved under ``loads`` ((N, 3); default none)."""
     solver = solver or SolverOptions()
-    kp, kw, km = layout.to_kernel()
-    state = np.zeros(layout.state_size())
     vf = np.zeros((layout.n_seg, 3)) if loads is None else np.asarray(loads, dtype=float)
-    st = init_state(state, kp, solver.to_kernel(), kw, km, vf)
+    return _initial_state(layout, layout.to_kernel(), solver.to_kernel(), vf)
+
+
+def _initial_state(layout: SpineLayout, tables, ks: np.ndarray, loads: np.ndarray) -> np.ndarray:
+    """:func:`initial_state_spatial` from the kernel tables (kp, kw, km) and options the caller has."""
+    kp, kw, km = tables
+    state = np.zeros(layout.state_size())
+    st = init_state(state, kp, ks, kw, km, loads)
     if st != L.OK:
         raise SimulationError(st, 0.0)
     return state
@@ -149,10 +154,10 @@ def simulate_spatial(
             f"voltages must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{volts.min():g}, {volts.max():g}]"
         )
     loads = build_loads_3d(layout.n_seg, n, dt, tip_force, vertex_forces)
-    kp, kw, km = layout.to_kernel()
+    tables = kp, kw, km = layout.to_kernel()
     ks = solver.to_kernel()
     if state is None:
-        state = initial_state_spatial(layout, solver, loads[0])
+        state = _initial_state(layout, tables, ks, loads[0])
     else:
         state = np.array(state, dtype=float)
         if state.shape != (layout.state_size(),):
@@ -162,12 +167,13 @@ def simulate_spatial(
     st, k, nsub, npass = run(state, kp, ks, kw, km, volts, loads, dt, out)
     if st != L.OK:
         raise SimulationError(st, t0 + k * dt)
-    return _result(out, volts, dt, t0, layout, nsub, npass, state)
+    return _result(out, volts, dt, t0, layout, kw, nsub, npass, state)
 
 
-def _result(out, volts, dt, t0, layout: SpineLayout, nsub, npass, state) -> SpatialResult:
+def _result(out, volts, dt, t0, layout: SpineLayout, kw, nsub, npass, state) -> SpatialResult:
     """The record's columns as arrays of the result: views into ``out`` where no unit changes (the
-    record is this result's alone; a copy of each block cost as much as the rest of the wrapping)."""
+    record is this result's alone; a copy of each block cost as much as the rest of the wrapping).
+    ``kw`` is the layout's wire-group table (:meth:`SpineLayout.to_kernel`) the run used."""
     p = layout.params
     nw, nm, ns = layout.n_wires, layout.n_modules, layout.n_seg
     rows = out.shape[0]
@@ -187,8 +193,7 @@ def _result(out, volts, dt, t0, layout: SpineLayout, nsub, npass, state) -> Spat
     o += 3
     tip_frame = out[:, o : o + 9].reshape(rows, 3, 3)
     o += 9
-    l0 = np.array([m.L0 for m in layout.modules for _ in m.wires])
-    n_w = np.array([w.n_w for m in layout.modules for w in m.wires], dtype=float)
+    l0, n_w = kw[:, SL.W_L0].copy(), kw[:, SL.W_NW].copy()
     vol = p.wire_area * l0 * n_w  # [m^3] of each group
     bend, resistance, v, power, xa, heats = _derived(
         out, volts, o_bend, nm, o, SL.S_HEAD + SL.F_XP * nw, SL.S_HEAD + SL.F_XM * nw,
@@ -241,15 +246,14 @@ def _derived(out, volts, o_bend, nm, o_rho, o_xp, o_xm, o_qj, o_qc, o_ql, l0, ar
     xa = np.empty((rows, nw))
     heats = np.empty((3, rows, nw))
     for r in range(rows):
-        row = out[r]
         for c in range(2 * nm + 2):
-            bend[r, c] = math.degrees(row[o_bend + c])
+            bend[r, c] = math.degrees(out[r, o_bend + c])
         for j in range(nw):
-            res[r, j] = row[o_rho + j] * l0[j] / area
+            res[r, j] = out[r, o_rho + j] * l0[j] / area
             v[r, j] = volts[max(r - 1, 0), j]
             power[r, j] = n_w[j] * (v[r, j] * v[r, j]) / res[r, j]
-            xa[r, j] = 1.0 - row[o_xp + j] - row[o_xm + j]
-            heats[0, r, j] = row[o_qj + j] * vol[j]
-            heats[1, r, j] = row[o_qc + j] * vol[j]
-            heats[2, r, j] = row[o_ql + j] * vol[j]
+            xa[r, j] = 1.0 - out[r, o_xp + j] - out[r, o_xm + j]
+            heats[0, r, j] = out[r, o_qj + j] * vol[j]
+            heats[1, r, j] = out[r, o_qc + j] * vol[j]
+            heats[2, r, j] = out[r, o_ql + j] * vol[j]
     return bend, res, v, power, xa, heats
