@@ -69,7 +69,8 @@ def rot_coeffs(th2):
 def _stage_coeffs(omega, a_out, b_out):
     """(a, b) of :func:`rot_coeffs` for every segment i into ``a_out[i, 0]``, ``b_out[i, 0, 0]``.
 
-    The series pass has no branch, so the compiler runs it on several segments at once (SIMD);
+    The series pass has no branch, so the compiler may run it on several segments at once (SIMD;
+    the stores are strided, one per output row);
     the rare segments at or above SERIES_TH2 are then redone with sine and cosine. Bit for bit the
     numbers of :func:`rot_coeffs` (the same operations in the same order).
     """
@@ -107,8 +108,8 @@ def kinematics(omega, km, frames, chords):
     The coefficients (a_i, b_i) are staged first (:func:`_stage_coeffs`) in the outputs' own
     memory, in segment i's own rows: a_i in chords[i, 0], b_i in frames[i, 0, 0]. The chain's step
     i reads them before it writes chords[i] and frames[i], and no other step touches those rows.
-    (No flat view of the outputs: numba's reshape costs ~9 ns a call, ~10 % of this kernel.) The
-    current frame is carried in scalars.
+    (No flat view of the outputs: numba's reshape is a ~9 ns helper call; without the two views
+    a call took 155 instead of 159 ns for 13 segments.) The current frame is carried in scalars.
     """
     n = omega.shape[0]
     _stage_coeffs(omega, chords, frames)
