@@ -17,12 +17,14 @@ from typing import Any
 
 import yaml
 
+from spine_gym.envs import ENV_SPECS
+
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
 ENV_ID = "SmaSpine-v0"
-SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module (issue 9)
-CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules (issue 9)
-ENV_IDS = (ENV_ID, SPATIAL_ENV_ID, CHAIN_ENV_ID)
+SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
+CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
+ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, -v1 and the -v1 tiers of the three families
 ALGOS = ("ppo", "sac")
 
 # keys of a hyperparameter entry that are not constructor arguments of the algorithm

@@ -160,6 +160,7 @@ class BaseEnvConfig:
     error_scale: float = 10.0
     energy_weight: float = 0.5
     cost_weight: float = 0.0
+    observe_errors: bool = False
     params: ModelParams | None = None
     solver: SolverOptions | None = None
 
@@ -214,6 +215,9 @@ class BaseEnvConfig:
         s(self, "error_scale", _real("error_scale", self.error_scale, 0.0, 1e6, lo_open=True))
         s(self, "energy_weight", _real("energy_weight", self.energy_weight, 0.0, 1e6))
         s(self, "cost_weight", _real("cost_weight", self.cost_weight, 0.0, 1e6))
+        if not isinstance(self.observe_errors, bool | np.bool_):
+            raise ValueError(f"observe_errors must be True or False, got {self.observe_errors!r}")
+        s(self, "observe_errors", bool(self.observe_errors))
 
     def _check_task(self) -> None:
         """Validate the task's own fields (subclasses)."""
@@ -264,6 +268,34 @@ class BaseEnvConfig:
                 f"units in the env's documentation), got {value!r}"
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
+
+    def error_entries(self, unit: str, names: tuple[str, ...], bound: float) -> tuple[Entry, ...]:
+        """The observed tracking errors (``observe_errors``): target − measured tracked entry and
+        target preview − measured tracked entry, components ``names``, bounds ±``bound``; () if off.
+        They come last in the observation, so the indices of the other entries do not move."""
+        if not self.observe_errors:
+            return ()
+        lim = (-bound, bound)
+        return (
+            Entry(
+                "measured_error",
+                "measured_error",
+                unit,
+                "target − measured tracked quantity",
+                tuple(f"error_{n}" for n in names),
+                lim,
+                info=False,
+            ),
+            Entry(
+                "measured_preview_error",
+                "measured_preview_error",
+                unit,
+                "target preview − measured tracked quantity",
+                tuple(f"preview_error_{n}" for n in names),
+                lim,
+                info=False,
+            ),
+        )
 
     # ------------------------------------------------------------------ derived
     @property
@@ -417,6 +449,7 @@ class EnvConfig(BaseEnvConfig):
             Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
             Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
             Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+            *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "angle_deg", self.noise_sigma)
 

@@ -258,6 +258,7 @@ class Spine3DConfig(SpatialConfig):
                 ("tip_x", "tip_y", "tip_z"),
             ),
             *self._step_entries("deg", "target − tip bending vector", 2),
+            *self.error_entries("deg", ("x", "y"), BEND_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "tip_bending_deg", self.noise_sigma)
 
@@ -347,6 +348,7 @@ class ChainConfig(SpatialConfig):
                 noise="angle",
             ),
             *self._step_entries("mm", "target − tip position", 3),
+            *self.error_entries("mm", xyz, 2.0 * self.length_mm),
         )
         return Table(entries, "tip_position_mm", self.noise_sigma)
 
