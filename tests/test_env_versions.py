@@ -5,6 +5,7 @@ distribution; every id passes Gymnasium's and SB3's checkers and its vector env 
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -118,3 +119,8 @@ def test_tiers_change_only_the_task_distribution():
 def test_observe_errors_must_be_a_bool():
     with pytest.raises(ValueError, match="observe_errors"):
         gym.make("SmaSpine-v1", observe_errors="yes")
+
+
+def test_the_docs_list_every_id_as_registered():
+    docs = (Path(__file__).parent.parent / "docs" / "envs.md").read_text()
+    assert markdown_table() in docs
