@@ -26,6 +26,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import yaml
+from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
@@ -152,17 +153,19 @@ MAX_VALIDATION_EPISODES = EVAL_SEED_BASE - VALIDATION_SEED_BASE  # the seeds sta
 
 
 def validation_metrics(
-    policy, n_episodes: int, env_kwargs: dict | None = None, env_id: str = ENV_ID
+    policy, n_episodes: int, env_kwargs: dict | None = None, env_id: str = ENV_ID, *, progress: str = ""
 ) -> list[dict]:
     """:func:`agents.metrics.episode_metrics` of ``policy`` on each of the ``n_episodes`` validation
-    episodes of ``env_id`` (the env's own samplers, reset seeds ``VALIDATION_SEED_BASE + i``)."""
+    episodes of ``env_id`` (the env's own samplers, reset seeds ``VALIDATION_SEED_BASE + i``);
+    ``progress``: the description of a progress bar over the episodes (none if empty)."""
     if not 1 <= n_episodes <= MAX_VALIDATION_EPISODES:
         raise ValueError(f"n_episodes must be in [1, {MAX_VALIDATION_EPISODES}], got {n_episodes}")
     env = make_env(env_kwargs or {}, env_id=env_id)
     limit, dt = env_temperature_limit(env), float(env.control_period)
+    episodes = tqdm(range(n_episodes), desc=progress, unit="episode", leave=False, disable=not progress)
     rows = [
         episode_metrics(run_episode(env, policy, seed=VALIDATION_SEED_BASE + i), temperature_limit=limit, dt=dt)
-        for i in range(n_episodes)
+        for i in episodes
     ]
     env.close()
     return rows
