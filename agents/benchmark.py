@@ -104,7 +104,15 @@ QUICK_HYPERPARAMS = {
     "td3": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
 }
-CURVE_COLUMNS = ("step", "train_wall_s", "train_cpu_s", "rmse", "energy_J", "time_over_limit_s", "eval_wall_s")
+CURVE_COLUMNS = (
+    "step",
+    "train_wall_s",
+    "train_cpu_s",
+    "rmse",
+    "energy_J",
+    "time_over_limit_s",
+    "eval_wall_s",
+)
 
 
 @dataclass
@@ -201,7 +209,13 @@ class ValidationCallback(BaseCallback):
         dt = time.perf_counter() - t
         self.eval_wall += dt
         self.eval_cpu += time.process_time() - c
-        row = {"step": int(self.num_timesteps), "train_wall_s": wall, "train_cpu_s": cpu, **means, "eval_wall_s": dt}
+        row = {
+            "step": int(self.num_timesteps),
+            "train_wall_s": wall,
+            "train_cpu_s": cpu,
+            **means,
+            "eval_wall_s": dt,
+        }
         self.rows.append(row)
         with open(self.path, "a", newline="") as f:
             csv.writer(f).writerow([row[k] for k in CURVE_COLUMNS])
@@ -274,7 +288,11 @@ def run_one(spec: RunSpec, out: Path, progress: bool = False) -> dict:
         "cpu_s": cpu,
         **{f"final_{m}": final[m] for m in stats.METRICS},
     }
-    meta |= {"train_wall_time_s": round(wall, 1), "train_cpu_time_s": round(cpu, 1), "total_timesteps": record["steps"]}
+    meta |= {
+        "train_wall_time_s": round(wall, 1),
+        "train_cpu_time_s": round(cpu, 1),
+        "total_timesteps": record["steps"],
+    }
     (folder / "meta.json").write_text(json.dumps(meta, indent=2))
     (folder / DONE).write_text(json.dumps({"settings": spec.settings(), "record": record}, indent=2))
     return record
@@ -343,9 +361,9 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {k: np.array([float(r[k]) for r in rows]) for k in CURVE_COLUMNS}
 
 
-def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict, reps: int) -> list[dict]:
-    """Evaluations, learning curves (CSV, PNG) and the final table (CSV, Markdown, PNG) of the
-    finished runs among ``specs``; returns the summary rows."""
+def finished_runs(out: Path, specs: list[RunSpec], references: dict) -> tuple[list[dict], dict, list[dict]]:
+    """The finished runs among ``specs``: their records with the steps and wall time to the PID's
+    validation RMSE, their curves ``{env id: {algo: [curve, ...]}}`` and every evaluation as a row."""
     runs, curves, evaluations = [], {}, []
     for spec in specs:
         done = out / spec.folder / DONE
@@ -360,6 +378,24 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
         for i in range(len(curve["step"])):
             evaluations.append({"env_id": spec.env_id, "algo": spec.algo, "seed": spec.seed,
                                 **{k: float(curve[k][i]) for k in CURVE_COLUMNS}})  # fmt: skip
+    return runs, curves, evaluations
+
+
+def learning_curves(curves: list[dict], reps: int) -> dict[str, np.ndarray]:
+    """IQM and CI over the runs ``curves`` (of one algorithm and env id) at each evaluation, for the
+    RMSE and the energy."""
+    n = min(len(c["step"]) for c in curves)  # equal for runs of one budget; guards a short one
+    out = {"step": curves[0]["step"][:n]}
+    for m in ("rmse", "energy_J"):
+        iqm, low, high = stats.curve_intervals(np.array([c[m][:n] for c in curves]), reps=reps)
+        out |= {f"{m}_iqm": iqm, f"{m}_ci_low": low, f"{m}_ci_high": high}
+    return out
+
+
+def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict, reps: int) -> list[dict]:
+    """Evaluations, learning curves (CSV, PNG) and the final table (CSV, Markdown, PNG) of the
+    finished runs among ``specs``; returns the summary rows (empty if no run finished)."""
+    runs, curves, evaluations = finished_runs(out, specs, references)
     if not runs:
         return []
     write_csv(out / "evaluations.csv", evaluations)
@@ -368,18 +404,13 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
     for env_id, by_algo in curves.items():
         plotted = {}
         for algo, cs in by_algo.items():
-            n = min(len(c["step"]) for c in cs)  # equal for runs of one budget; guards a short one
-            block = {m: np.array([c[m][:n] for c in cs]) for m in ("rmse", "energy_J")}
-            steps = cs[0]["step"][:n]
-            rmse = stats.curve_intervals(block["rmse"], reps=reps)
-            energy = stats.curve_intervals(block["energy_J"], reps=reps)
-            plotted[algo] = {"steps": steps, "iqm": rmse[0], "low": rmse[1], "high": rmse[2], "n_runs": len(cs)}
-            for k in range(n):
-                curve_rows.append(
-                    {"env_id": env_id, "algo": algo, "step": int(steps[k]), "n_runs": len(cs),
-                     "rmse_iqm": rmse[0][k], "rmse_ci_low": rmse[1][k], "rmse_ci_high": rmse[2][k],
-                     "energy_J_iqm": energy[0][k], "energy_J_ci_low": energy[1][k], "energy_J_ci_high": energy[2][k]}
-                )  # fmt: skip
+            lc = learning_curves(cs, reps)
+            plotted[algo] = {"steps": lc["step"], "iqm": lc["rmse_iqm"], "low": lc["rmse_ci_low"],
+                             "high": lc["rmse_ci_high"], "n_runs": len(cs)}  # fmt: skip
+            curve_rows += [
+                {"env_id": env_id, "algo": algo, "n_runs": len(cs), **{k: float(v[i]) for k, v in lc.items()}}
+                for i in range(len(lc["step"]))
+            ]
         stats.plot_curves(out / f"curves_{env_id}.png", env_id, plotted, references[env_id], units[env_id])
     write_csv(out / "learning_curves.csv", curve_rows)
     summary = stats.summary_rows(runs, {k: v for k, v in references.items() if k in curves}, reps=reps)
@@ -400,23 +431,56 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="python -m agents.benchmark", description=__doc__.split("\n")[0])
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
-    p.add_argument("--envs", nargs="+", default=None, metavar="ID",
-                   help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two)")
-    p.add_argument("--n-seeds", type=int, default=None, help="seeds 0..N-1 per algorithm and env id (default 5)")
-    p.add_argument("-n", "--n-timesteps", type=int, default=None,
-                   help="step budget of every run (default: each YAML entry's n_timesteps)")
+    p.add_argument(
+        "--envs",
+        nargs="+",
+        default=None,
+        metavar="ID",
+        help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two)",
+    )
+    p.add_argument(
+        "--n-seeds", type=int, default=None, help="seeds 0..N-1 per algorithm and env id (default 5)"
+    )
+    p.add_argument(
+        "-n",
+        "--n-timesteps",
+        type=int,
+        default=None,
+        help="step budget of every run (default: each YAML entry's n_timesteps)",
+    )
     p.add_argument("--budget", nargs="+", default=[], metavar="ID:N", help="step budget per env id")
     p.add_argument("--n-envs", type=int, default=None, help="training sub-envs (default: the YAML's)")
-    p.add_argument("--eval-freq", type=int, default=None, help="env steps between evaluations (default 10000)")
-    p.add_argument("--val-episodes", type=int, default=None, help="validation episodes per evaluation (default 10)")
-    p.add_argument("--references", nargs="+", default=None, metavar="NAME",
-                   help=f"reference controllers (default: {' '.join(REFERENCES)}; the PID is always run)")
-    p.add_argument("--reference-episodes", type=int, default=None,
-                   help="validation episodes of the MPC references, the first of the PID's (default 5)")
-    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default=None,
-                   help="env kwargs key:value of training and validation (--quick: episode_duration:3.0)")
-    p.add_argument("--bootstrap-reps", type=int, default=None, help="bootstrap resamples per CI (default 2000)")
+    p.add_argument(
+        "--eval-freq", type=int, default=None, help="env steps between evaluations (default 10000)"
+    )
+    p.add_argument(
+        "--val-episodes", type=int, default=None, help="validation episodes per evaluation (default 10)"
+    )
+    p.add_argument(
+        "--references",
+        nargs="+",
+        default=None,
+        metavar="NAME",
+        help=f"reference controllers (default: {' '.join(REFERENCES)}; the PID is always run)",
+    )
+    p.add_argument(
+        "--reference-episodes",
+        type=int,
+        default=None,
+        help="validation episodes of the MPC references, the first of the PID's (default 5)",
+    )
+    p.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=StoreDict,
+        default=None,
+        help="env kwargs key:value of training and validation (--quick: episode_duration:3.0)",
+    )
+    p.add_argument(
+        "--bootstrap-reps", type=int, default=None, help="bootstrap resamples per CI (default 2000)"
+    )
     p.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
+    # a Ray cluster (--address, one run per Ray task) is planned: it plugs in as a backend of execute()
     p.add_argument("-o", "--out", default="results/benchmark", help="output folder (default: %(default)s)")
     p.add_argument("--quick", action="store_true", help="toy sizes: every code path in under 2 minutes")
     return p
@@ -464,7 +528,10 @@ def make_plan(args: argparse.Namespace) -> Plan:
     env_ids = list(args.envs) if args.envs else list(DEFAULT_ENV_IDS[: 2 if args.quick else None])
     unknown = [e for e in env_ids if e not in gym.envs.registry]
     if unknown:
-        raise ValueError(f"unknown env id(s) {unknown}; registered spine envs: {sorted(i for i in gym.envs.registry if 'Spine' in i)}")
+        raise ValueError(
+            f"unknown env id(s) {unknown}; registered spine envs: "
+            f"{sorted(i for i in gym.envs.registry if 'Spine' in i)}"
+        )
     for name in ("n_seeds", "eval_freq", "val_episodes", "reference_episodes", "bootstrap_reps"):
         _positive(f"--{name.replace('_', '-')}", s[name])
     _positive("--workers", args.workers)
@@ -473,7 +540,10 @@ def make_plan(args: argparse.Namespace) -> Plan:
     if s["val_episodes"] > MAX_VALIDATION_EPISODES:
         raise ValueError(f"--val-episodes must be <= {MAX_VALIDATION_EPISODES}, got {s['val_episodes']}")
     if s["reference_episodes"] > s["val_episodes"]:
-        raise ValueError(f"--reference-episodes must be <= --val-episodes ({s['val_episodes']}), got {s['reference_episodes']}")
+        raise ValueError(
+            f"--reference-episodes must be <= --val-episodes ({s['val_episodes']}), "
+            f"got {s['reference_episodes']}"
+        )
     if s["bootstrap_reps"] < 100:
         raise ValueError(f"--bootstrap-reps must be >= 100, got {s['bootstrap_reps']}")
     budgets = _budgets(args.budget, env_ids)
@@ -496,8 +566,17 @@ def make_plan(args: argparse.Namespace) -> Plan:
             n = budgets.get(env_id, s["n_timesteps"])
             cfg = resolve_config(algo, env_id, n_envs=s["n_envs"], n_timesteps=n, hyperparams=hyperparams)
             specs += [
-                RunSpec(algo, env_id, seed, cfg.n_timesteps, s["n_envs"], s["eval_freq"], s["val_episodes"],
-                        dict(task_kwargs), hyperparams)  # fmt: skip
+                RunSpec(
+                    algo,
+                    env_id,
+                    seed,
+                    cfg.n_timesteps,
+                    s["n_envs"],
+                    s["eval_freq"],
+                    s["val_episodes"],
+                    dict(task_kwargs),
+                    hyperparams,
+                )  # fmt: skip
                 for seed in range(s["n_seeds"])
             ]
     return Plan(specs, env_ids, references, task_kwargs, s["val_episodes"], s["reference_episodes"],
@@ -536,8 +615,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     with open(out / "command.txt", "a") as f:
         f.write("python -m agents.benchmark " + " ".join(shlex.quote(a) for a in argv) + "\n")
     references = {
-        env_id: reference_scores(env_id, plan.references, plan.task_kwargs, plan.val_episodes,
-                                 plan.reference_episodes, out)  # fmt: skip
+        env_id: reference_scores(
+            env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out
+        )  # fmt: skip
         for env_id in plan.env_ids
     }
     for env_id, refs in references.items():

@@ -53,7 +53,9 @@ def _iqm_of_column(scores: np.ndarray) -> np.ndarray:
     return np.array([rly_metrics.aggregate_iqm(scores)])
 
 
-def iqm_interval(scores: Sequence[float], reps: int = BOOTSTRAP_REPS, seed: int = 0) -> tuple[float, float, float]:
+def iqm_interval(
+    scores: Sequence[float], reps: int = BOOTSTRAP_REPS, seed: int = 0
+) -> tuple[float, float, float]:
     """``(IQM, CI low, CI high)`` of one score per run (e.g. the final validation RMSE of each seed).
 
     Raises:
@@ -149,11 +151,16 @@ def _fmt(x, spec: str = "{:.2f}") -> str:
 def _interval_cell(row: dict, m: str, spec: str) -> str:
     if row[f"{m}_ci_low"] is None:
         return _fmt(row[f"{m}_iqm"], spec)
-    return f"{_fmt(row[f'{m}_iqm'], spec)} [{_fmt(row[f'{m}_ci_low'], spec)}, {_fmt(row[f'{m}_ci_high'], spec)}]"
+    return (
+        f"{_fmt(row[f'{m}_iqm'], spec)} [{_fmt(row[f'{m}_ci_low'], spec)}, {_fmt(row[f'{m}_ci_high'], spec)}]"
+    )
 
 
 def _md(head: list[str], body: list[list[str]]) -> list[str]:
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" if i == 0 else "---:" for i in range(len(head))) + "|"]
+    lines = [
+        "| " + " | ".join(head) + " |",
+        "|" + "|".join("---" if i == 0 else "---:" for i in range(len(head))) + "|",
+    ]
     return lines + ["| " + " | ".join(r) + " |" for r in body]
 
 
@@ -180,9 +187,26 @@ def markdown_table(summary: list[dict], runs: list[dict], units: dict[str, str])
                 + [f"{r['reached_pid']}/{r['n_seeds']}" if rl else DASH]
             )
         lines += [f"### {env_id}", "", *_md(head, body), ""]
-    head = ["env id", "algorithm", "seed", "steps", "wall", "CPU", "final RMSE", "steps to PID", "wall to PID"]
+    head = [
+        "env id",
+        "algorithm",
+        "seed",
+        "steps",
+        "wall",
+        "CPU",
+        "final RMSE",
+        "steps to PID",
+        "wall to PID",
+    ]
     body = [
-        [r["env_id"], r["algo"], str(r["seed"]), f"{r['steps']:,}", duration(r["wall_s"]), duration(r["cpu_s"])]
+        [
+            r["env_id"],
+            r["algo"],
+            str(r["seed"]),
+            f"{r['steps']:,}",
+            duration(r["wall_s"]),
+            duration(r["cpu_s"]),
+        ]
         + [f"{r['final_rmse']:.2f} {units.get(r['env_id'], 'deg')}"]
         + [_fmt(r["steps_to_pid"], "{:,}"), duration(r["wall_to_pid_s"])]
         for r in runs
@@ -202,11 +226,15 @@ def plot_table(path, summary: list[dict], units: dict[str, str]) -> None:
     for i, env_id in enumerate(env_ids):
         sel = [r for r in summary if r["env_id"] == env_id]
         rl, refs = [r for r in sel if r["kind"] == "rl"], [r for r in sel if r["kind"] == "reference"]
-        for j, (m, label) in enumerate((("rmse", f"RMSE [{units.get(env_id, 'deg')}]"), ("energy_J", "energy [J]"))):
+        for j, (m, label) in enumerate(
+            (("rmse", f"RMSE [{units.get(env_id, 'deg')}]"), ("energy_J", "energy [J]"))
+        ):
             ax = axes[i, j]
             y = np.arange(len(rl))
             x = np.array([r[f"{m}_iqm"] for r in rl], dtype=float)
-            err = np.array([[r[f"{m}_iqm"] - r[f"{m}_ci_low"], r[f"{m}_ci_high"] - r[f"{m}_iqm"]] for r in rl]).T
+            err = np.array(
+                [[r[f"{m}_iqm"] - r[f"{m}_ci_low"], r[f"{m}_ci_high"] - r[f"{m}_iqm"]] for r in rl]
+            ).T
             if len(rl):
                 ax.errorbar(x, y, xerr=err, fmt="o", capsize=4, color="C0")
             ax.set_yticks(y, [r["method"] for r in rl])
@@ -216,7 +244,9 @@ def plot_table(path, summary: list[dict], units: dict[str, str]) -> None:
             ax.set_title(env_id if j == 0 else "", loc="left", fontsize=10)
             if refs and j == 1:
                 ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"IQM over seeds, {round(100 * CONFIDENCE)} % stratified bootstrap CI (rliable)", fontsize=10)
+    fig.suptitle(
+        f"IQM over seeds, {round(100 * CONFIDENCE)} % stratified bootstrap CI (rliable)", fontsize=10
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=90)
 
@@ -236,7 +266,9 @@ def plot_curves(path, env_id: str, curves: dict[str, dict], references: dict[str
         ax.fill_between(c["steps"], c["low"], c["high"], color=f"C{k}", alpha=0.2, lw=0)
     for k, (name, ref) in enumerate(references.items()):
         pid = name == "pid"
-        color, label = ("k", "pid (tuned; the level of 'reached PID')") if pid else (f"C{len(curves) + k}", name)
+        color, label = (
+            ("k", "pid (tuned; the level of 'reached PID')") if pid else (f"C{len(curves) + k}", name)
+        )
         ax.axhline(ref["rmse"], color=color, ls="-" if pid else ":", lw=1, label=label)
     ax.set_xlabel("environment steps")
     ax.set_ylabel(f"validation tracking RMSE [{unit}]")

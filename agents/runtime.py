@@ -164,7 +164,9 @@ def validation_metrics(
     limit, dt = env_temperature_limit(env), float(env.control_period)
     episodes = tqdm(range(n_episodes), desc=progress, unit="episode", leave=False, disable=not progress)
     rows = [
-        episode_metrics(run_episode(env, policy, seed=VALIDATION_SEED_BASE + i), temperature_limit=limit, dt=dt)
+        episode_metrics(
+            run_episode(env, policy, seed=VALIDATION_SEED_BASE + i), temperature_limit=limit, dt=dt
+        )
         for i in episodes
     ]
     env.close()

@@ -1,4 +1,6 @@
-"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...; RL-Zoo-style CLI).
+"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...).
+
+RL-Zoo-style CLI.
 
 Example::
 
@@ -351,7 +353,9 @@ def build_model(
             **cfg.hp,
             **extra,
         )
-    model = algo_cls.load(trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose)
+    model = algo_cls.load(
+        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose
+    )
     if model.seed != seed:
         # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
         # Only re-seed when it differs: a second seeding after the network's construction changes
@@ -391,7 +395,8 @@ def train(argv: list[str] | None = None) -> Path:
         env_kwargs=args.env_kwargs,
         conf_file=args.conf_file,
     )
-    hp, special, n_envs, n_timesteps, env_kwargs = cfg.hp, cfg.special, cfg.n_envs, cfg.n_timesteps, cfg.env_kwargs
+    hp, special, env_kwargs = cfg.hp, cfg.special, cfg.env_kwargs
+    n_envs, n_timesteps = cfg.n_envs, cfg.n_timesteps
     set_random_seed(args.seed)
 
     run = _next_run_folder(Path(args.log_folder), args.algo, args.env)

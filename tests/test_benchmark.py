@@ -88,7 +88,8 @@ def _synthetic_runs():
             rmse = base + seed
             runs.append({
                 "algo": algo, "env_id": "SmaSpine-v0", "seed": seed, "steps": 1000, "wall_s": 60.0 + seed,
-                "cpu_s": 50.0, "final_rmse": rmse, "final_energy_J": 100.0 + seed, "final_time_over_limit_s": 0.0,
+                "cpu_s": 50.0, "final_rmse": rmse, "final_energy_J": 100.0 + seed,
+                "final_time_over_limit_s": 0.0,
                 "steps_to_pid": 500 if rmse <= 5.0 else None, "wall_to_pid_s": 30.0 if rmse <= 5.0 else None,
             })  # fmt: skip
     return runs
@@ -96,7 +97,9 @@ def _synthetic_runs():
 
 def test_table_rows_and_markdown_from_synthetic_runs():
     runs = _synthetic_runs()
-    refs = {"SmaSpine-v0": {"pid": {"rmse": 5.0, "energy_J": 80.0, "time_over_limit_s": 1.0, "n_episodes": 10}}}
+    refs = {
+        "SmaSpine-v0": {"pid": {"rmse": 5.0, "energy_J": 80.0, "time_over_limit_s": 1.0, "n_episodes": 10}}
+    }
     rows = stats.summary_rows(runs, refs, reps=300)
     ppo = next(r for r in rows if r["method"] == "ppo")
     assert (ppo["rmse_iqm"], ppo["rmse_ci_low"], ppo["rmse_ci_high"]) == stats.iqm_interval(
