@@ -636,7 +636,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             else:
                 tqdm.write(
                     f"{spec.label}: RMSE {record['final_rmse']:.2f} {plan.units[spec.env_id]} after "
-                    f"{record['steps']:,} steps in {record['wall_s'] / 60:.1f} min"
+                    f"{record['steps']:,} steps in {stats.duration(record['wall_s'])}"
                 )
     summary = write_report(out, plan.specs, references, plan.units, plan.bootstrap_reps)
     if summary:

@@ -178,7 +178,8 @@ def markdown_table(summary: list[dict], runs: list[dict], units: dict[str, str])
         body = []
         for r in sel:
             rl = r["kind"] == "rl"
-            name = r["method"] if rl else f"{r['method']} (reference, {r['n_episodes']} episodes)"
+            n_ep = r["n_episodes"]
+            name = r["method"] if rl else f"{r['method']} (reference, {n_ep} episode{'s' * (n_ep != 1)})"
             body.append(
                 [name, _fmt(r["n_seeds"], "{}"), _fmt(r["steps"], "{:,}")]
                 + [_interval_cell(r, "rmse", "{:.2f}"), _interval_cell(r, "energy_J", "{:.0f}")]
