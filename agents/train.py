@@ -1,4 +1,6 @@
-"""Train PPO or SAC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...; RL-Zoo-style CLI).
+"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...).
+
+RL-Zoo-style CLI.
 
 Example::
 
@@ -19,6 +21,11 @@ command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparamet
 ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
 logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
 normalisation statistics and step counter) in a new run folder.
+
+The pieces are public for :mod:`agents.benchmark`, which trains through the same path:
+:func:`resolve_config` (the YAML entry with overrides), :func:`build_envs` (the wrapped training
+env), :func:`build_model` and :func:`lagrangian_callbacks`. ``noise_type: normal`` (or
+``ornstein-uhlenbeck``) with ``noise_std`` gives the off-policy algorithms exploration noise (TD3).
 
 ``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
 top of the tuned PID (:mod:`agents.residual`; ``residual_scale`` sets the authority of the
@@ -49,11 +56,26 @@ import os
 import shlex
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+import torch
 import yaml
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+from stable_baselines3.common.utils import set_random_seed
+from stable_baselines3.common.vec_env import VecNormalize
 
-from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
+from .common import (
+    ALGOS,
+    ENV_ID,
+    OFF_POLICY,
+    StoreDict,
+    algo_class,
+    load_hyperparams,
+    preprocess_hyperparams,
+)
 from .envs import make_vec_env
 from .history import HistoryObsVecEnv, HistorySpec
 from .integral import IntegralObsVecEnv, IntegralSpec
@@ -136,29 +158,245 @@ def _yaml_safe(d: dict) -> dict:
     return out
 
 
+@dataclass
+class RunConfig:
+    """The resolved settings of one training run (the YAML entry, overrides and flags applied).
+
+    Attributes:
+        algo, env_id: the algorithm (:data:`agents.common.ALGOS`) and the registered env id.
+        hp: constructor kwargs of the algorithm (schedules and ``policy_kwargs`` parsed).
+        special: the entry's other settings (:data:`agents.common.SPECIAL_KEYS`, with defaults).
+        n_envs, n_timesteps: sub-envs and training steps.
+        env_kwargs: the training env's kwargs (the entry's, then the given ones).
+    """
+
+    algo: str
+    env_id: str
+    hp: dict
+    special: dict
+    n_envs: int
+    n_timesteps: int
+    env_kwargs: dict
+
+
+@dataclass
+class TrainingEnvs:
+    """The wrapped training env (and evaluation env) of a run.
+
+    Attributes:
+        env: the outermost training ``VecEnv`` (``VecNormalize`` if the entry normalises).
+        eval_env: the evaluation callback's env (same wrappers, frozen statistics) or None.
+        budget_env: the Lagrangian energy-budget wrapper, if the entry sets ``energy_budget``.
+        meta: the wrappers' settings for ``meta.json`` (what :func:`agents.runtime.load_policy`
+            rebuilds: ``residual``, ``obs_integral``, ``obs_history``; ``energy_budget_J``).
+    """
+
+    env: object
+    eval_env: object | None
+    budget_env: EnergyBudgetVecEnv | None
+    meta: dict
+
+
+def resolve_config(
+    algo: str,
+    env_id: str,
+    *,
+    n_envs: int = -1,
+    n_timesteps: int = -1,
+    hyperparams: dict | None = None,
+    env_kwargs: dict | None = None,
+    conf_file: str | Path | None = None,
+) -> RunConfig:
+    """The hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (or ``conf_file``) with
+    ``hyperparams`` overriding it; ``n_envs``/``n_timesteps`` > 0 override the entry's (-1: the
+    entry's), ``env_kwargs`` update the entry's."""
+    hp_raw = load_hyperparams(algo, env_id, conf_file)
+    hp_raw.update(hyperparams or {})
+    hp, special = preprocess_hyperparams(hp_raw)
+    return RunConfig(
+        algo=algo,
+        env_id=env_id,
+        hp=hp,
+        special=special,
+        n_envs=n_envs if n_envs > 0 else int(special.get("n_envs", 1)),
+        n_timesteps=n_timesteps if n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5))),
+        env_kwargs={**special["env_kwargs"], **(env_kwargs or {})},
+    )
+
+
+def build_envs(
+    cfg: RunConfig,
+    seed: int,
+    *,
+    eval_env: bool = False,
+    vec_env: str = "native",
+    trained_agent: str = "",
+    verbose: int = 0,
+) -> TrainingEnvs:
+    """The training env of ``cfg`` (native vector env seeded ``seed``) inside the entry's wrappers
+    (residual, integral and history observations, energy budget, ``VecNormalize``; resuming from
+    ``trained_agent`` loads its statistics), and with ``eval_env`` the evaluation callback's env."""
+    special, env_kwargs, env_id = cfg.special, cfg.env_kwargs, cfg.env_id
+    meta: dict = {}
+    env = make_vec_env(env_id, cfg.n_envs, seed=seed, env_kwargs=env_kwargs, kind=vec_env)
+    norm = special["normalize"]
+    ev = None
+    if eval_env:
+        ev = make_vec_env(env_id, 1, seed=seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
+    if special["residual"]:
+        # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
+        probe = make_env(env_kwargs, env_id=env_id)
+        spec = base_spec(
+            special["residual"],
+            v_max=probe.v_max,
+            dt=probe.control_period,
+            temperature_limit=env_temperature_limit(probe),
+            scale=special["residual_scale"],
+            env_id=env_id,
+            env_kwargs=env_kwargs,
+        )
+        probe.close()
+        meta["residual"] = spec
+        env = ResidualVecEnv(env, spec)
+        if ev is not None:
+            ev = ResidualVecEnv(ev, spec)
+    if special["obs_integral"] is not None:
+        # the integral-of-error observation (agents.integral), above the residual's baseline
+        probe = make_env(env_kwargs, env_id=env_id)
+        ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
+        probe.close()
+        meta["obs_integral"] = ispec.to_dict()
+        env = IntegralObsVecEnv(env, ispec)
+        if ev is not None:
+            ev = IntegralObsVecEnv(ev, ispec)
+    if special["obs_history"] is not None:
+        # the frame history (agents.history), after the integral
+        probe = make_env(env_kwargs, env_id=env_id)
+        hspec = HistorySpec.from_env(probe, special["obs_history"])
+        probe.close()
+        meta["obs_history"] = hspec.to_dict()
+        env = HistoryObsVecEnv(env, hspec)
+        if ev is not None:
+            ev = HistoryObsVecEnv(ev, hspec)
+    budget_env = None
+    if special["energy_budget"] is not None:
+        budget = energy_budget(
+            special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
+        )
+        probe = make_env(env_kwargs)
+        budget_env = EnergyBudgetVecEnv(
+            env,
+            budget,
+            probe.config.energy_reference,
+            lam0=float(special["lagrangian_init"]),
+            window=int(special["budget_window"]),
+        )
+        probe.close()
+        env = budget_env
+        meta["energy_budget_J"] = budget
+        if verbose:
+            print(f"energy budget {budget:.1f} J per episode", flush=True)
+    if norm is not None:
+        if trained_agent:
+            stats = _checkpoint_vecnormalize(Path(trained_agent))
+            env = VecNormalize.load(str(stats), env)
+            env.training = True
+        else:
+            env = VecNormalize(env, gamma=cfg.hp.get("gamma", 0.99), **norm)
+        if ev is not None:
+            ev = VecNormalize(
+                ev,
+                training=False,
+                norm_reward=False,
+                **{k: v for k, v in norm.items() if k != "norm_reward"},
+            )
+    return TrainingEnvs(env=env, eval_env=ev, budget_env=budget_env, meta=meta)
+
+
+def _action_noise(cfg: RunConfig, n_actions: int):
+    """TD3-style exploration noise of the entry's ``noise_type``/``noise_std`` (None: none)."""
+    kind = cfg.special["noise_type"]
+    if kind in (None, "none", "None"):
+        return None
+    if cfg.algo not in OFF_POLICY:
+        raise ValueError(f"noise_type is for the off-policy algorithms {OFF_POLICY}, not {cfg.algo!r}")
+    mean, sigma = np.zeros(n_actions), float(cfg.special["noise_std"]) * np.ones(n_actions)
+    if kind == "normal":
+        return NormalActionNoise(mean, sigma)
+    if kind == "ornstein-uhlenbeck":
+        return OrnsteinUhlenbeckActionNoise(mean, sigma)
+    raise ValueError(f"noise_type must be 'normal' or 'ornstein-uhlenbeck', got {kind!r}")
+
+
+def build_model(
+    cfg: RunConfig,
+    env,
+    seed: int,
+    *,
+    device: str = "cpu",
+    tensorboard_log: str | None = None,
+    verbose: int = 0,
+    trained_agent: str = "",
+):
+    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``)."""
+    algo_cls = algo_class(cfg.algo)
+    if not trained_agent:
+        noise = _action_noise(cfg, int(np.prod(env.action_space.shape)))
+        extra = {} if noise is None else {"action_noise": noise}
+        return algo_cls(
+            cfg.special["policy"],
+            env,
+            seed=seed,
+            device=device,
+            tensorboard_log=tensorboard_log,
+            verbose=verbose,
+            **cfg.hp,
+            **extra,
+        )
+    model = algo_cls.load(
+        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose
+    )
+    if model.seed != seed:
+        # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
+        # Only re-seed when it differs: a second seeding after the network's construction changes
+        # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
+        model.seed = seed
+        model.set_random_seed(seed)
+    replay = Path(trained_agent).with_name("replay_buffer.pkl")
+    if cfg.algo in OFF_POLICY and replay.exists():
+        model.load_replay_buffer(str(replay))
+    return model
+
+
+def lagrangian_callbacks(cfg: RunConfig, envs: TrainingEnvs, verbose: int = 0) -> list:
+    """The dual-ascent callback of an energy-budget run (empty list otherwise)."""
+    if envs.budget_env is None:
+        return []
+    eta = float(cfg.special["lagrangian_lr"])
+    return [LagrangianCallback(envs.budget_env, eta=eta, verbose=verbose)]
+
+
 def train(argv: list[str] | None = None) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
     args = build_parser().parse_args(argv)
     argv = sys.argv[1:] if argv is None else list(argv)
     os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
-    import torch
-
     torch.set_num_threads(max(1, args.torch_threads))
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
-    from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import VecNormalize
-
 
     for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
         if v == 0 or v < -1:
             raise SystemExit(f"{name} must be a positive integer, got {v}")
-    hp_raw = load_hyperparams(args.algo, args.env, args.conf_file)
-    hp_raw.update(args.hyperparams)
-    hp, special = preprocess_hyperparams(hp_raw)
-    n_envs = args.n_envs if args.n_envs > 0 else int(special.get("n_envs", 1))
-    n_timesteps = args.n_timesteps if args.n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5)))
-    env_kwargs = {**special["env_kwargs"], **args.env_kwargs}
+    cfg = resolve_config(
+        args.algo,
+        args.env,
+        n_envs=args.n_envs,
+        n_timesteps=args.n_timesteps,
+        hyperparams=args.hyperparams,
+        env_kwargs=args.env_kwargs,
+        conf_file=args.conf_file,
+    )
+    hp, special, env_kwargs = cfg.hp, cfg.special, cfg.env_kwargs
+    n_envs, n_timesteps = cfg.n_envs, cfg.n_timesteps
     set_random_seed(args.seed)
 
     run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
@@ -186,110 +424,23 @@ def train(argv: list[str] | None = None) -> Path:
         "command": command,
         "resumed_from": args.trained_agent or None,
     }
-
-    env = make_vec_env(args.env, n_envs, seed=args.seed, env_kwargs=env_kwargs, kind=args.vec_env)
-    norm = special["normalize"]
-    eval_env = None
-    if args.eval_freq > 0:
-        eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
-    if special["residual"]:
-        # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
-        probe = make_env(env_kwargs, env_id=args.env)
-        spec = base_spec(
-            special["residual"],
-            v_max=probe.v_max,
-            dt=probe.control_period,
-            temperature_limit=env_temperature_limit(probe),
-            scale=special["residual_scale"],
-            env_id=args.env,
-            env_kwargs=env_kwargs,
-        )
-        probe.close()
-        meta["residual"] = spec
-        env = ResidualVecEnv(env, spec)
-        if eval_env is not None:
-            eval_env = ResidualVecEnv(eval_env, spec)
-    if special["obs_integral"] is not None:
-        # the integral-of-error observation (agents.integral), above the residual's baseline
-        probe = make_env(env_kwargs, env_id=args.env)
-        ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
-        probe.close()
-        meta["obs_integral"] = ispec.to_dict()
-        env = IntegralObsVecEnv(env, ispec)
-        if eval_env is not None:
-            eval_env = IntegralObsVecEnv(eval_env, ispec)
-    if special["obs_history"] is not None:
-        # the frame history (agents.history), after the integral
-        probe = make_env(env_kwargs, env_id=args.env)
-        hspec = HistorySpec.from_env(probe, special["obs_history"])
-        probe.close()
-        meta["obs_history"] = hspec.to_dict()
-        env = HistoryObsVecEnv(env, hspec)
-        if eval_env is not None:
-            eval_env = HistoryObsVecEnv(eval_env, hspec)
-    budget_env = None
-    if special["energy_budget"] is not None:
-        budget = energy_budget(
-            special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
-        )
-        probe = make_env(env_kwargs)
-        budget_env = EnergyBudgetVecEnv(
-            env,
-            budget,
-            probe.config.energy_reference,
-            lam0=float(special["lagrangian_init"]),
-            window=int(special["budget_window"]),
-        )
-        probe.close()
-        env = budget_env
-        meta["energy_budget_J"] = budget
-        if args.verbose:
-            print(f"energy budget {budget:.1f} J per episode", flush=True)
-    if norm is not None:
-        if args.trained_agent:
-            stats = _checkpoint_vecnormalize(Path(args.trained_agent))
-            env = VecNormalize.load(str(stats), env)
-            env.training = True
-        else:
-            env = VecNormalize(env, gamma=hp.get("gamma", 0.99), **norm)
-        if eval_env is not None:
-            eval_env = VecNormalize(
-                eval_env,
-                training=False,
-                norm_reward=False,
-                **{k: v for k, v in norm.items() if k != "norm_reward"},
-            )
-
-    algo_cls = {"ppo": PPO, "sac": SAC}[args.algo]
+    envs = build_envs(
+        cfg,
+        args.seed,
+        eval_env=args.eval_freq > 0,
+        vec_env=args.vec_env,
+        trained_agent=args.trained_agent,
+        verbose=args.verbose,
+    )
+    meta.update(envs.meta)
+    env, eval_env, norm = envs.env, envs.eval_env, special["normalize"]
     tb = None if args.no_tensorboard else str(run / "tb")
-    if args.trained_agent:
-        model = algo_cls.load(
-            args.trained_agent, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
-        )
-        if model.seed != args.seed:
-            # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
-            # Only re-seed when it differs: a second seeding after the network's construction changes
-            # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
-            model.seed = args.seed
-            model.set_random_seed(args.seed)
-        replay = Path(args.trained_agent).with_name("replay_buffer.pkl")
-        if args.algo == "sac" and replay.exists():
-            model.load_replay_buffer(str(replay))
-    else:
-        model = algo_cls(
-            special["policy"],
-            env,
-            seed=args.seed,
-            device=args.device,
-            tensorboard_log=tb,
-            verbose=args.verbose,
-            **hp,
-        )
+    model = build_model(
+        cfg, env, args.seed, device=args.device, tensorboard_log=tb, verbose=args.verbose,
+        trained_agent=args.trained_agent,
+    )  # fmt: skip
 
-    callbacks = []
-    if budget_env is not None:
-        eta = float(special["lagrangian_lr"])
-        callbacks.append(LagrangianCallback(budget_env, eta=eta, verbose=args.verbose))
+    callbacks = lagrangian_callbacks(cfg, envs, args.verbose)
     if args.save_freq > 0:
         callbacks.append(
             CheckpointCallback(
@@ -304,8 +455,6 @@ def train(argv: list[str] | None = None) -> Path:
         if norm is not None:
             # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
             # SaveVecNormalizeCallback): the final ones differ from those the best model saw
-            from stable_baselines3.common.callbacks import BaseCallback
-
             class _SaveBestVecNormalize(BaseCallback):
                 def _on_step(self) -> bool:
                     self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
@@ -344,8 +493,8 @@ def train(argv: list[str] | None = None) -> Path:
             "total_timesteps": int(model.num_timesteps),
         }
     )
-    if budget_env is not None:
-        meta["lagrangian_final"] = budget_env.lam
+    if envs.budget_env is not None:
+        meta["lagrangian_final"] = envs.budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     if args.verbose:
         print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")
