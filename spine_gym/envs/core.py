@@ -14,15 +14,17 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from itertools import product
 from typing import Any
 
 import numpy as np
 
-from ..params import ModelParams, SolverOptions, field_names
+from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from ..physics import layout as L
-from ..uncertainty import ParameterUncertainty
+from ..physics.solver import init_state
+from ..uncertainty import ParameterUncertainty, apply_offsets
 from .table import Entry, Table
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
@@ -46,6 +48,7 @@ RATE_OBS_LIMIT = 1000.0  # [deg/s] bound of the angle-rate entry
 TEMP_OBS_HIGH = 2000.0  # [K] = the kernel's temperature sanity bound (layout.K_TMAX)
 TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at full transformation)
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
+MAX_CORNER_FIELDS = 10  # randomised fields of the initial state whose 2^k box corners are checked
 RESET_OPTION_KEYS = ("target", "loads", "params")
 # the env attributes held in TableBatch.episodes[i], in that order
 EPISODE_ATTRS = ("target_profile", "load_schedule", "model_params")
@@ -214,9 +217,101 @@ class BaseEnvConfig:
         s(self, "error_scale", _real("error_scale", self.error_scale, 0.0, 1e6, lo_open=True))
         s(self, "energy_weight", _real("energy_weight", self.energy_weight, 0.0, 1e6))
         s(self, "cost_weight", _real("cost_weight", self.cost_weight, 0.0, 1e6))
+        self._check_initial_states()
 
     def _check_task(self) -> None:
         """Validate the task's own fields (subclasses)."""
+
+    # ------------------------------------------------------------------ resets that can be held
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        """Status (``layout.OK`` or an error code) of the initial state (MODEL.md §3.10) of an
+        episode with parameters ``params`` under ``payload`` [kg]: the solve a reset makes, with
+        the same inputs (``LoadSchedule.payload_force`` on the top vertex). ValueError if
+        ``params`` give no valid spine."""
+        raise NotImplementedError
+
+    def initial_loads(self, params: ModelParams, payload: float) -> np.ndarray:
+        """The vertex forces (n_seg, force_dim) of a reset under ``payload`` [kg]: its weight on
+        the top vertex."""
+        vforce = np.zeros((self.n_seg, self.force_dim))
+        vforce[0] = LoadSchedule(payload=payload, dim=self.force_dim).payload_force(params.g)
+        return vforce
+
+    def _check_initial_states(self) -> None:
+        """Every reset this configuration can draw solves its initial state: the heaviest payload
+        of ``payload_range`` at every corner of the randomised box of the fields that enter the
+        initial state (the reset's own solve, :meth:`initial_status`). A reset that cannot is a
+        ValueError raised inside ``step`` of an autoresetting vector env."""
+        payload = 0.0 if self.payload_range is None else self.payload_range[1]
+        for corner, params in self._initial_corners():
+            where = f" at domain_randomization's corner {corner}" if corner else ""
+            try:
+                status = self.initial_status(params, payload)
+            except ValueError as e:
+                raise ValueError(f"domain_randomization gives an invalid spine{where}: {e}") from None
+            if status == L.OK:
+                continue
+            if payload > 0.0 and self.initial_status(params, 0.0) == L.OK:
+                limit = self._payload_limit(params, payload)
+                raise ValueError(
+                    f"payload_range must have high <= {limit:.6g} kg (the heaviest payload whose initial "
+                    f"state can be solved{where}: {L.STATUS_TEXT.get(status, status)}), "
+                    f"got {self.payload_range!r}"
+                )
+            what = "domain_randomization" if corner else "params"
+            raise ValueError(
+                f"{what} must give an initial state that can be solved without payload; it cannot"
+                f"{where} ({L.STATUS_TEXT.get(status, status)})"
+            )
+
+    def _payload_limit(self, params: ModelParams, payload: float) -> float:
+        """The heaviest payload in [0, ``payload``] whose initial state solves (bisection to 1e-9
+        relative; 0 solves, ``payload`` does not)."""
+        lo, hi = 0.0, payload
+        while hi - lo > 1e-9 * hi:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.initial_status(params, mid) == L.OK else (lo, mid)
+        return lo
+
+    def _initial_corners(self) -> Iterator[tuple[dict[str, float], ModelParams]]:
+        """(the randomised fields' values, params) at the nominal parameters and at every corner of
+        the box of randomised fields that enter the initial state (not ``DYNAMICS_ONLY_FIELDS``).
+        A preset's corners that leave the model's range are skipped (its draws redraw those); a
+        dict's raise ValueError (its resets would)."""
+        yield {}, self.params
+        dr = self.domain_randomization
+        if isinstance(dr, ParameterUncertainty):
+            js = [j for j, d in enumerate(dr.directions) if set(d) - DYNAMICS_ONLY_FIELDS]
+            self._check_corner_count(len(js))
+            for bounds in product(*((dr.lower[j], dr.upper[j]) for j in js)):
+                off = np.zeros(len(dr.names))
+                off[js] = np.asarray(bounds) - dr.values[js]
+                try:
+                    params = apply_offsets(self.params, dr.directions, off)
+                except ValueError:
+                    continue
+                yield dict(zip((dr.names[j] for j in js), bounds, strict=True)), params
+            return
+        ranges = [(name, lo, hi) for name, lo, hi in dr if name not in DYNAMICS_ONLY_FIELDS]
+        self._check_corner_count(len(ranges))
+        for values in product(*((lo, hi) for _, lo, hi in ranges)):
+            corner = dict(zip((name for name, _, _ in ranges), values, strict=True))
+            try:
+                params = self.params.replace(**corner)
+            except ValueError as e:
+                raise ValueError(
+                    f"domain_randomization can draw an invalid parameter set {corner}: {e}"
+                ) from None
+            yield corner, params
+
+    @staticmethod
+    def _check_corner_count(k: int) -> None:
+        if k > MAX_CORNER_FIELDS:
+            raise ValueError(
+                f"domain_randomization must randomise at most {MAX_CORNER_FIELDS} fields that enter the "
+                f"initial state (fields other than {sorted(DYNAMICS_ONLY_FIELDS)}; each reset's worst "
+                f"case is checked at the 2^k corners of their box), got {k}"
+            )
 
     @property
     def noise_sigma(self) -> dict[str, float]:
@@ -312,6 +407,12 @@ class EnvConfig(BaseEnvConfig):
         p = self.params
         r_min = min(p.lam_A, p.lam_M) * p.L0 / p.wire_area  # [Ω] one wire
         return 2.0 * p.n_w * self.v_max**2 / r_min * self.control_period
+
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        state = np.zeros(L.state_size(params.n_seg))
+        return init_state(
+            state, params.to_kernel(), self.solver.to_kernel(), self.initial_loads(params, payload)
+        )
 
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
