@@ -120,6 +120,12 @@ def _pair(name: str, value, lo: float, hi: float, *, allow_none=False, integer=F
     return (a, b)
 
 
+def _floor6(x: float) -> float:
+    """``x`` > 0 rounded down to 6 significant digits (a limit a user may copy)."""
+    scale = 10.0 ** (5 - math.floor(math.log10(x)))
+    return math.floor(x * scale) / scale
+
+
 def _multiple(name: str, value: float, unit: float, unit_name: str) -> int:
     n = int(round(value / unit))
     if n < 1 or abs(n * unit - value) > 1e-9 * max(value, 1.0):
@@ -243,25 +249,34 @@ class BaseEnvConfig:
         initial state (the reset's own solve, :meth:`initial_status`). A reset that cannot is a
         ValueError raised inside ``step`` of an autoresetting vector env."""
         payload = 0.0 if self.payload_range is None else self.payload_range[1]
+        failed = []  # (corner, params, status) that cannot hold the payload
         for corner, params in self._initial_corners():
-            where = f" at domain_randomization's corner {corner}" if corner else ""
             try:
                 status = self.initial_status(params, payload)
             except ValueError as e:
-                raise ValueError(f"domain_randomization gives an invalid spine{where}: {e}") from None
-            if status == L.OK:
-                continue
-            if payload > 0.0 and self.initial_status(params, 0.0) == L.OK:
-                limit = self._payload_limit(params, payload)
                 raise ValueError(
-                    f"payload_range must have high <= {limit:.6g} kg (the heaviest payload whose initial "
-                    f"state can be solved{where}: {L.STATUS_TEXT.get(status, status)}), "
-                    f"got {self.payload_range!r}"
+                    f"domain_randomization gives an invalid spine at its corner {corner}: {e}"
+                ) from None
+            if status != L.OK:
+                failed.append((corner, params, status))
+        for corner, params, status in failed:
+            if payload == 0.0 or self.initial_status(params, 0.0) != L.OK:
+                what, where = (
+                    ("domain_randomization", f" at its corner {corner}") if corner else ("params", "")
                 )
-            what = "domain_randomization" if corner else "params"
+                raise ValueError(
+                    f"{what} must give an initial state that can be solved without payload; it cannot"
+                    f"{where} ({L.STATUS_TEXT.get(status, status)})"
+                )
+        if failed:
+            limit, corner, status = min(
+                ((self._payload_limit(p, payload), c, st) for c, p, st in failed), key=lambda t: t[0]
+            )
+            where = f" at domain_randomization's corner {corner}" if corner else ""
             raise ValueError(
-                f"{what} must give an initial state that can be solved without payload; it cannot"
-                f"{where} ({L.STATUS_TEXT.get(status, status)})"
+                f"payload_range must have high <= {_floor6(limit)} kg (the heaviest payload whose initial "
+                f"state can be solved{where}: {L.STATUS_TEXT.get(status, status)}), "
+                f"got {self.payload_range!r}"
             )
 
     def _payload_limit(self, params: ModelParams, payload: float) -> float:
