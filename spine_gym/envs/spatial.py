@@ -72,6 +72,13 @@ class SpatialConfig(BaseEnvConfig):
         the seed's)."""
         return SpineLayout.chain(self.n_modules, params)
 
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        layout = self.layout_for(params)
+        kp, kw, km = layout.to_kernel()
+        state = np.zeros(layout.state_size())
+        vforce = self.initial_loads(params, payload)
+        return init_state(state, kp, self.solver.to_kernel(), kw, km, vforce)
+
     @property
     def layout(self) -> SpineLayout:
         """The nominal layout."""
