@@ -79,6 +79,15 @@ def test_v1_is_v0_plus_measured_errors_and_a_tenth_of_the_reward(family):
 
 
 @pytest.mark.parametrize("env_id", V1_IDS)
+def test_make_and_make_vec_of_a_v1_id_do_not_warn(env_id):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        gym.make(env_id).close()
+        gym.make_vec(env_id, num_envs=2).close()
+    assert [str(x.message) for x in w] == []
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
 def test_vector_env_rows_equal_single_envs(env_id):
     venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **SHORT)
     singles = [gym.make(env_id, **SHORT).unwrapped for _ in range(2)]
