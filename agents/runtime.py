@@ -195,7 +195,7 @@ class SavedPolicy:
     """A trained SB3 model and its observation normalisation, as a ``predict``-able controller.
 
     Args:
-        model: the loaded SB3 algorithm (``PPO``/``SAC``).
+        model: the loaded SB3 algorithm (``PPO``/``SAC``/``TD3``).
         obs_rms: ``VecNormalize`` running mean/var of the observations (``None``: raw obs).
         clip_obs, epsilon: ``VecNormalize`` settings used in training.
         meta: the run's metadata (algo, env kwargs, command…).
@@ -281,7 +281,7 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``), and
     a checkpoint in a run's ``checkpoints/`` reads the run's ``meta.json``.
     """
-    from stable_baselines3 import PPO, SAC
+    from stable_baselines3 import PPO, SAC, TD3
 
     path = Path(path)
     if not path.exists():
@@ -304,7 +304,7 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     elif (folder / "args.yml").exists():
         meta = yaml.safe_load((folder / "args.yml").read_text()) or {}
     algo = str(meta.get("algo", "")).lower()
-    classes = {"ppo": PPO, "sac": SAC}
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}  # agents.train makes PPO and SAC; TD3 for export
     if algo not in classes:
         # guess from the file (SAC has critic weights)
         with zipfile.ZipFile(model_path) as zf:
