@@ -77,7 +77,9 @@ def _linear_stack(modules) -> list[list]:
     for m in modules:
         if isinstance(m, nn.Linear):
             w = m.weight.detach().cpu().numpy().astype(np.float32)
-            b = (m.bias.detach().cpu().numpy() if m.bias is not None else np.zeros(w.shape[0])).astype(np.float32)
+            b = (m.bias.detach().cpu().numpy() if m.bias is not None else np.zeros(w.shape[0])).astype(
+                np.float32
+            )
             layers.append([w, b, "none"])
         elif type(m) in _ACTIVATION_NAMES and layers and layers[-1][2] == "none":
             layers[-1][2] = _ACTIVATION_NAMES[type(m)]
@@ -111,7 +113,9 @@ def actor_layers(model) -> tuple[str, list[list], str]:
         raise UnsupportedPolicyError("exporting a gSDE policy (use_sde=True) is not supported")
     if isinstance(model, PPO):
         if not isinstance(pol.action_dist, DiagGaussianDistribution):
-            raise UnsupportedPolicyError(f"exporting a PPO policy with {type(pol.action_dist).__name__} is not supported")
+            raise UnsupportedPolicyError(
+                f"exporting a PPO policy with {type(pol.action_dist).__name__} is not supported"
+            )
         _check_extractor(pol.pi_features_extractor)
         return "ppo", _linear_stack([*pol.mlp_extractor.policy_net, pol.action_net]), "clip"
     if isinstance(model, SAC):
@@ -176,7 +180,9 @@ def _env_description(meta: dict, n_obs: int, n_act: int) -> dict:
             f"kwargs {meta.get('env_kwargs', {})} has {len(names)}"
         )
     prev = [e for e in table.entries if e.key == "previous_action"]
-    act = [n.replace("previous_", "") for n in prev[0].names] if prev else [f"action_{i}" for i in range(n_act)]
+    act = (
+        [n.replace("previous_", "") for n in prev[0].names] if prev else [f"action_{i}" for i in range(n_act)]
+    )
     v_max = float(getattr(env, "v_max", np.nan))
     env.close()
     return {"names": names, "units": units, "action_names": act, "v_max": v_max}
@@ -195,7 +201,9 @@ def bundle_of(policy, source: str = "") -> tuple[dict, dict]:
         arrays[f"W{i}"], arrays[f"b{i}"] = w, b
     rms = saved.obs_rms
     arrays["obs_mean"] = np.zeros(n_input) if rms is None else np.asarray(rms.mean, np.float64)
-    arrays["obs_std"] = np.ones(n_input) if rms is None else np.sqrt(np.asarray(rms.var, np.float64) + saved.epsilon)
+    arrays["obs_std"] = (
+        np.ones(n_input) if rms is None else np.sqrt(np.asarray(rms.var, np.float64) + saved.epsilon)
+    )
     arrays["clip_obs"] = np.float64(np.inf if rms is None else saved.clip_obs)
     arrays["action_low"] = saved.model.action_space.low.astype(np.float32)
     arrays["action_high"] = saved.model.action_space.high.astype(np.float32)
@@ -241,7 +249,10 @@ def onnx_model(arrays: dict, spec: dict) -> onnx.ModelProto:
     """The ONNX graph of a bundle: normalisation, the layers and the output stage, float32."""
     net = spec["network"]
     inits = [_const("obs_mean", arrays["obs_mean"]), _const("obs_std", arrays["obs_std"])]
-    nodes = [helper.make_node("Sub", ["obs", "obs_mean"], ["centred"]), helper.make_node("Div", ["centred", "obs_std"], ["x"])]
+    nodes = [
+        helper.make_node("Sub", ["obs", "obs_mean"], ["centred"]),
+        helper.make_node("Div", ["centred", "obs_std"], ["x"]),
+    ]
     h = "x"
     if np.isfinite(arrays["clip_obs"]):
         c = float(arrays["clip_obs"])
@@ -267,7 +278,10 @@ def onnx_model(arrays: dict, spec: dict) -> onnx.ModelProto:
             helper.make_node("Add", ["action_low", "t3"], ["action"]),
         ]
     else:
-        nodes += [helper.make_node("Max", [h, "action_low"], ["a_lo"]), helper.make_node("Min", ["a_lo", "action_high"], ["action"])]
+        nodes += [
+            helper.make_node("Max", [h, "action_low"], ["a_lo"]),
+            helper.make_node("Min", ["a_lo", "action_high"], ["action"]),
+        ]
     graph = helper.make_graph(
         nodes,
         f"{spec['algo']}_policy",
@@ -275,9 +289,13 @@ def onnx_model(arrays: dict, spec: dict) -> onnx.ModelProto:
         [helper.make_tensor_value_info("action", TensorProto.FLOAT, ["batch", spec["n_act"]])],
         initializer=inits,
     )
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", ONNX_OPSET)], producer_name="spine_gym")
+    model = helper.make_model(
+        graph, opset_imports=[helper.make_opsetid("", ONNX_OPSET)], producer_name="spine_gym"
+    )
     model.ir_version = 8
-    model.doc_string = f"{spec['algo']} policy of {spec['env_id']} exported from {spec['source']} (see policy.json)"
+    model.doc_string = (
+        f"{spec['algo']} policy of {spec['env_id']} exported from {spec['source']} (see policy.json)"
+    )
     onnx.checker.check_model(model)
     return model
 
@@ -306,7 +324,9 @@ def export_policy(policy, out: str | Path, source: str = "") -> dict[str, Path]:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.export", description=__doc__.split("\n")[0])
-    p.add_argument("policy", help="a policy folder (model.zip + vecnormalize.pkl + meta.json) or a model .zip")
+    p.add_argument(
+        "policy", help="a policy folder (model.zip + vecnormalize.pkl + meta.json) or a model .zip"
+    )
     p.add_argument("-o", "--out", required=True, help="output folder (created)")
     return p
 

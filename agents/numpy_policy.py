@@ -196,7 +196,8 @@ class ExportedPolicy:
         return x
 
     def __repr__(self) -> str:
-        return f"ExportedPolicy({self.spec.get('algo')}, {self.n_input} -> {self.n_act}, features={len(self.memories)})"
+        algo, n = self.spec.get("algo"), len(self.memories)
+        return f"ExportedPolicy({algo}, {self.n_input} -> {self.n_act}, features={n})"
 
 
 def load_bundle(folder: str | Path) -> ExportedPolicy:
