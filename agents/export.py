@@ -267,9 +267,9 @@ def onnx_model(arrays: dict, spec: dict) -> onnx.ModelProto:
             nodes.append(helper.make_node({"tanh": "Tanh", "relu": "Relu"}[act], [h], [f"h{i}"]))
             h = f"h{i}"
     low, high = arrays["action_low"], arrays["action_high"]
-    inits += [_const("action_low", low), _const("action_high", high)]
     if net["output"] == "squash":  # low + 0.5 (tanh(h) + 1) (high - low)
-        inits += [_const("one", 1.0), _const("half", 0.5), _const("action_range", high - low)]
+        inits += [_const("action_low", low), _const("action_range", high - low)]
+        inits += [_const("one", 1.0), _const("half", 0.5)]
         nodes += [
             helper.make_node("Tanh", [h], ["t"]),
             helper.make_node("Add", ["t", "one"], ["t1"]),
@@ -278,6 +278,7 @@ def onnx_model(arrays: dict, spec: dict) -> onnx.ModelProto:
             helper.make_node("Add", ["action_low", "t3"], ["action"]),
         ]
     else:
+        inits += [_const("action_low", low), _const("action_high", high)]
         nodes += [
             helper.make_node("Max", [h, "action_low"], ["a_lo"]),
             helper.make_node("Min", ["a_lo", "action_high"], ["action"]),
