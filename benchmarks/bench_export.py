@@ -16,9 +16,15 @@ A memory policy runs the 1 000 observations as one stream through each runner (t
 a memoryless one the network on each. Each figure is the best of ``--repeats`` passes over the
 1 000 observations (the runners interleaved pass by pass), wall and process CPU time; ratios are
 SB3's time over the runner's. The same run checks agreement: the max |action − SB3 action| of
-every runner over the 1 000 observations. Writes ``benchmarks/results/export_speed.json``.
+every runner over the 1 000 observations.
 
-    .venv/bin/python benchmarks/bench_export.py [--policies ppo sac ppo_int] [--repeats 5]
+Closed loop (``--no-episodes`` skips it): the quick evaluation suite (6 episodes of 20 s) driven
+by the SB3 policy, by the NumPy runner and by the SB3 policy fed observations moved up by one
+float32 ulp (``np.nextafter``), as a yardstick of the loop's own sensitivity to rounding; per
+episode the relative differences of RMSE and energy from the SB3 run. Writes
+``benchmarks/results/export_speed.json``.
+
+    .venv/bin/python benchmarks/bench_export.py [--policies ppo sac ppo_int] [--repeats 5] [--no-episodes]
 """
 
 from __future__ import annotations
@@ -40,10 +46,12 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from agents.evaluate import evaluate  # noqa: E402
 from agents.export import export_policy  # noqa: E402
 from agents.export_c import compile_driver  # noqa: E402
 from agents.numpy_policy import load_bundle  # noqa: E402
-from agents.runtime import load_policy, make_env  # noqa: E402
+from agents.runtime import evaluation_env_kwargs, load_policy, make_env  # noqa: E402
+from agents.scenarios import get_suite  # noqa: E402
 
 C_CALLS = 200_000  # calls per timed pass of the C program
 
@@ -147,6 +155,39 @@ def _network_inputs(runner, obs: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+class OneUlpUp:
+    """A controller that passes observations moved up by one float32 ulp to ``policy``."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def reset(self):
+        self.policy.reset()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        moved = np.nextafter(np.asarray(observation, np.float32), np.float32(np.inf))
+        return self.policy.predict(moved, state, episode_start, deterministic)
+
+
+def closed_loop(name: str, tmp: Path) -> list[dict]:
+    """Per quick-suite episode: |metric / SB3's metric − 1| of the NumPy runner and of SB3 + 1 ulp."""
+    policy = load_policy(ROOT / "agents" / "policies" / name)
+    runner = load_bundle(tmp / name)
+    kw = evaluation_env_kwargs(policy.env_kwargs)
+    ctrls = {"sb3": policy, "numpy": runner, "sb3_1ulp": OneUlpUp(policy)}
+    rows, _ = evaluate(ctrls, get_suite("quick"), {k: kw for k in ctrls})
+    by = {(r["controller"], r["scenario"]): r for r in rows}
+    out = []
+    for sc in dict.fromkeys(r["scenario"] for r in rows):
+        ref = by[("sb3", sc)]
+        row = {"scenario": sc}
+        for k in ("numpy", "sb3_1ulp"):
+            for m in ("rmse_deg", "energy_J"):
+                row[f"{k}_{m}_rel"] = abs(by[(k, sc)][m] / ref[m] - 1.0)
+        out.append(row)
+    return out
+
+
 def machine() -> dict:
     commit = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT
@@ -170,6 +211,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--policies", nargs="+", default=["ppo", "sac", "ppo_int"])
     p.add_argument("--repeats", type=int, default=5, help="timed passes per runner (best of), >= 1")
+    p.add_argument("--no-episodes", action="store_true", help="skip the closed-loop comparison")
     p.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = p.parse_args(argv)
     if args.repeats < 1:
@@ -188,6 +230,14 @@ def main(argv=None) -> int:
                 ratio = "" if k == "sb3" else f"  sb3/{k} {r['sb3_over_runner_wall'][k]:7.1f}x"
                 diff = "" if k == "sb3" else f"  max|da| {r['max_abs_diff_vs_sb3'][k]:.1e}"
                 print(f"  {k:6s} {w[k]:9.2f} us wall {c[k]:9.2f} us cpu{ratio}{diff}")
+            if not args.no_episodes:
+                r["closed_loop"] = closed_loop(name, Path(tmp))
+                for e in r["closed_loop"]:
+                    print(
+                        f"  {e['scenario']:16s} numpy: rmse {e['numpy_rmse_deg_rel']:.1e} energy "
+                        f"{e['numpy_energy_J_rel']:.1e} | sb3 +1 ulp: rmse {e['sb3_1ulp_rmse_deg_rel']:.1e} "
+                        f"energy {e['sb3_1ulp_energy_J_rel']:.1e}"
+                    )
     info["load_average_end"] = os.getloadavg()
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "export_speed.json"

@@ -163,7 +163,9 @@ def test_every_runner_agrees_with_sb3_predict(algo, observations, tmp_path):
         ("C", c_runner(bundle, observations, tmp_path)),
     ):
         assert got.shape == ref.shape, name
-        assert np.max(np.abs(got - ref)) < TOL, (name, float(np.max(np.abs(got - ref))))
+        diff = float(np.max(np.abs(got - ref)))
+        print(f"{algo} {name}: max |action - SB3 predict| {diff:.1e}")  # shown by pytest -s
+        assert diff < TOL, (name, diff)
 
 
 def test_the_bundle_describes_its_numbers(observations, tmp_path):
