@@ -212,7 +212,7 @@ class SavedPolicy:
     """A trained SB3 model and its observation normalisation, as a ``predict``-able controller.
 
     Args:
-        model: the loaded SB3 algorithm (``PPO``/``SAC``).
+        model: the loaded SB3 algorithm (``PPO``/``SAC``/``TD3``).
         obs_rms: ``VecNormalize`` running mean/var of the observations (``None``: raw obs).
         clip_obs, epsilon: ``VecNormalize`` settings used in training.
         meta: the run's metadata (algo, env kwargs, command…).

@@ -102,6 +102,24 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
     names = {re.split(r"[<>=\[ ;]", d, maxsplit=1)[0].lower() for d in meta["dependencies"]}
     assert names == {"numpy", "numba", "gymnasium", "matplotlib", "tqdm", "rich", "pyyaml"}
     extras = meta["optional-dependencies"]
-    assert {"rl", "design", "calibrate", "video", "rllib", "test", "all"} <= set(extras)
+    assert {"rl", "design", "calibrate", "video", "rllib", "export", "test", "all"} <= set(extras)
     assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
-    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,test]"]
+    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,test]"]
+
+
+def test_exported_policy_runner_and_c_writer_import_only_numpy_and_the_standard_library():
+    """agents/numpy_policy.py runs an exported bundle where torch, SB3 and spine_gym are absent;
+    agents/export_c.py writes the C from the bundle's arrays alone."""
+    agents = PHYSICS.parents[1] / "agents"
+    stdlib = set(sys.stdlib_module_names) | {"__future__"}
+    for name in ("numpy_policy.py", "export_c.py"):
+        tree = ast.parse((agents / name).read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                roots = {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"{name} imports from the agents package"
+                roots = {node.module.split(".")[0]}
+            else:
+                continue
+            assert roots <= stdlib | {"numpy"}, f"{name} imports {roots - stdlib - {'numpy'}}"
