@@ -53,6 +53,15 @@ from pathlib import Path
 
 import yaml
 
+from .checkpoints import (
+    RunCheckpointCallback,
+    checkpoint_steps,
+    lagrangian_candidates,
+    latest_checkpoint,
+    load_lagrangian,
+    restore_eval_history,
+    save_lagrangian,
+)
 from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
 from .history import HistoryObsVecEnv, HistorySpec
@@ -71,7 +80,7 @@ from .runtime import (
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
-    p.add_argument("--algo", required=True, choices=ALGOS, help="RL algorithm")
+    p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
     p.add_argument("--env", default=ENV_ID, help="environment id (default: %(default)s)")
     p.add_argument(
         "-n", "--n-timesteps", type=int, default=-1, help="training steps (default: from the YAML)"
@@ -90,7 +99,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="hyperparameter YAML (default: agents/hyperparams/<algo>.yml)",
     )
     p.add_argument("-f", "--log-folder", type=str, default="logs", help="log folder (default: %(default)s)")
-    p.add_argument("-i", "--trained-agent", type=str, default="", help="checkpoint .zip to resume from")
+    p.add_argument(
+        "-i",
+        "--trained-agent",
+        type=str,
+        default="",
+        help="fine-tune this model .zip in a new run folder (-n more steps)",
+    )
+    p.add_argument(
+        "--resume",
+        type=str,
+        default="",
+        metavar="RUN",
+        help="continue an interrupted run in its folder: the run folder (its newest checkpoint) or one "
+        "of its checkpoints/rl_model_<n>_steps.zip; reuses the run's command line (flags given here "
+        "are appended to it)",
+    )
     p.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N env steps (<= 0: never)")
     p.add_argument("--eval-episodes", type=int, default=8, help="episodes per evaluation")
     p.add_argument("--save-freq", type=int, default=50_000, help="checkpoint every N env steps (<= 0: never)")
@@ -136,16 +160,50 @@ def _yaml_safe(d: dict) -> dict:
     return out
 
 
+def _resume_target(path: Path) -> tuple[Path, Path]:
+    """(run folder, checkpoint) of ``--resume path``: a run folder and its newest complete
+    checkpoint, or a checkpoint ``<run>/checkpoints/rl_model_<n>_steps.zip`` and its run."""
+    if path.is_dir():
+        run, ckpt = path, latest_checkpoint(path)
+        if ckpt is None:
+            raise SystemExit(f"--resume: no checkpoint in {path / 'checkpoints'} to resume from")
+    elif checkpoint_steps(path) is not None and path.parent.name == "checkpoints" and path.exists():
+        run, ckpt = path.parent.parent, path
+    else:
+        raise SystemExit(f"--resume must be a run folder or its checkpoints/rl_model_<n>_steps.zip, got {path}")
+    if not (run / "command.txt").exists() or not (run / "meta.json").exists():
+        raise SystemExit(f"--resume: {run} is not a run folder of agents.train (no command.txt / meta.json)")
+    return run, ckpt
+
+
+def _parse(argv: list[str] | None):
+    """(arguments, argv, resume target or None). With ``--resume`` the run's first command line
+    comes first and this one's flags after it, so they override."""
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parser.parse_args(argv)
+    resume = None
+    if args.resume:
+        if args.trained_agent:
+            parser.error("--resume continues a run from its own checkpoint: drop -i")
+        resume = _resume_target(Path(args.resume))
+        first = shlex.split((resume[0] / "command.txt").read_text().splitlines()[0])
+        args = parser.parse_args([*first[3:], *argv])  # first[:3]: python -m agents.train
+    if args.algo is None:
+        parser.error("--algo is required (or --resume RUN)")
+    return args, argv, resume
+
+
 def train(argv: list[str] | None = None) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
-    args = build_parser().parse_args(argv)
-    argv = sys.argv[1:] if argv is None else list(argv)
+    args, argv, resume = _parse(argv)
+    ckpt = str(resume[1]) if resume else args.trained_agent  # the model to load, if any
     os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
     import torch
 
     torch.set_num_threads(max(1, args.torch_threads))
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CallbackList, EvalCallback
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -161,31 +219,38 @@ def train(argv: list[str] | None = None) -> Path:
     env_kwargs = {**special["env_kwargs"], **args.env_kwargs}
     set_random_seed(args.seed)
 
-    run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
     command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
-    (run / "command.txt").write_text(command + "\n")
-    (run / "args.yml").write_text(
-        yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
-    )
-    (run / "config.yml").write_text(
-        yaml.safe_dump(
-            {
-                args.env: _yaml_safe(
-                    {**hp, **special, "n_envs": n_envs, "n_timesteps": n_timesteps, "env_kwargs": env_kwargs}
-                )
-            }
+    if resume:
+        run = resume[0]
+        with open(run / "command.txt", "a") as f:
+            f.write(command + "\n")
+        meta = json.loads((run / "meta.json").read_text())
+        meta.setdefault("resumes", []).append({"checkpoint": ckpt, "command": command})
+    else:
+        run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
+        (run / "command.txt").write_text(command + "\n")
+        (run / "args.yml").write_text(
+            yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
         )
-    )
-    meta = {
-        "algo": args.algo,
-        "env_id": args.env,
-        "env_kwargs": env_kwargs,
-        "seed": args.seed,
-        "n_envs": n_envs,
-        "n_timesteps": n_timesteps,
-        "command": command,
-        "resumed_from": args.trained_agent or None,
-    }
+        (run / "config.yml").write_text(
+            yaml.safe_dump(
+                {
+                    args.env: _yaml_safe(
+                        {**hp, **special, "n_envs": n_envs, "n_timesteps": n_timesteps, "env_kwargs": env_kwargs}
+                    )
+                }
+            )
+        )
+        meta = {
+            "algo": args.algo,
+            "env_id": args.env,
+            "env_kwargs": env_kwargs,
+            "seed": args.seed,
+            "n_envs": n_envs,
+            "n_timesteps": n_timesteps,
+            "command": command,
+            "resumed_from": args.trained_agent or None,
+        }
 
     env = make_vec_env(args.env, n_envs, seed=args.seed, env_kwargs=env_kwargs, kind=args.vec_env)
     norm = special["normalize"]
@@ -229,9 +294,12 @@ def train(argv: list[str] | None = None) -> Path:
             eval_env = HistoryObsVecEnv(eval_env, hspec)
     budget_env = None
     if special["energy_budget"] is not None:
-        budget = energy_budget(
-            special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
-        )
+        if resume:  # the checkpoint's budget: a "pid" budget is not measured again
+            budget = float(json.loads(lagrangian_candidates(resume[1])[0].read_text())["budget_J"])
+        else:
+            budget = energy_budget(
+                special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
+            )
         probe = make_env(env_kwargs)
         budget_env = EnergyBudgetVecEnv(
             env,
@@ -241,13 +309,15 @@ def train(argv: list[str] | None = None) -> Path:
             window=int(special["budget_window"]),
         )
         probe.close()
+        if resume:
+            load_lagrangian(budget_env, resume[1])
         env = budget_env
         meta["energy_budget_J"] = budget
         if args.verbose:
             print(f"energy budget {budget:.1f} J per episode", flush=True)
     if norm is not None:
-        if args.trained_agent:
-            stats = _checkpoint_vecnormalize(Path(args.trained_agent))
+        if ckpt:
+            stats = _checkpoint_vecnormalize(Path(ckpt))
             env = VecNormalize.load(str(stats), env)
             env.training = True
         else:
@@ -262,9 +332,9 @@ def train(argv: list[str] | None = None) -> Path:
 
     algo_cls = {"ppo": PPO, "sac": SAC}[args.algo]
     tb = None if args.no_tensorboard else str(run / "tb")
-    if args.trained_agent:
+    if ckpt:
         model = algo_cls.load(
-            args.trained_agent, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
+            ckpt, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
         )
         if model.seed != args.seed:
             # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
@@ -272,7 +342,7 @@ def train(argv: list[str] | None = None) -> Path:
             # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
             model.seed = args.seed
             model.set_random_seed(args.seed)
-        replay = Path(args.trained_agent).with_name("replay_buffer.pkl")
+        replay = Path(ckpt).with_name("replay_buffer.pkl")
         if args.algo == "sac" and replay.exists():
             model.load_replay_buffer(str(replay))
     else:
@@ -286,17 +356,22 @@ def train(argv: list[str] | None = None) -> Path:
             **hp,
         )
 
+    if resume:
+        # the checkpoint's last observation belongs to the killed process's envs: reset the new ones
+        model._last_obs = None
+        start = int(meta.get("start_timesteps", 0))
+    else:
+        start = int(model.num_timesteps)  # 0, or the fine-tuned model's count
+        meta["start_timesteps"] = start
+    remaining = max(0, start + n_timesteps - int(model.num_timesteps))
     callbacks = []
     if budget_env is not None:
         eta = float(special["lagrangian_lr"])
         callbacks.append(LagrangianCallback(budget_env, eta=eta, verbose=args.verbose))
     if args.save_freq > 0:
         callbacks.append(
-            CheckpointCallback(
-                save_freq=max(1, args.save_freq // n_envs),
-                save_path=str(run / "checkpoints"),
-                save_vecnormalize=norm is not None,
-                save_replay_buffer=False,
+            RunCheckpointCallback(
+                run / "checkpoints", max(1, args.save_freq // n_envs), start, budget_env, args.verbose
             )
         )
     if eval_env is not None:
@@ -312,40 +387,41 @@ def train(argv: list[str] | None = None) -> Path:
                     return True
 
             on_best = _SaveBestVecNormalize()
-        callbacks.append(
-            EvalCallback(
-                eval_env,
-                callback_on_new_best=on_best,
-                eval_freq=max(1, args.eval_freq // n_envs),
-                n_eval_episodes=args.eval_episodes,
-                best_model_save_path=str(run),
-                log_path=str(run),
-                deterministic=True,
-                verbose=args.verbose,
-            )
+        evaluation = EvalCallback(
+            eval_env,
+            callback_on_new_best=on_best,
+            eval_freq=max(1, args.eval_freq // n_envs),
+            n_eval_episodes=args.eval_episodes,
+            best_model_save_path=str(run),
+            log_path=str(run),
+            deterministic=True,
+            verbose=args.verbose,
         )
+        if resume:
+            restore_eval_history(evaluation, run, int(model.num_timesteps))
+        callbacks.append(evaluation)
+    segment = meta["resumes"][-1] if resume else meta
+    segment["start_step"] = int(model.num_timesteps)
+    if budget_env is not None:
+        segment["lagrangian_start"] = budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     t0, c0 = time.time(), time.process_time()
     model.learn(
-        total_timesteps=n_timesteps,
+        total_timesteps=remaining if resume else n_timesteps,
         callback=CallbackList(callbacks),
         progress_bar=args.progress,
-        reset_num_timesteps=not args.trained_agent,
+        reset_num_timesteps=not ckpt,
         tb_log_name=args.algo,
     )
     wall, cpu = time.time() - t0, time.process_time() - c0
     model.save(run / "model.zip")
     if norm is not None:
         env.save(str(run / "vecnormalize.pkl"))
-    meta.update(
-        {
-            "train_wall_time_s": round(wall, 1),
-            "train_cpu_time_s": round(cpu, 1),
-            "total_timesteps": int(model.num_timesteps),
-        }
-    )
+    segment.update({"train_wall_time_s": round(wall, 1), "train_cpu_time_s": round(cpu, 1)})
+    meta["total_timesteps"] = int(model.num_timesteps)
     if budget_env is not None:
         meta["lagrangian_final"] = budget_env.lam
+        save_lagrangian(budget_env, run / "lagrangian.json")
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     if args.verbose:
         print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")
