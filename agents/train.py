@@ -17,8 +17,24 @@ command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparamet
 ``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model +
 ``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
 ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
-logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
-normalisation statistics and step counter) in a new run folder.
+logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``lagrangian.json`` with an
+energy budget).
+
+Resuming an interrupted run (a crash, ``kill -9``)::
+
+    python -m agents.train --resume logs/ppo/SmaSpine-v0_3            # its newest checkpoint
+    python -m agents.train --resume logs/ppo/SmaSpine-v0_3/checkpoints/rl_model_200000_steps.zip
+
+continues the run in its own folder with the run's command line (``command.txt``'s first line; flags
+given with ``--resume`` are appended and win): the checkpoint's weights, optimiser state,
+``VecNormalize`` statistics, step counter and Lagrange multiplier (:mod:`agents.checkpoints`), up to
+the run's ``-n`` steps in all, so learning-rate and clip schedules and later checkpoints fall on the
+steps of an uninterrupted run. The envs restart their episodes from ``--seed`` and the random streams
+are seeded afresh, so the result is not the uninterrupted run's, but two resumes from one checkpoint
+give the same weights (``tests/test_train_resume.py``). Evaluations up to the checkpoint stay in
+``evaluations.npz`` and ``best_model.zip`` is replaced only by a better one.
+``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
+normalisation statistics and step counter, the multiplier from ``lagrangian_init``.
 
 ``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
 top of the tuned PID (:mod:`agents.residual`; ``residual_scale`` sets the authority of the
