@@ -17,13 +17,16 @@ from typing import Any
 
 import yaml
 
+from spine_gym.envs import ENV_SPECS
+
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
 ENV_ID = "SmaSpine-v0"
-SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module (issue 9)
-CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules (issue 9)
-ENV_IDS = (ENV_ID, SPATIAL_ENV_ID, CHAIN_ENV_ID)
-ALGOS = ("ppo", "sac")
+SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
+CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
+ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, -v1 and the -v1 tiers of the three families
+ALGOS = ("ppo", "sac", "td3", "tqc")  # tqc: sb3-contrib
+OFF_POLICY = ("sac", "td3", "tqc")  # the algorithms with a replay buffer
 
 # keys of a hyperparameter entry that are not constructor arguments of the algorithm
 SPECIAL_KEYS = (
@@ -44,7 +47,26 @@ SPECIAL_KEYS = (
     "obs_integral",
     "obs_integral_limit",
     "obs_history",
+    "noise_type",
+    "noise_std",
 )
+
+
+def algo_class(algo: str) -> type:
+    """The Stable-Baselines3 (``tqc``: sb3-contrib) class of ``algo``.
+
+    Imported here rather than at module level: this module is also the hyperparameter parser of
+    tools that never build a model, and SB3 pulls in torch.
+    """
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
+    if algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC
+    import stable_baselines3
+
+    return getattr(stable_baselines3, algo.upper())
 
 
 def parse_value(text: str) -> Any:
@@ -137,6 +159,8 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of agents.integral
     special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
     special.setdefault("obs_history", None)  # k earlier frames of angle and action (agents.history)
+    special.setdefault("noise_type", None)  # "normal" or "ornstein-uhlenbeck": TD3's action noise
+    special.setdefault("noise_std", 0.1)  # its standard deviation, in units of the action range [-1, 1]
     if special["residual"] in (None, "none", "None", False):
         special["residual"] = None
     if special["obs_integral"] in (None, "none", "None", False):

@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from spine_gym.envs import base_id
+
 from .common import CHAIN_ENV_ID, ENV_ID, ENV_IDS, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY, baselines_for, registry_for
@@ -360,7 +362,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
     summary = summarize(rows)
     print()
-    print(format_tables(summary, use_rich=not args.plain, error_unit=ERROR_UNIT.get(args.env, "deg")))
+    unit = ERROR_UNIT.get(base_id(args.env), "deg")
+    print(format_tables(summary, use_rich=not args.plain, error_unit=unit))
     out = Path(args.out)
     if args.relative_to:
         rel = relative_rows(summary, args.relative_to)

@@ -33,6 +33,7 @@ from spine_gym.controllers import (
     SpatialStepController,
     StepVoltageController,
 )
+from spine_gym.envs import base_id
 
 from .common import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
 
@@ -203,10 +204,9 @@ DEFAULT_TUNED_BY_ENV = {
 
 
 def registry_for(env_id: str = ENV_ID) -> dict[str, ControllerSpec]:
-    """The controller table of ``env_id``; ValueError listing the env ids that have one."""
-    if env_id not in REGISTRIES:
-        raise ValueError(f"no controller registry for env {env_id!r}; env ids: {sorted(REGISTRIES)}")
-    return REGISTRIES[env_id]
+    """The controller table of ``env_id`` (one per family: every version and tier of a spine shares
+    its ``-v0`` table); ValueError naming the registered ids otherwise."""
+    return REGISTRIES[base_id(env_id)]
 
 
 def baselines_for(env_id: str = ENV_ID) -> tuple[str, ...]:
@@ -229,13 +229,13 @@ def get_spec(name: str, env_id: str = ENV_ID) -> ControllerSpec:
 
 def tuned_file(env_id: str = ENV_ID) -> Path:
     """Where :mod:`agents.tune` writes the tuned settings of ``env_id``."""
-    registry_for(env_id)
+    env_id = base_id(env_id)
     return TUNED_FILE if env_id == ENV_ID else HYPERPARAMS_DIR / f"baselines_{env_id}.yml"
 
 
 def load_tuned(path: Path | None = None, env_id: str = ENV_ID) -> dict:
     """Tuned settings ``{name: {...}}`` of the tuned entries of ``env_id`` (defaults if not tuned yet)."""
-    defaults = DEFAULT_TUNED_BY_ENV[env_id]
+    defaults = DEFAULT_TUNED_BY_ENV[base_id(env_id)]
     path = Path(path) if path else tuned_file(env_id)
     if not path.exists():
         return {k: dict(v) for k, v in defaults.items()}

@@ -29,6 +29,8 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from spine_gym.envs import base_id
+
 from .common import ENV_ID
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 
@@ -56,7 +58,7 @@ def base_spec(
     scale = float(scale)
     if not 0.0 < scale <= 2.0:
         raise ValueError(f"residual_scale must be in (0, 2], got {scale}")
-    extra = {} if env_id == ENV_ID else {"env_id": env_id, "env_kwargs": dict(env_kwargs or {})}
+    extra = {} if base_id(env_id) == ENV_ID else {"env_id": env_id, "env_kwargs": dict(env_kwargs or {})}
     return extra | {
         "kind": kind,
         "params": load_tuned(env_id=env_id)[kind],
@@ -73,7 +75,7 @@ def build_base(spec: dict):
         raise ValueError(f"residual base must be one of {BASES}, got {spec.get('kind')!r}")
     env_id = spec.get("env_id", ENV_ID)
     cls = get_spec(spec["kind"], env_id).cls
-    if env_id != ENV_ID:  # a spatial controller reads the env's layout and observation table
+    if base_id(env_id) != ENV_ID:  # a spatial controller reads the env's layout and observation table
         env = gym.make(env_id, **spec["env_kwargs"]).unwrapped
         ctrl = cls.from_env(env, **spec["params"], temperature_limit=spec["temperature_limit"])
         env.close()

@@ -26,17 +26,18 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import yaml
+from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
-from .common import ENV_ID
+from .common import ALGOS, ENV_ID, algo_class
 from .history import HistoryObsPolicy, HistorySpec
 from .integral import IntegralObsPolicy, IntegralSpec
-from .metrics import Trajectory
+from .metrics import Trajectory, episode_metrics
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
-from .scenarios import Scenario
+from .scenarios import EVAL_SEED_BASE, Scenario
 
 __all__ = [
     "make_env",
@@ -49,6 +50,7 @@ __all__ = [
     "run_episode",
     "SavedPolicy",
     "load_policy",
+    "wrap_policy",
     "vecnormalize_candidates",
     "load_tuned",
     "GUARD_MARGIN_K",
@@ -57,6 +59,7 @@ __all__ = [
     "evaluation_env_kwargs",
     "VALIDATION_SEED_BASE",
     "validation_scores",
+    "validation_metrics",
 ]
 
 
@@ -146,20 +149,34 @@ def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
 
 
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
+MAX_VALIDATION_EPISODES = EVAL_SEED_BASE - VALIDATION_SEED_BASE  # the seeds stay below the suite's
+
+
+def validation_metrics(
+    policy, n_episodes: int, env_kwargs: dict | None = None, env_id: str = ENV_ID, *, progress: str = ""
+) -> list[dict]:
+    """:func:`agents.metrics.episode_metrics` of ``policy`` on each of the ``n_episodes`` validation
+    episodes of ``env_id`` (the env's own samplers, reset seeds ``VALIDATION_SEED_BASE + i``);
+    ``progress``: the description of a progress bar over the episodes (none if empty)."""
+    if not 1 <= n_episodes <= MAX_VALIDATION_EPISODES:
+        raise ValueError(f"n_episodes must be in [1, {MAX_VALIDATION_EPISODES}], got {n_episodes}")
+    env = make_env(env_kwargs or {}, env_id=env_id)
+    limit, dt = env_temperature_limit(env), float(env.control_period)
+    episodes = tqdm(range(n_episodes), desc=progress, unit="episode", leave=False, disable=not progress)
+    rows = [
+        episode_metrics(
+            run_episode(env, policy, seed=VALIDATION_SEED_BASE + i), temperature_limit=limit, dt=dt
+        )
+        for i in episodes
+    ]
+    env.close()
+    return rows
 
 
 def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
     """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
-    if n_episodes < 1:
-        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
-    env = make_env(env_kwargs or {})
-    rmse, energy = [], []
-    for i in range(n_episodes):
-        tr = run_episode(env, policy, seed=VALIDATION_SEED_BASE + i)
-        rmse.append(np.sqrt(np.mean((tr.angle_deg - tr.target_deg) ** 2)))
-        energy.append(np.sum(tr.energy_J))
-    env.close()
-    return float(np.mean(rmse)), float(np.mean(energy))
+    rows = validation_metrics(policy, n_episodes, env_kwargs)
+    return float(np.mean([r["rmse_deg"] for r in rows])), float(np.mean([r["energy_J"] for r in rows]))
 
 
 def env_temperature_limit(env) -> float:
@@ -281,8 +298,6 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``), and
     a checkpoint in a run's ``checkpoints/`` reads the run's ``meta.json``.
     """
-    from stable_baselines3 import PPO, SAC
-
     path = Path(path)
     if not path.exists():
         raise ValueError(f"policy path {path} does not exist")
@@ -304,13 +319,12 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     elif (folder / "args.yml").exists():
         meta = yaml.safe_load((folder / "args.yml").read_text()) or {}
     algo = str(meta.get("algo", "")).lower()
-    classes = {"ppo": PPO, "sac": SAC}
-    if algo not in classes:
+    if algo not in ALGOS:
         # guess from the file (SAC has critic weights)
         with zipfile.ZipFile(model_path) as zf:
             data = zf.read("data").decode()
         algo = "sac" if "ent_coef" in data and "target_entropy" in data else "ppo"
-    model = classes[algo].load(model_path, device=device)
+    model = algo_class(algo).load(model_path, device=device)
     obs_rms, clip_obs, eps = None, 10.0, 1e-8
     for c in vecnormalize_candidates(model_path):
         if c.exists():
@@ -319,7 +333,13 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
             obs_rms, clip_obs, eps = vn.obs_rms, vn.clip_obs, vn.epsilon
             break
     meta.setdefault("algo", algo)
-    policy = SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem)
+    return wrap_policy(SavedPolicy(model, obs_rms, clip_obs, eps, meta=meta, name=name or path.stem))
+
+
+def wrap_policy(policy: SavedPolicy):
+    """``policy`` inside the observation wrappers its ``meta`` names (residual baseline, integral of
+    the error, frame history), so it sees what it was trained on."""
+    meta = policy.meta
     # the model sees [obs, residual's base action, integral, frame history] (agents.train's order):
     # the innermost wrapper appends last
     if meta.get("obs_history"):

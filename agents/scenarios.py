@@ -45,7 +45,7 @@ import numpy as np
 from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
-from spine_gym.envs import default_randomization
+from spine_gym.envs import ENV_SPECS, base_id, default_randomization
 from spine_gym.envs.task import LoadSchedule, TargetProfile
 
 from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
@@ -89,12 +89,12 @@ class Scenario:
         """The env's ``reset`` options: ``{"target": <target>, "loads": LoadSchedule}`` and, for
         a randomised plant, ``"params"``: the baseline ModelParams with :attr:`params` replaced."""
         ctor, kwargs = self.target
-        cls = TARGET_CLASSES[self.env_id]
+        cls = TARGET_CLASSES[base_id(self.env_id)]
         target = getattr(cls, ctor)(**kwargs) if ctor else cls(**kwargs)
         loads = LoadSchedule(
             tip_force_events=tuple((p[0], p[1], tuple(p[2:])) for p in self.tip_pulses),
             payload=self.payload_kg,
-            dim=FORCE_DIM[self.env_id],
+            dim=FORCE_DIM[base_id(self.env_id)],
         )
         out = {"target": target, "loads": loads}
         if self.params:
@@ -360,9 +360,9 @@ def get_suite(
     name: str = "full", groups: list[str] | None = None, names: list[str] | None = None, env_id: str = ENV_ID
 ) -> list[Scenario]:
     """The scenarios of suite ``name`` of ``env_id``, optionally only some groups / scenario names."""
-    if env_id not in SUITES_BY_ENV:
-        raise ValueError(f"env_id must be one of {sorted(SUITES_BY_ENV)}, got {env_id!r}")
-    suites = SUITES_BY_ENV[env_id]
+    if env_id not in ENV_SPECS:
+        raise ValueError(f"env_id must be one of {sorted(ENV_SPECS)}, got {env_id!r}")
+    suites = SUITES_BY_ENV[base_id(env_id)]
     if name not in suites:
         raise ValueError(f"suite must be one of {sorted(suites)}, got {name!r}")
     suite = suites[name]()

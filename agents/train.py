@@ -1,4 +1,6 @@
-"""Train PPO or SAC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...; RL-Zoo-style CLI).
+"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...).
+
+RL-Zoo-style CLI.
 
 Example::
 
@@ -14,10 +16,10 @@ flags override them (``-params key:value``). The training env is the package's n
 
 Each run gets a folder ``<log folder>/<algo>/<env id>_<k>/`` holding ``command.txt`` (the exact
 command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparameters used),
-``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model +
-``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
-``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
-logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``lagrangian.json`` with an
+``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model,
+``VecNormalize`` and Lagrange multiplier every ``--save-freq`` steps), ``best_model.zip`` (by the
+evaluation callback), ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``,
+TensorBoard logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``lagrangian.json`` with an
 energy budget).
 
 Resuming an interrupted run (a crash, ``kill -9``)::
@@ -35,6 +37,11 @@ give the same weights (``tests/test_train_resume.py``). Evaluations up to the ch
 ``evaluations.npz`` and ``best_model.zip`` is replaced only by a better one.
 ``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
 normalisation statistics and step counter, the multiplier from ``lagrangian_init``.
+
+The pieces are public for :mod:`agents.benchmark`, which trains through the same path:
+:func:`resolve_config` (the YAML entry with overrides), :func:`build_envs` (the wrapped training
+env), :func:`build_model` and :func:`lagrangian_callbacks`. ``noise_type: normal`` (or
+``ornstein-uhlenbeck``) with ``noise_std`` gives the off-policy algorithms exploration noise (TD3).
 
 ``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
 top of the tuned PID (:mod:`agents.residual`; ``residual_scale`` sets the authority of the
@@ -65,9 +72,16 @@ import os
 import shlex
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+import torch
 import yaml
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
+from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+from stable_baselines3.common.utils import set_random_seed
+from stable_baselines3.common.vec_env import VecNormalize
 
 from .checkpoints import (
     RunCheckpointCallback,
@@ -78,7 +92,15 @@ from .checkpoints import (
     restore_eval_history,
     save_lagrangian,
 )
-from .common import ALGOS, ENV_ID, StoreDict, load_hyperparams, preprocess_hyperparams
+from .common import (
+    ALGOS,
+    ENV_ID,
+    OFF_POLICY,
+    StoreDict,
+    algo_class,
+    load_hyperparams,
+    preprocess_hyperparams,
+)
 from .envs import make_vec_env
 from .history import HistoryObsVecEnv, HistorySpec
 from .integral import IntegralObsVecEnv, IntegralSpec
@@ -186,7 +208,9 @@ def _resume_target(path: Path) -> tuple[Path, Path]:
     elif checkpoint_steps(path) is not None and path.parent.name == "checkpoints" and path.exists():
         run, ckpt = path.parent.parent, path
     else:
-        raise SystemExit(f"--resume must be a run folder or its checkpoints/rl_model_<n>_steps.zip, got {path}")
+        raise SystemExit(
+            f"--resume must be a run folder or its checkpoints/rl_model_<n>_steps.zip, got {path}"
+        )
     if not (run / "command.txt").exists() or not (run / "meta.json").exists():
         raise SystemExit(f"--resume: {run} is not a run folder of agents.train (no command.txt / meta.json)")
     return run, ckpt
@@ -210,220 +234,374 @@ def _parse(argv: list[str] | None):
     return args, argv, resume
 
 
-def train(argv: list[str] | None = None) -> Path:
-    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
-    args, argv, resume = _parse(argv)
-    ckpt = str(resume[1]) if resume else args.trained_agent  # the model to load, if any
-    os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
-    import torch
+@dataclass
+class RunConfig:
+    """The resolved settings of one training run (the YAML entry, overrides and flags applied).
 
-    torch.set_num_threads(max(1, args.torch_threads))
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, EvalCallback
-    from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import VecNormalize
+    Attributes:
+        algo, env_id: the algorithm (:data:`agents.common.ALGOS`) and the registered env id.
+        hp: constructor kwargs of the algorithm (schedules and ``policy_kwargs`` parsed).
+        special: the entry's other settings (:data:`agents.common.SPECIAL_KEYS`, with defaults).
+        n_envs, n_timesteps: sub-envs and training steps.
+        env_kwargs: the training env's kwargs (the entry's, then the given ones).
+    """
+
+    algo: str
+    env_id: str
+    hp: dict
+    special: dict
+    n_envs: int
+    n_timesteps: int
+    env_kwargs: dict
 
 
-    for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
-        if v == 0 or v < -1:
-            raise SystemExit(f"{name} must be a positive integer, got {v}")
-    hp_raw = load_hyperparams(args.algo, args.env, args.conf_file)
-    hp_raw.update(args.hyperparams)
+@dataclass
+class TrainingEnvs:
+    """The wrapped training env (and evaluation env) of a run.
+
+    Attributes:
+        env: the outermost training ``VecEnv`` (``VecNormalize`` if the entry normalises).
+        eval_env: the evaluation callback's env (same wrappers, frozen statistics) or None.
+        budget_env: the Lagrangian energy-budget wrapper, if the entry sets ``energy_budget``.
+        meta: the wrappers' settings for ``meta.json`` (what :func:`agents.runtime.load_policy`
+            rebuilds: ``residual``, ``obs_integral``, ``obs_history``; ``energy_budget_J``).
+    """
+
+    env: object
+    eval_env: object | None
+    budget_env: EnergyBudgetVecEnv | None
+    meta: dict
+
+
+def resolve_config(
+    algo: str,
+    env_id: str,
+    *,
+    n_envs: int = -1,
+    n_timesteps: int = -1,
+    hyperparams: dict | None = None,
+    env_kwargs: dict | None = None,
+    conf_file: str | Path | None = None,
+) -> RunConfig:
+    """The hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (or ``conf_file``) with
+    ``hyperparams`` overriding it; ``n_envs``/``n_timesteps`` > 0 override the entry's (-1: the
+    entry's), ``env_kwargs`` update the entry's."""
+    hp_raw = load_hyperparams(algo, env_id, conf_file)
+    hp_raw.update(hyperparams or {})
     hp, special = preprocess_hyperparams(hp_raw)
-    n_envs = args.n_envs if args.n_envs > 0 else int(special.get("n_envs", 1))
-    n_timesteps = args.n_timesteps if args.n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5)))
-    env_kwargs = {**special["env_kwargs"], **args.env_kwargs}
-    set_random_seed(args.seed)
+    return RunConfig(
+        algo=algo,
+        env_id=env_id,
+        hp=hp,
+        special=special,
+        n_envs=n_envs if n_envs > 0 else int(special.get("n_envs", 1)),
+        n_timesteps=n_timesteps if n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5))),
+        env_kwargs={**special["env_kwargs"], **(env_kwargs or {})},
+    )
 
-    command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
-    if resume:
-        run = resume[0]
-        with open(run / "command.txt", "a") as f:
-            f.write(command + "\n")
-        meta = json.loads((run / "meta.json").read_text())
-        meta.setdefault("resumes", []).append({"checkpoint": ckpt, "command": command})
-    else:
-        run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
-        (run / "command.txt").write_text(command + "\n")
-        (run / "args.yml").write_text(
-            yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
-        )
-        (run / "config.yml").write_text(
-            yaml.safe_dump(
-                {
-                    args.env: _yaml_safe(
-                        {**hp, **special, "n_envs": n_envs, "n_timesteps": n_timesteps, "env_kwargs": env_kwargs}
-                    )
-                }
-            )
-        )
-        meta = {
-            "algo": args.algo,
-            "env_id": args.env,
-            "env_kwargs": env_kwargs,
-            "seed": args.seed,
-            "n_envs": n_envs,
-            "n_timesteps": n_timesteps,
-            "command": command,
-            "resumed_from": args.trained_agent or None,
-        }
 
-    env = make_vec_env(args.env, n_envs, seed=args.seed, env_kwargs=env_kwargs, kind=args.vec_env)
+def build_envs(
+    cfg: RunConfig,
+    seed: int,
+    *,
+    eval_env: bool = False,
+    vec_env: str = "native",
+    trained_agent: str = "",
+    resume: bool = False,
+    verbose: int = 0,
+) -> TrainingEnvs:
+    """The training env of ``cfg`` (native vector env seeded ``seed``) inside the entry's wrappers
+    (residual, integral and history observations, energy budget, ``VecNormalize``; starting from
+    ``trained_agent`` loads its statistics), and with ``eval_env`` the evaluation callback's env.
+    ``resume``: ``trained_agent`` is a checkpoint of the run being continued, whose energy budget and
+    Lagrange multiplier are restored too (:func:`_budget_env`)."""
+    special, env_kwargs, env_id = cfg.special, cfg.env_kwargs, cfg.env_id
+    meta: dict = {}
+    env = make_vec_env(env_id, cfg.n_envs, seed=seed, env_kwargs=env_kwargs, kind=vec_env)
     norm = special["normalize"]
-    eval_env = None
-    if args.eval_freq > 0:
-        eval_env = make_vec_env(args.env, 1, seed=args.seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
+    ev = None
+    if eval_env:
+        ev = make_vec_env(env_id, 1, seed=seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
     if special["residual"]:
         # residual RL: the policy learns a correction on top of the tuned baseline (agents.residual)
-        probe = make_env(env_kwargs, env_id=args.env)
+        probe = make_env(env_kwargs, env_id=env_id)
         spec = base_spec(
             special["residual"],
             v_max=probe.v_max,
             dt=probe.control_period,
             temperature_limit=env_temperature_limit(probe),
             scale=special["residual_scale"],
-            env_id=args.env,
+            env_id=env_id,
             env_kwargs=env_kwargs,
         )
         probe.close()
         meta["residual"] = spec
         env = ResidualVecEnv(env, spec)
-        if eval_env is not None:
-            eval_env = ResidualVecEnv(eval_env, spec)
+        if ev is not None:
+            ev = ResidualVecEnv(ev, spec)
     if special["obs_integral"] is not None:
         # the integral-of-error observation (agents.integral), above the residual's baseline
-        probe = make_env(env_kwargs, env_id=args.env)
+        probe = make_env(env_kwargs, env_id=env_id)
         ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
         probe.close()
         meta["obs_integral"] = ispec.to_dict()
         env = IntegralObsVecEnv(env, ispec)
-        if eval_env is not None:
-            eval_env = IntegralObsVecEnv(eval_env, ispec)
+        if ev is not None:
+            ev = IntegralObsVecEnv(ev, ispec)
     if special["obs_history"] is not None:
         # the frame history (agents.history), after the integral
-        probe = make_env(env_kwargs, env_id=args.env)
+        probe = make_env(env_kwargs, env_id=env_id)
         hspec = HistorySpec.from_env(probe, special["obs_history"])
         probe.close()
         meta["obs_history"] = hspec.to_dict()
         env = HistoryObsVecEnv(env, hspec)
-        if eval_env is not None:
-            eval_env = HistoryObsVecEnv(eval_env, hspec)
+        if ev is not None:
+            ev = HistoryObsVecEnv(ev, hspec)
     budget_env = None
     if special["energy_budget"] is not None:
-        if resume:  # the checkpoint's budget: a "pid" budget is not measured again
-            budget = float(json.loads(lagrangian_candidates(resume[1])[0].read_text())["budget_J"])
-        else:
-            budget = energy_budget(
-                special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
-            )
-        probe = make_env(env_kwargs)
-        budget_env = EnergyBudgetVecEnv(
-            env,
-            budget,
-            probe.config.energy_reference,
-            lam0=float(special["lagrangian_init"]),
-            window=int(special["budget_window"]),
-        )
-        probe.close()
-        if resume:
-            load_lagrangian(budget_env, resume[1])
+        budget_env = _budget_env(cfg, env, trained_agent if resume else "", verbose)
         env = budget_env
-        meta["energy_budget_J"] = budget
-        if args.verbose:
-            print(f"energy budget {budget:.1f} J per episode", flush=True)
+        meta["energy_budget_J"] = budget_env.budget
     if norm is not None:
-        if ckpt:
-            stats = _checkpoint_vecnormalize(Path(ckpt))
+        if trained_agent:
+            stats = _checkpoint_vecnormalize(Path(trained_agent))
             env = VecNormalize.load(str(stats), env)
             env.training = True
         else:
-            env = VecNormalize(env, gamma=hp.get("gamma", 0.99), **norm)
-        if eval_env is not None:
-            eval_env = VecNormalize(
-                eval_env,
+            env = VecNormalize(env, gamma=cfg.hp.get("gamma", 0.99), **norm)
+        if ev is not None:
+            ev = VecNormalize(
+                ev,
                 training=False,
                 norm_reward=False,
                 **{k: v for k, v in norm.items() if k != "norm_reward"},
             )
+    return TrainingEnvs(env=env, eval_env=ev, budget_env=budget_env, meta=meta)
 
-    algo_cls = {"ppo": PPO, "sac": SAC}[args.algo]
-    tb = None if args.no_tensorboard else str(run / "tb")
-    if ckpt:
-        model = algo_cls.load(
-            ckpt, env=env, device=args.device, tensorboard_log=tb, verbose=args.verbose
-        )
-        if model.seed != args.seed:
-            # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
-            # Only re-seed when it differs: a second seeding after the network's construction changes
-            # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
-            model.seed = args.seed
-            model.set_random_seed(args.seed)
-        replay = Path(ckpt).with_name("replay_buffer.pkl")
-        if args.algo == "sac" and replay.exists():
-            model.load_replay_buffer(str(replay))
+
+def _budget_env(cfg: RunConfig, env, checkpoint: str = "", verbose: int = 0) -> EnergyBudgetVecEnv:
+    """``env`` inside the Lagrangian energy budget of ``cfg``'s entry; resuming from the run's
+    ``checkpoint``, its budget (a ``pid`` budget is not measured again) and multiplier."""
+    special = cfg.special
+    if checkpoint:
+        budget = float(json.loads(lagrangian_candidates(Path(checkpoint))[0].read_text())["budget_J"])
     else:
-        model = algo_cls(
-            special["policy"],
-            env,
-            seed=args.seed,
-            device=args.device,
-            tensorboard_log=tb,
-            verbose=args.verbose,
-            **hp,
+        budget = energy_budget(
+            special["energy_budget"], cfg.env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
         )
+    probe = make_env(cfg.env_kwargs)
+    budget_env = EnergyBudgetVecEnv(
+        env,
+        budget,
+        probe.config.energy_reference,
+        lam0=float(special["lagrangian_init"]),
+        window=int(special["budget_window"]),
+    )
+    probe.close()
+    if checkpoint:
+        load_lagrangian(budget_env, Path(checkpoint))
+    if verbose:
+        print(f"energy budget {budget:.1f} J per episode", flush=True)
+    return budget_env
 
+
+def _action_noise(cfg: RunConfig, n_actions: int):
+    """TD3-style exploration noise of the entry's ``noise_type``/``noise_std`` (None: none)."""
+    kind = cfg.special["noise_type"]
+    if kind in (None, "none", "None"):
+        return None
+    if cfg.algo not in OFF_POLICY:
+        raise ValueError(f"noise_type is for the off-policy algorithms {OFF_POLICY}, not {cfg.algo!r}")
+    mean, sigma = np.zeros(n_actions), float(cfg.special["noise_std"]) * np.ones(n_actions)
+    if kind == "normal":
+        return NormalActionNoise(mean, sigma)
+    if kind == "ornstein-uhlenbeck":
+        return OrnsteinUhlenbeckActionNoise(mean, sigma)
+    raise ValueError(f"noise_type must be 'normal' or 'ornstein-uhlenbeck', got {kind!r}")
+
+
+def build_model(
+    cfg: RunConfig,
+    env,
+    seed: int,
+    *,
+    device: str = "cpu",
+    tensorboard_log: str | None = None,
+    verbose: int = 0,
+    trained_agent: str = "",
+    resume: bool = False,
+):
+    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``).
+    ``resume``: the checkpoint's last observation belongs to the envs of the stopped process, so the
+    model resets ``env`` when it starts learning."""
+    algo_cls = algo_class(cfg.algo)
+    if not trained_agent:
+        noise = _action_noise(cfg, int(np.prod(env.action_space.shape)))
+        extra = {} if noise is None else {"action_noise": noise}
+        return algo_cls(
+            cfg.special["policy"],
+            env,
+            seed=seed,
+            device=device,
+            tensorboard_log=tensorboard_log,
+            verbose=verbose,
+            **cfg.hp,
+            **extra,
+        )
+    model = algo_cls.load(
+        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose
+    )
+    if model.seed != seed:
+        # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
+        # Only re-seed when it differs: a second seeding after the network's construction changes
+        # the RNG stream, and the same-seed fine-tunes in agents/policies/COMMANDS.md must reproduce.
+        model.seed = seed
+        model.set_random_seed(seed)
+    replay = Path(trained_agent).with_name("replay_buffer.pkl")
+    if cfg.algo in OFF_POLICY and replay.exists():
+        model.load_replay_buffer(str(replay))
     if resume:
-        # the checkpoint's last observation belongs to the killed process's envs: reset the new ones
-        model._last_obs = None
+        model._last_obs = None  # SB3's learn resets the env when there is no last observation
+    return model
+
+
+def lagrangian_callbacks(cfg: RunConfig, envs: TrainingEnvs, verbose: int = 0) -> list:
+    """The dual-ascent callback of an energy-budget run (empty list otherwise)."""
+    if envs.budget_env is None:
+        return []
+    eta = float(cfg.special["lagrangian_lr"])
+    return [LagrangianCallback(envs.budget_env, eta=eta, verbose=verbose)]
+
+
+def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] | None) -> tuple[Path, dict]:
+    """(run folder, meta): a new folder with ``command.txt``, ``args.yml``, ``config.yml``; or with
+    ``resume`` the run's folder, this command line appended to ``command.txt`` and a new entry in
+    ``meta["resumes"]``."""
+    command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
+    if resume:
+        run = resume[0]
+        with open(run / "command.txt", "a") as f:
+            f.write(command + "\n")
+        meta = json.loads((run / "meta.json").read_text())
+        meta.setdefault("resumes", []).append({"checkpoint": str(resume[1]), "command": command})
+        return run, meta
+    n_envs, n_timesteps = cfg.n_envs, cfg.n_timesteps
+    run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
+    (run / "command.txt").write_text(command + "\n")
+    (run / "args.yml").write_text(
+        yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
+    )
+    entry = {
+        **cfg.hp,
+        **cfg.special,
+        "n_envs": n_envs,
+        "n_timesteps": n_timesteps,
+        "env_kwargs": cfg.env_kwargs,
+    }
+    (run / "config.yml").write_text(yaml.safe_dump({args.env: _yaml_safe(entry)}))
+    meta = {
+        "algo": args.algo,
+        "env_id": args.env,
+        "env_kwargs": cfg.env_kwargs,
+        "seed": args.seed,
+        "n_envs": n_envs,
+        "n_timesteps": n_timesteps,
+        "command": command,
+        "resumed_from": args.trained_agent or None,
+    }
+    return run, meta
+
+
+def _eval_callback(args, run: Path, eval_env, normalized: bool, n_envs: int, resumed_at: int | None):
+    """The evaluation callback of the run (best model and its ``VecNormalize`` statistics into
+    ``run``); ``resumed_at``: the checkpoint's step, whose earlier evaluations it keeps."""
+    on_best = None
+    if normalized:
+        # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
+        # SaveVecNormalizeCallback): the final ones differ from those the best model saw
+        class _SaveBestVecNormalize(BaseCallback):
+            def _on_step(self) -> bool:
+                self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
+                return True
+
+        on_best = _SaveBestVecNormalize()
+    evaluation = EvalCallback(
+        eval_env,
+        callback_on_new_best=on_best,
+        eval_freq=max(1, args.eval_freq // n_envs),
+        n_eval_episodes=args.eval_episodes,
+        best_model_save_path=str(run),
+        log_path=str(run),
+        deterministic=True,
+        verbose=args.verbose,
+    )
+    if resumed_at is not None:
+        restore_eval_history(evaluation, run, resumed_at)
+    return evaluation
+
+
+def train(argv: list[str] | None = None) -> Path:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
+    args, argv, resume = _parse(argv)
+    ckpt = str(resume[1]) if resume else args.trained_agent  # the model to load, if any
+    os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
+    torch.set_num_threads(max(1, args.torch_threads))
+
+    for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
+        if v == 0 or v < -1:
+            raise SystemExit(f"{name} must be a positive integer, got {v}")
+    cfg = resolve_config(
+        args.algo,
+        args.env,
+        n_envs=args.n_envs,
+        n_timesteps=args.n_timesteps,
+        hyperparams=args.hyperparams,
+        env_kwargs=args.env_kwargs,
+        conf_file=args.conf_file,
+    )
+    set_random_seed(args.seed)
+    run, meta = _start_run(args, argv, cfg, resume)
+    envs = build_envs(
+        cfg,
+        args.seed,
+        eval_env=args.eval_freq > 0,
+        vec_env=args.vec_env,
+        trained_agent=ckpt,
+        resume=resume is not None,
+        verbose=args.verbose,
+    )
+    meta.update(envs.meta)
+    env, eval_env, norm = envs.env, envs.eval_env, cfg.special["normalize"]
+    tb = None if args.no_tensorboard else str(run / "tb")
+    model = build_model(
+        cfg, env, args.seed, device=args.device, tensorboard_log=tb, verbose=args.verbose,
+        trained_agent=ckpt, resume=resume is not None,
+    )  # fmt: skip
+    if resume:
         start = int(meta.get("start_timesteps", 0))
     else:
         start = int(model.num_timesteps)  # 0, or the fine-tuned model's count
         meta["start_timesteps"] = start
-    remaining = max(0, start + n_timesteps - int(model.num_timesteps))
-    callbacks = []
-    if budget_env is not None:
-        eta = float(special["lagrangian_lr"])
-        callbacks.append(LagrangianCallback(budget_env, eta=eta, verbose=args.verbose))
+    # up to the run's -n steps in all: a resume trains the rest, a fine-tune -n more
+    remaining = max(0, start + cfg.n_timesteps - int(model.num_timesteps))
+
+    callbacks = lagrangian_callbacks(cfg, envs, args.verbose)
     if args.save_freq > 0:
+        save_freq = max(1, args.save_freq // cfg.n_envs)
         callbacks.append(
-            RunCheckpointCallback(
-                run / "checkpoints", max(1, args.save_freq // n_envs), start, budget_env, args.verbose
-            )
+            RunCheckpointCallback(run / "checkpoints", save_freq, start, envs.budget_env, args.verbose)
         )
     if eval_env is not None:
-        on_best = None
-        if norm is not None:
-            # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
-            # SaveVecNormalizeCallback): the final ones differ from those the best model saw
-            from stable_baselines3.common.callbacks import BaseCallback
-
-            class _SaveBestVecNormalize(BaseCallback):
-                def _on_step(self) -> bool:
-                    self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
-                    return True
-
-            on_best = _SaveBestVecNormalize()
-        evaluation = EvalCallback(
-            eval_env,
-            callback_on_new_best=on_best,
-            eval_freq=max(1, args.eval_freq // n_envs),
-            n_eval_episodes=args.eval_episodes,
-            best_model_save_path=str(run),
-            log_path=str(run),
-            deterministic=True,
-            verbose=args.verbose,
-        )
-        if resume:
-            restore_eval_history(evaluation, run, int(model.num_timesteps))
-        callbacks.append(evaluation)
+        resumed_at = int(model.num_timesteps) if resume else None
+        callbacks.append(_eval_callback(args, run, eval_env, norm is not None, cfg.n_envs, resumed_at))
     segment = meta["resumes"][-1] if resume else meta
     segment["start_step"] = int(model.num_timesteps)
-    if budget_env is not None:
-        segment["lagrangian_start"] = budget_env.lam
+    if envs.budget_env is not None:
+        segment["lagrangian_start"] = envs.budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     t0, c0 = time.time(), time.process_time()
     model.learn(
-        total_timesteps=remaining if resume else n_timesteps,
+        total_timesteps=remaining,
         callback=CallbackList(callbacks),
         progress_bar=args.progress,
         reset_num_timesteps=not ckpt,
@@ -435,9 +613,9 @@ def train(argv: list[str] | None = None) -> Path:
         env.save(str(run / "vecnormalize.pkl"))
     segment.update({"train_wall_time_s": round(wall, 1), "train_cpu_time_s": round(cpu, 1)})
     meta["total_timesteps"] = int(model.num_timesteps)
-    if budget_env is not None:
-        meta["lagrangian_final"] = budget_env.lam
-        save_lagrangian(budget_env, run / "lagrangian.json")
+    if envs.budget_env is not None:
+        meta["lagrangian_final"] = envs.budget_env.lam
+        save_lagrangian(envs.budget_env, run / "lagrangian.json")
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     if args.verbose:
         print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")

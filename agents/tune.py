@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from spine_gym.envs import base_id
+
 from .common import ENV_ID, ENV_IDS, StoreDict
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
@@ -90,7 +92,8 @@ def tune(
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed))
-    study.enqueue_trial(DEFAULT_TUNED_BY_ENV[env_id][kind])  # the hand-set start point is always tried
+    # the hand-set start point is always tried
+    study.enqueue_trial(DEFAULT_TUNED_BY_ENV[base_id(env_id)][kind])
     t0 = time.perf_counter()
     for i in range(n_trials):
         study.optimize(objective, n_trials=1)

@@ -313,6 +313,11 @@ def load_preset(path: str | Path) -> tuple[ModelParams, dict]:
     return params, provenance
 
 
+# fields that enter only the heat balance, the resistance and the transformation kinetics, not the
+# initial state of MODEL.md §3.10 (straight spine, T = T_E, x_A = 0) nor whether it buckles
+DYNAMICS_ONLY_FIELDS = frozenset({"tau", "rho", "c", "lam_A", "lam_M", "alpha"})
+
+
 def field_names() -> list[str]:
     """Names of the ModelParams fields (the parameters a design study may vary)."""
     return [f.name for f in dataclasses.fields(ModelParams)]

@@ -42,7 +42,7 @@ HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard")
 
 
 AGENTS = pathlib.Path(__file__).resolve().parents[1] / "agents"
-CLIS = {"evaluate", "tune", "train", "select"}
+CLIS = {"evaluate", "tune", "train", "select", "benchmark"}
 
 
 def _agents_imports(tree):

@@ -61,7 +61,8 @@ def test_make_vec_returns_the_native_vector_env_without_warnings():
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         venv = gym.make_vec("SmaSpine-v0", num_envs=3)
-    assert [str(x.message) for x in w] == []
+    # Gymnasium notes that a newer version of a -v0 id exists; nothing else may warn
+    assert [str(x.message) for x in w if "is out of date" not in str(x.message)] == []
     assert isinstance(venv, SmaSpineVectorEnv) and isinstance(venv, VectorEnv)
     assert venv.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
     assert venv.num_envs == 3 and venv.max_steps == 600

@@ -1,5 +1,6 @@
-"""Gymnasium environments of spine_gym; importing this package registers ``SmaSpine-v0``,
-``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
+"""Gymnasium environments of spine_gym; importing this package registers every id of
+:mod:`spine_gym.envs.ids`: ``SmaSpine-v0``, ``SmaSpine3D-v0``, ``SmaSpineChain-v0``, their ``-v1``
+versions (observed tracking errors, rewards of order one) and the ``Easy``/``Hard`` tiers of ``-v1``.
 
 * :class:`SmaSpineEnv` (``gym.make("SmaSpine-v0")``) — the planar spine; its class docstring is
   the documentation page. :class:`SmaSpine3DEnv` (``"SmaSpine3D-v0"``, four wires, two bending
@@ -17,6 +18,7 @@ from __future__ import annotations
 from gymnasium.envs.registration import register, registry
 
 from .core import OBS_NAMES, OBS_UNITS, EnvConfig, default_randomization
+from .ids import BENCHMARK_IDS, ENV_SPECS, base_id, family_of, tier_of
 from .spatial_env import SmaSpine3DEnv, SmaSpine3DVectorEnv, SmaSpineChainEnv, SmaSpineChainVectorEnv
 from .spine_env import SmaSpineEnv
 from .task import LoadSchedule, TargetProfile, TipForceEvent
@@ -27,6 +29,11 @@ __all__ = [
     "ENV_ID",
     "ENV_ID_3D",
     "ENV_ID_CHAIN",
+    "ENV_SPECS",
+    "BENCHMARK_IDS",
+    "base_id",
+    "family_of",
+    "tier_of",
     "SmaSpineEnv",
     "SmaSpineVectorEnv",
     "SmaSpine3DEnv",
@@ -49,16 +56,12 @@ ENV_ID_3D = "SmaSpine3D-v0"
 ENV_ID_CHAIN = "SmaSpineChain-v0"
 MAX_EPISODE_STEPS = 600  # default episode_duration / control_period = 60 s / 0.1 s
 
-_ENTRY_POINTS = {
-    ENV_ID: ("spine_env:SmaSpineEnv", "vector_env:SmaSpineVectorEnv"),
-    ENV_ID_3D: ("spatial_env:SmaSpine3DEnv", "spatial_env:SmaSpine3DVectorEnv"),
-    ENV_ID_CHAIN: ("spatial_env:SmaSpineChainEnv", "spatial_env:SmaSpineChainVectorEnv"),
-}
-for _id, (_single, _vector) in _ENTRY_POINTS.items():
-    if _id not in registry:
+for _spec in ENV_SPECS.values():
+    if _spec.id not in registry:
         register(
-            id=_id,
-            entry_point=f"spine_gym.envs.{_single}",
-            vector_entry_point=f"spine_gym.envs.{_vector}",
+            id=_spec.id,
+            entry_point=_spec.entry_point,
+            vector_entry_point=_spec.vector_entry_point,
             max_episode_steps=MAX_EPISODE_STEPS,
+            kwargs=dict(_spec.kwargs),
         )

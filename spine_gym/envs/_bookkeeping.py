@@ -60,8 +60,10 @@ PB_TIPB, PB_TIPP, PB_MODB, PB_TEMP, PB_RES, PB_JOULE, N_PB = range(7)
     Q_REWARD,
     Q_R_TRACK,
     Q_R_ENERGY,
+    Q_MERROR,  # (d) target − measured tracked entry (what a controller on the sensors sees)
+    Q_MPREVIEW,  # (d) target preview − measured tracked entry
     N_Q,
-) = range(15)
+) = range(17)
 C_PREVIEW, C_MAX_STEPS, N_COUNTS = range(3)  # integer settings (Spec.counts)
 
 # the per-environment memory the writer updates (rows of (B, ...) arrays; part of a snapshot)
@@ -146,6 +148,25 @@ def _tracking(i, kk, step, spec, row):
         if spec.qcol[Q_ERROR] >= 0:
             row[spec.qcol[Q_ERROR] + q] = e
     return abs(e0) if d == 1 else math.sqrt(sq)
+
+
+@jit_inline
+def _measured_errors(i, kk, step, spec, measured, row, meas_row):
+    """Target − measured and preview − measured of the tracked entry (the same in the true and the
+    measured row: both are what the sensors report)."""
+    last = step.targets.shape[1] - 1
+    tchan, d = spec.task[1], spec.task[2]
+    k0 = min(kk, last)
+    k1 = min(kk + spec.counts[C_PREVIEW], last)
+    ce, cp = spec.qcol[Q_MERROR], spec.qcol[Q_MPREVIEW]
+    for q in range(d):
+        m = measured[tchan + q]
+        if ce >= 0:
+            row[ce + q] = step.targets[i, k0, q] - m
+            meas_row[ce + q] = row[ce + q]
+        if cp >= 0:
+            row[cp + q] = step.targets[i, k1, q] - m
+            meas_row[cp + q] = row[cp + q]
 
 
 @jit
@@ -252,6 +273,8 @@ def _finish_row(i, step, mem, spec, out, fresh, scratch):
         if qc[Q_RATE] >= 0:
             row[qc[Q_RATE] + q] = rate
             meas_row[qc[Q_RATE] + q] = rate
+    if qc[Q_MERROR] >= 0 or qc[Q_MPREVIEW] >= 0:
+        _measured_errors(i, kk, step, spec, measured, row, meas_row)
     for q in range(spec.obs_cols.shape[0]):
         v = meas_row[spec.obs_cols[q]]
         if v < spec.low[q]:

@@ -1,28 +1,36 @@
-"""Info dicts that fill themselves from the step's table rows on first use (issue 11).
+"""Info dicts of a step built from the step's table rows: SB3's per-env dicts fill themselves on
+first use (:class:`RowInfo`), Gymnasium's vector dict is a plain ``dict`` built at once
+(:func:`vector_info`).
 
-Every step the env layer hands out info dicts built from the step rows of its table: Gymnasium's
-dict of arrays with ``_key`` masks (:class:`VectorInfo`) and SB3's list of one dict per
-environment (:class:`RowInfo`). Building them (13+ keys, the vector entries as array views, a
-mask per key) cost about as much Python time as the rest of the env layer, while training reads
-few of them: SB3's PPO/SAC read only ``terminal_observation``, ``TimeLimit.truncated``,
-``episode`` and ``is_success`` of the per-env dicts, and a Gymnasium training loop often no info
-at all. A :class:`LazyDict` holds the step's fresh rows and fills its table keys on the first
-access that needs them; keys set from outside (``TimeLimit.truncated``, ``terminal_observation``,
-``final_obs``, a wrapper's ``episode``) are read, tested and written without filling it. Filled,
-it holds exactly the keys, values and order of the eager dict, and a copy, deep copy or pickle of
-it is a plain ``dict``.
+Every step the env layer hands out info dicts built from the step rows of its table. Building
+SB3's list of one dict per environment (13+ keys each) cost about as much Python time as the rest
+of the env layer, while SB3's PPO/SAC read only ``terminal_observation``, ``TimeLimit.truncated``,
+``episode`` and ``is_success`` of them. A :class:`LazyDict` holds the step's fresh rows and fills
+its table keys on the first access that needs them; keys set from outside (``TimeLimit.truncated``,
+``terminal_observation``, a wrapper's ``episode``) are read, tested and written without filling it.
+Filled, it holds exactly the keys, values and order of the eager dict, and a copy, deep copy or
+pickle of it is a plain ``dict``.
+
+Gymnasium's dict of arrays with ``_key`` masks is built eagerly as a plain ``dict``: Gymnasium's
+``data_equivalence`` and ``check_environments_match`` compare types strictly, so a ``dict``
+subclass differs from ``SyncVectorEnv``'s info however equal its values. :func:`vector_info` builds
+it from views of the rows and of one block of masks, with the step's few Python calls precomputed
+per table (:func:`vector_info_keys`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from itertools import chain, repeat
+from operator import itemgetter
+from typing import NamedTuple
 
 import numpy as np
 
 from ..physics import layout as L
 from .core import status_text
 
-__all__ = ["LazyDict", "RowInfo", "VectorInfo", "row_infos", "vector_info_keys"]
+__all__ = ["LazyDict", "RowInfo", "VectorInfoKeys", "row_infos", "vector_info", "vector_info_keys"]
 
 
 class LazyDict(dict):
@@ -196,35 +204,34 @@ class RowInfo(LazyDict):
         return key == "status_text" and src[2][self._j] != L.OK
 
 
-class VectorInfo(LazyDict):
-    """Gymnasium's info dict of a vector step in which every environment has every key and no
-    step failed (no ``status_text``): each key's values (views of the fresh rows) and its all-True
-    ``_key`` mask.
+class VectorInfoKeys(NamedTuple):
+    """What :func:`vector_info` needs of a table (:func:`vector_info_keys`)."""
 
-    Args:
-        src: ``(keys, index, block, status)``: :func:`vector_info_keys` of the env's table, the
-            step rows (n, width), a fresh copy, and the status codes (n,).
-    """
-
-    __slots__ = ()
-
-    def _items(self, src: tuple) -> dict:
-        (keys, _, index), block, status = src[0], src[1], src[2]
-        values = [block[ix] for ix in index]
-        values.append(status)
-        masks = np.ones((len(values), block.shape[0]), dtype=np.bool_)
-        return dict(zip(keys, chain.from_iterable(zip(values, masks, strict=True)), strict=True))
-
-    def _has(self, src: tuple, key) -> bool:
-        return key in src[0][1]
+    keys: tuple[str, ...]  # every info key of the table and ``status``, each followed by ``_key``
+    values: Callable[[np.ndarray], tuple]  # a block of step rows (n, width) -> the table keys' values
+    n_keys: int  # the table's info keys and ``status``
 
 
-def vector_info_keys(table) -> tuple[tuple[str, ...], frozenset, tuple]:
-    """``(keys, key set, index)`` of a :class:`VectorInfo`: every info key of ``table`` and
-    ``status``, each followed by its ``_key`` mask, and the index of each table key's values in a
-    block of step rows."""
+def vector_info_keys(table) -> VectorInfoKeys:
+    """The :class:`VectorInfoKeys` of ``table``: its info keys and ``status`` with their ``_key``
+    masks, and the getter of each table key's values (views) in a block of step rows."""
     keys = tuple(chain.from_iterable((k, "_" + k) for k in (*table.info_keys, "status")))
-    return keys, frozenset(keys), table.info_index
+    index = table.info_index
+    values = itemgetter(*index) if len(index) > 1 else (lambda block: (block[index[0]],))
+    return VectorInfoKeys(keys, values, len(index) + 1)
+
+
+def vector_info(spec: VectorInfoKeys, block: np.ndarray, status: np.ndarray) -> dict:
+    """Gymnasium's info dict (a plain ``dict``) of a vector step in which every environment has every
+    key: each key's values (views of ``block``, the step rows (n, width), a fresh copy that is not
+    written again; ``status`` (n,) itself) and its all-True ``_key`` mask (a view of one fresh
+    (keys, n) block), in the order ``SyncVectorEnv`` gives them. No ``status_text``: the caller
+    adds it on the rows whose step failed."""
+    out = [None] * (2 * spec.n_keys)
+    out[0:-2:2] = spec.values(block)
+    out[-2] = status
+    out[1::2] = np.ones((spec.n_keys, block.shape[0]), dtype=np.bool_)
+    return dict(zip(spec.keys, out, strict=True))
 
 
 def row_infos(table, block: np.ndarray, status: np.ndarray, truncated: list[bool]) -> list[RowInfo]:

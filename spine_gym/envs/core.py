@@ -14,15 +14,17 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from itertools import product
 from typing import Any
 
 import numpy as np
 
-from ..params import ModelParams, SolverOptions, field_names
+from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from ..physics import layout as L
-from ..uncertainty import ParameterUncertainty
+from ..physics.solver import init_state
+from ..uncertainty import ParameterUncertainty, apply_offsets
 from .table import Entry, Table
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
 
@@ -46,6 +48,7 @@ RATE_OBS_LIMIT = 1000.0  # [deg/s] bound of the angle-rate entry
 TEMP_OBS_HIGH = 2000.0  # [K] = the kernel's temperature sanity bound (layout.K_TMAX)
 TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at full transformation)
 V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
+MAX_CORNER_FIELDS = 10  # randomised fields of the initial state whose 2^k box corners are checked
 RESET_OPTION_KEYS = ("target", "loads", "params")
 # the env attributes held in TableBatch.episodes[i], in that order
 EPISODE_ATTRS = ("target_profile", "load_schedule", "model_params")
@@ -117,6 +120,12 @@ def _pair(name: str, value, lo: float, hi: float, *, allow_none=False, integer=F
     return (a, b)
 
 
+def _floor6(x: float) -> float:
+    """``x`` > 0 rounded down to 6 significant digits (a limit a user may copy)."""
+    scale = 10.0 ** (5 - math.floor(math.log10(x)))
+    return math.floor(x * scale) / scale
+
+
 def _multiple(name: str, value: float, unit: float, unit_name: str) -> int:
     n = int(round(value / unit))
     if n < 1 or abs(n * unit - value) > 1e-9 * max(value, 1.0):
@@ -160,6 +169,7 @@ class BaseEnvConfig:
     error_scale: float = 10.0
     energy_weight: float = 0.5
     cost_weight: float = 0.0
+    observe_errors: bool = False
     params: ModelParams | None = None
     solver: SolverOptions | None = None
 
@@ -214,9 +224,113 @@ class BaseEnvConfig:
         s(self, "error_scale", _real("error_scale", self.error_scale, 0.0, 1e6, lo_open=True))
         s(self, "energy_weight", _real("energy_weight", self.energy_weight, 0.0, 1e6))
         s(self, "cost_weight", _real("cost_weight", self.cost_weight, 0.0, 1e6))
+        if not isinstance(self.observe_errors, bool | np.bool_):
+            raise ValueError(f"observe_errors must be True or False, got {self.observe_errors!r}")
+        s(self, "observe_errors", bool(self.observe_errors))
+        self._check_initial_states()
 
     def _check_task(self) -> None:
         """Validate the task's own fields (subclasses)."""
+
+    # ------------------------------------------------------------------ resets that can be held
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        """Status (``layout.OK`` or an error code) of the initial state (MODEL.md §3.10) of an
+        episode with parameters ``params`` under ``payload`` [kg]: the solve a reset makes, with
+        the same inputs (``LoadSchedule.payload_force`` on the top vertex). ValueError if
+        ``params`` give no valid spine."""
+        raise NotImplementedError
+
+    def initial_loads(self, params: ModelParams, payload: float) -> np.ndarray:
+        """The vertex forces (n_seg, force_dim) of a reset under ``payload`` [kg]: its weight on
+        the top vertex."""
+        vforce = np.zeros((self.n_seg, self.force_dim))
+        vforce[0] = LoadSchedule(payload=payload, dim=self.force_dim).payload_force(params.g)
+        return vforce
+
+    def _check_initial_states(self) -> None:
+        """Every reset this configuration can draw solves its initial state: the heaviest payload
+        of ``payload_range`` at every corner of the randomised box of the fields that enter the
+        initial state (the reset's own solve, :meth:`initial_status`). A reset that cannot is a
+        ValueError raised inside ``step`` of an autoresetting vector env."""
+        payload = 0.0 if self.payload_range is None else self.payload_range[1]
+        failed = []  # (corner, params, status) that cannot hold the payload
+        for corner, params in self._initial_corners():
+            try:
+                status = self.initial_status(params, payload)
+            except ValueError as e:
+                raise ValueError(
+                    f"domain_randomization gives an invalid spine at its corner {corner}: {e}"
+                ) from None
+            if status != L.OK:
+                failed.append((corner, params, status))
+        for corner, params, status in failed:
+            if payload == 0.0 or self.initial_status(params, 0.0) != L.OK:
+                what, where = (
+                    ("domain_randomization", f" at its corner {corner}") if corner else ("params", "")
+                )
+                raise ValueError(
+                    f"{what} must give an initial state that can be solved without payload; it cannot"
+                    f"{where} ({L.STATUS_TEXT.get(status, status)})"
+                )
+        if failed:
+            limit, corner, status = min(
+                ((self._payload_limit(p, payload), c, st) for c, p, st in failed), key=lambda t: t[0]
+            )
+            where = f" at domain_randomization's corner {corner}" if corner else ""
+            raise ValueError(
+                f"payload_range must have high <= {_floor6(limit)} kg (the heaviest payload whose initial "
+                f"state can be solved{where}: {L.STATUS_TEXT.get(status, status)}), "
+                f"got {self.payload_range!r}"
+            )
+
+    def _payload_limit(self, params: ModelParams, payload: float) -> float:
+        """The heaviest payload in [0, ``payload``] whose initial state solves (bisection to 1e-9
+        relative; 0 solves, ``payload`` does not)."""
+        lo, hi = 0.0, payload
+        while hi - lo > 1e-9 * hi:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.initial_status(params, mid) == L.OK else (lo, mid)
+        return lo
+
+    def _initial_corners(self) -> Iterator[tuple[dict[str, float], ModelParams]]:
+        """(the randomised fields' values, params) at the nominal parameters and at every corner of
+        the box of randomised fields that enter the initial state (not ``DYNAMICS_ONLY_FIELDS``).
+        A preset's corners that leave the model's range are skipped (its draws redraw those); a
+        dict's raise ValueError (its resets would)."""
+        yield {}, self.params
+        dr = self.domain_randomization
+        if isinstance(dr, ParameterUncertainty):
+            js = [j for j, d in enumerate(dr.directions) if set(d) - DYNAMICS_ONLY_FIELDS]
+            self._check_corner_count(len(js))
+            for bounds in product(*((dr.lower[j], dr.upper[j]) for j in js)):
+                off = np.zeros(len(dr.names))
+                off[js] = np.asarray(bounds) - dr.values[js]
+                try:
+                    params = apply_offsets(self.params, dr.directions, off)
+                except ValueError:
+                    continue
+                yield dict(zip((dr.names[j] for j in js), bounds, strict=True)), params
+            return
+        ranges = [(name, lo, hi) for name, lo, hi in dr if name not in DYNAMICS_ONLY_FIELDS]
+        self._check_corner_count(len(ranges))
+        for values in product(*((lo, hi) for _, lo, hi in ranges)):
+            corner = dict(zip((name for name, _, _ in ranges), values, strict=True))
+            try:
+                params = self.params.replace(**corner)
+            except ValueError as e:
+                raise ValueError(
+                    f"domain_randomization can draw an invalid parameter set {corner}: {e}"
+                ) from None
+            yield corner, params
+
+    @staticmethod
+    def _check_corner_count(k: int) -> None:
+        if k > MAX_CORNER_FIELDS:
+            raise ValueError(
+                f"domain_randomization must randomise at most {MAX_CORNER_FIELDS} fields that enter the "
+                f"initial state (fields other than {sorted(DYNAMICS_ONLY_FIELDS)}; each reset's worst "
+                f"case is checked at the 2^k corners of their box), got {k}"
+            )
 
     @property
     def noise_sigma(self) -> dict[str, float]:
@@ -265,6 +379,34 @@ class BaseEnvConfig:
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
 
+    def error_entries(self, unit: str, names: tuple[str, ...], bound: float) -> tuple[Entry, ...]:
+        """The observed tracking errors (``observe_errors``): target − measured tracked entry and
+        target preview − measured tracked entry, components ``names``, bounds ±``bound``; () if off.
+        They come last in the observation, so the indices of the other entries do not move."""
+        if not self.observe_errors:
+            return ()
+        lim = (-bound, bound)
+        return (
+            Entry(
+                "measured_error",
+                "measured_error",
+                unit,
+                "target − measured tracked quantity",
+                tuple(f"error_{n}" for n in names),
+                lim,
+                info=False,
+            ),
+            Entry(
+                "measured_preview_error",
+                "measured_preview_error",
+                unit,
+                "target preview − measured tracked quantity",
+                tuple(f"preview_error_{n}" for n in names),
+                lim,
+                info=False,
+            ),
+        )
+
     # ------------------------------------------------------------------ derived
     @property
     def n_sub(self) -> int:
@@ -312,6 +454,12 @@ class EnvConfig(BaseEnvConfig):
         p = self.params
         r_min = min(p.lam_A, p.lam_M) * p.L0 / p.wire_area  # [Ω] one wire
         return 2.0 * p.n_w * self.v_max**2 / r_min * self.control_period
+
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        state = np.zeros(L.state_size(params.n_seg))
+        return init_state(
+            state, params.to_kernel(), self.solver.to_kernel(), self.initial_loads(params, payload)
+        )
 
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
@@ -417,6 +565,7 @@ class EnvConfig(BaseEnvConfig):
             Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
             Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
             Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+            *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "angle_deg", self.noise_sigma)
 

@@ -39,17 +39,18 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
-from . import ENV_ID, ENV_ID_3D, ENV_ID_CHAIN
+from . import ENV_ID
 from .core import RESET_OPTION_KEYS
+from .ids import ENV_SPECS
 from .spatial_env import SmaSpine3DVectorEnv, SmaSpineChainVectorEnv
 from .vector_env import SmaSpineVectorEnv
 
 __all__ = ["SmaSpineSB3VecEnv", "make_sb3_vec_env", "VECTOR_ENVS"]
 
-VECTOR_ENVS = {
-    ENV_ID: SmaSpineVectorEnv,
-    ENV_ID_3D: SmaSpine3DVectorEnv,
-    ENV_ID_CHAIN: SmaSpineChainVectorEnv,
+VECTOR_ENVS = {  # family -> its vector env class (an id adds its registration's keyword arguments)
+    "SmaSpine": SmaSpineVectorEnv,
+    "SmaSpine3D": SmaSpine3DVectorEnv,
+    "SmaSpineChain": SmaSpineChainVectorEnv,
 }
 
 
@@ -59,15 +60,18 @@ class SmaSpineSB3VecEnv(VecEnv):
     Args:
         num_envs: number of environments.
         seed: seed of the first reset (env i gets ``seed + i``); ``VecEnv.seed`` works as usual.
-        env_id: ``"SmaSpine-v0"`` (default), ``"SmaSpine3D-v0"`` or ``"SmaSpineChain-v0"``.
-        **env_kwargs: arguments of the env (e.g. :class:`~spine_gym.envs.SmaSpineEnv`; and
+        env_id: a registered id (:data:`spine_gym.envs.ENV_SPECS`; default ``"SmaSpine-v0"``); its
+            registration's keyword arguments apply, as in ``gym.make_vec``.
+        **env_kwargs: arguments of the env, over the registration's (e.g. :class:`~spine_gym.envs.SmaSpineEnv`; and
             ``parallel``, ``max_episode_steps`` of the vector env).
     """
 
     def __init__(self, num_envs: int = 1, seed: int | None = None, env_id: str = ENV_ID, **env_kwargs):
-        if env_id not in VECTOR_ENVS:
-            raise ValueError(f"env_id must be one of {sorted(VECTOR_ENVS)}, got {env_id!r}")
-        self.venv = VECTOR_ENVS[env_id](num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
+        if env_id not in ENV_SPECS:
+            raise ValueError(f"env_id must be one of {sorted(ENV_SPECS)}, got {env_id!r}")
+        spec = ENV_SPECS[env_id]
+        kwargs = {**spec.kwargs, **env_kwargs}
+        self.venv = VECTOR_ENVS[spec.family](num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self.metadata = {**self.metadata, "render_fps": self.venv.metadata["render_fps"]}
         if seed is not None:

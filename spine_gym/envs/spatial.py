@@ -72,6 +72,13 @@ class SpatialConfig(BaseEnvConfig):
         the seed's)."""
         return SpineLayout.chain(self.n_modules, params)
 
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        layout = self.layout_for(params)
+        kp, kw, km = layout.to_kernel()
+        state = np.zeros(layout.state_size())
+        vforce = self.initial_loads(params, payload)
+        return init_state(state, kp, self.solver.to_kernel(), kw, km, vforce)
+
     @property
     def layout(self) -> SpineLayout:
         """The nominal layout."""
@@ -258,6 +265,7 @@ class Spine3DConfig(SpatialConfig):
                 ("tip_x", "tip_y", "tip_z"),
             ),
             *self._step_entries("deg", "target − tip bending vector", 2),
+            *self.error_entries("deg", ("x", "y"), BEND_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "tip_bending_deg", self.noise_sigma)
 
@@ -347,6 +355,7 @@ class ChainConfig(SpatialConfig):
                 noise="angle",
             ),
             *self._step_entries("mm", "target − tip position", 3),
+            *self.error_entries("mm", xyz, 2.0 * self.length_mm),
         )
         return Table(entries, "tip_position_mm", self.noise_sigma)
 

@@ -128,8 +128,9 @@ class SmaSpine3DEnv(SmaSpineEnv):
     ``target_preview``, ``tip_force_range`` (<= 20 N), ``tip_force_count``,
     ``tip_force_duration``, ``payload_range`` (<= 1 kg), ``domain_randomization``,
     ``sensor_delay``, ``temperature_limit``, ``error_scale`` [deg], ``energy_weight``,
-    ``cost_weight``, ``params``, ``solver``: as ``SmaSpine-v0``. ``sensor_noise``: ``None`` or a
-    dict with keys among "angle" [deg], "temperature" [K], "resistance" [Ohm]. Own arguments:
+    ``cost_weight``, ``observe_errors``, ``params``, ``solver``: as ``SmaSpine-v0``.
+    ``sensor_noise``: ``None`` or a dict with keys among "angle" [deg], "temperature" [K],
+    "resistance" [Ohm]. Own arguments:
 
     * ``target_range`` [deg]: (low, high) magnitude |b*| of sampled targets, within [0, 60].
       Default (0, 45).
@@ -150,6 +151,10 @@ class SmaSpine3DEnv(SmaSpineEnv):
     ## Version history
 
     * v0: initial release.
+    * v1 (``SmaSpine3D-v1``; tiers ``SmaSpine3DEasy-v1``, ``SmaSpine3DHard-v1``): ``observe_errors=True`` (the
+      observation ends with target − measured tip bending vector and preview − measured), reward ÷ 10
+      (``error_scale`` 100°, ``energy_weight`` 0.05) so that returns are of order one; the
+      tiers change only the task distribution (:mod:`spine_gym.envs.ids`). ``-v0`` is unchanged.
     """
 
     BATCH = Spine3DBatch
@@ -177,6 +182,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
         error_scale: float = 10.0,
         energy_weight: float = 0.5,
         cost_weight: float = 0.0,
+        observe_errors: bool = False,
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
     ):
@@ -200,6 +206,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
             error_scale=error_scale,
             energy_weight=energy_weight,
             cost_weight=cost_weight,
+            observe_errors=observe_errors,
             params=params,
             solver=solver,
         )
@@ -285,6 +292,10 @@ class SmaSpineChainEnv(SmaSpineEnv):
     ## Version history
 
     * v0: initial release.
+    * v1 (``SmaSpineChain-v1``; tiers ``SmaSpineChainEasy-v1``, ``SmaSpineChainHard-v1``): ``observe_errors=True`` (the
+      observation ends with target − measured tip position and preview − measured), reward ÷ 10
+      (``error_scale`` 200 mm, ``energy_weight`` 0.05) so that returns are of order one; the
+      tiers change only the task distribution (:mod:`spine_gym.envs.ids`). ``-v0`` is unchanged.
     """
 
     BATCH = ChainBatch
@@ -313,6 +324,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
         error_scale: float = 20.0,
         energy_weight: float = 0.5,
         cost_weight: float = 0.0,
+        observe_errors: bool = False,
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
     ):
@@ -337,6 +349,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
             error_scale=error_scale,
             energy_weight=energy_weight,
             cost_weight=cost_weight,
+            observe_errors=observe_errors,
             params=params,
             solver=solver,
         )

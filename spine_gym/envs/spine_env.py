@@ -174,6 +174,8 @@ class SmaSpineEnv(gym.Env):
       standard deviations. ``sensor_delay``: whole control periods (default 0).
     * ``temperature_limit`` [K]: threshold of ``info["cost"]``. Default 423 (150 °C).
     * ``error_scale`` [deg] (10), ``energy_weight`` (0.5), ``cost_weight`` [1/K] (0): reward terms.
+    * ``observe_errors``: append target − measured tracked quantity and target preview − measured
+      tracked quantity to the observation (default ``False``; ``True`` in every ``-v1`` id).
     * ``params``: :class:`spine_gym.ModelParams` (default: MODEL.md §7 baseline);
       ``solver``: :class:`spine_gym.SolverOptions`.
     * ``render_mode``: ``None`` or ``"rgb_array"`` (480×480 frame: the bent spine, wires coloured
@@ -191,6 +193,10 @@ class SmaSpineEnv(gym.Env):
     ## Version history
 
     * v0: initial release (spine_gym 0.1).
+    * v1 (``SmaSpine-v1``; tiers ``SmaSpineEasy-v1``, ``SmaSpineHard-v1``): ``observe_errors=True`` (the
+      observation ends with target − measured angle and preview − measured), reward ÷ 10
+      (``error_scale`` 100°, ``energy_weight`` 0.05) so that returns are of order one; the
+      tiers change only the task distribution (:mod:`spine_gym.envs.ids`). ``-v0`` is unchanged.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -219,6 +225,7 @@ class SmaSpineEnv(gym.Env):
         error_scale: float = 10.0,
         energy_weight: float = 0.5,
         cost_weight: float = 0.0,
+        observe_errors: bool = False,
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
     ):
@@ -242,6 +249,7 @@ class SmaSpineEnv(gym.Env):
             error_scale=error_scale,
             energy_weight=energy_weight,
             cost_weight=cost_weight,
+            observe_errors=observe_errors,
             params=params,
             solver=solver,
         )

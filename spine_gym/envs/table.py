@@ -51,6 +51,8 @@ STEP_SOURCES = {
     "reward": bk.Q_REWARD,
     "reward_tracking": bk.Q_R_TRACK,
     "reward_energy": bk.Q_R_ENERGY,
+    "measured_error": bk.Q_MERROR,
+    "measured_preview_error": bk.Q_MPREVIEW,
 }
 SOURCES = (*SENSOR_SOURCES, *STEP_SOURCES)
 

@@ -7,8 +7,8 @@ randomised parameters, sensor noise) happen in Python from one generator per sub
 per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``). Row i therefore equals
 ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
 A step writes the batch's preallocated buffers (observations, table rows, flags) and hands out
-fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the Gymnasium info dict fills
-itself from the copied rows on first use (:class:`~spine_gym.envs._infos.VectorInfo`), and the SB3
+fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the Gymnasium info dict is a plain
+``dict`` of views of the copied rows (:func:`~spine_gym.envs._infos.vector_info`), and the SB3
 adapter builds its per-env dicts from the same rows.
 """
 
@@ -24,7 +24,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ._infos import VectorInfo, row_infos, vector_info_keys
+from ._infos import row_infos, vector_info, vector_info_keys
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -361,10 +361,10 @@ class SmaSpineVectorEnv(VectorEnv):
         return arrays
 
     def _infos(self, rows: np.ndarray, status: np.ndarray) -> dict[str, Any]:
-        """Gymnasium's info dict of a step in which every sub-env has every key (views of the fresh
-        ``rows``, all-True ``_key`` masks), filled on first use (:class:`~._infos.VectorInfo`),
-        or at once with ``status_text`` on the failed rows if a step failed."""
-        infos = VectorInfo((self._info_keys, rows, status))
+        """Gymnasium's info dict (a plain ``dict``) of a step in which every sub-env has every key
+        (views of the fresh ``rows``, all-True ``_key`` masks; :func:`~._infos.vector_info`), with
+        ``status_text`` on the failed rows if a step failed."""
+        infos = vector_info(self._info_keys, rows, status)
         if status.any():  # some step failed (layout.OK is 0)
             failed, texts = status_texts(status)
             self._merge(infos, {"status_text": texts}, failed)

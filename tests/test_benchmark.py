@@ -1,0 +1,233 @@
+"""agents.benchmark: the table's statistics against rliable and hand-checked values, time to the PID's
+level, resuming, bad arguments, and the --quick pipeline end to end."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rliable import library as rly
+from rliable import metrics as rly_metrics
+
+from agents import benchmark as bm
+from agents import benchmark_stats as stats
+from agents.common import ALGOS, ENV_IDS, load_hyperparams
+from agents.runtime import load_policy, validation_metrics
+from agents.train import _action_noise, resolve_config
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
+
+
+# --------------------------------------------------------------------------- statistics
+def test_iqm_and_ci_are_rliables_own_on_the_same_data():
+    x = np.random.default_rng(1).normal(5.0, 2.0, size=7)
+    np.random.seed(3)
+    point, interval = rly.get_interval_estimates(
+        {"a": x.reshape(-1, 1)}, lambda s: np.array([rly_metrics.aggregate_iqm(s)]), reps=500
+    )
+    before = np.random.get_state()[1].copy()
+    iqm, lo, hi = stats.iqm_interval(x, reps=500, seed=3)
+    assert np.array_equal(np.random.get_state()[1], before)  # the caller's global generator is untouched
+    assert iqm == point["a"][0] and (lo, hi) == (interval["a"][0, 0], interval["a"][1, 0])
+    assert lo < iqm < hi
+
+
+def test_iqm_and_ci_on_hand_checkable_sets():
+    assert stats.iqm_interval(np.arange(1.0, 9.0))[0] == pytest.approx(4.5)  # mean of 3, 4, 5, 6
+    assert stats.iqm_interval([0.0, 10, 10, 10, 10, 10, 10, 100])[0] == pytest.approx(10.0)  # outliers cut
+    assert stats.iqm_interval([5.0, 5.0, 5.0, 5.0]) == (5.0, 5.0, 5.0)  # no spread, no interval
+    assert stats.iqm_interval([2.5]) == (2.5, 2.5, 2.5)  # one seed
+    iqm, lo, hi = stats.iqm_interval(np.arange(1.0, 9.0), reps=1000)
+    assert 1.0 <= lo < iqm < hi <= 8.0
+
+
+def test_curve_intervals_are_rliables_per_evaluation_iqm():
+    rng = np.random.default_rng(2)
+    curves = rng.normal(size=(5, 4)) + np.arange(4)
+    np.random.seed(0)
+    point, interval = rly.get_interval_estimates(
+        {"a": curves[:, None, :]},
+        lambda s: np.array([rly_metrics.aggregate_iqm(s[..., k]) for k in range(s.shape[-1])]),
+        reps=300,
+    )
+    iqm, lo, hi = stats.curve_intervals(curves, reps=300, seed=0)
+    assert np.array_equal(iqm, point["a"]) and np.array_equal(lo, interval["a"][0])
+    assert np.array_equal(hi, interval["a"][1])
+    shifted = np.arange(1.0, 9.0)[:, None] + np.array([0.0, 10.0, 20.0])  # 8 runs, 3 evaluations
+    assert np.allclose(stats.curve_intervals(shifted, reps=200)[0], [4.5, 14.5, 24.5])
+
+
+def test_bad_scores_are_rejected():
+    for bad in ([], [1.0, float("nan")], [float("inf")]):
+        with pytest.raises(ValueError, match="scores"):
+            stats.iqm_interval(bad)
+    with pytest.raises(ValueError, match="curves"):
+        stats.curve_intervals(np.ones(3))
+
+
+def test_time_to_pid_level_on_a_synthetic_curve():
+    steps, wall = [0, 100, 200, 300], [0.0, 1.5, 3.0, 4.5]
+    rmse = [10.0, 6.0, 4.9, 5.5]
+    assert stats.time_to_level(steps, wall, rmse, 5.0) == (200, 3.0)  # first at or below, not the best
+    assert stats.time_to_level(steps, wall, rmse, 6.0) == (100, 1.5)  # "at" counts
+    assert stats.time_to_level(steps, wall, rmse, 4.0) == (None, None)
+    assert stats.time_to_level(steps, wall, rmse, 50.0) == (0, 0.0)
+
+
+def _synthetic_runs():
+    runs = []
+    for algo, base in (("ppo", 3.0), ("sac", 8.0)):
+        for seed in range(5):
+            rmse = base + seed
+            runs.append({
+                "algo": algo, "env_id": "SmaSpine-v0", "seed": seed, "steps": 1000, "wall_s": 60.0 + seed,
+                "cpu_s": 50.0, "final_rmse": rmse, "final_energy_J": 100.0 + seed,
+                "final_time_over_limit_s": 0.0,
+                "steps_to_pid": 500 if rmse <= 5.0 else None, "wall_to_pid_s": 30.0 if rmse <= 5.0 else None,
+            })  # fmt: skip
+    return runs
+
+
+def test_table_rows_and_markdown_from_synthetic_runs():
+    runs = _synthetic_runs()
+    refs = {
+        "SmaSpine-v0": {"pid": {"rmse": 5.0, "energy_J": 80.0, "time_over_limit_s": 1.0, "n_episodes": 10}}
+    }
+    rows = stats.summary_rows(runs, refs, reps=300)
+    ppo = next(r for r in rows if r["method"] == "ppo")
+    assert (ppo["rmse_iqm"], ppo["rmse_ci_low"], ppo["rmse_ci_high"]) == stats.iqm_interval(
+        [3.0, 4.0, 5.0, 6.0, 7.0], reps=300
+    )
+    assert ppo["rmse_iqm"] == pytest.approx(5.0)  # mean of 4, 5, 6: one of 5 runs cut at each end
+    assert ppo["reached_pid"] == 3 and ppo["wall_s_mean"] == pytest.approx(62.0)
+    assert next(r for r in rows if r["method"] == "sac")["reached_pid"] == 0
+    pid = next(r for r in rows if r["method"] == "pid")
+    assert pid["kind"] == "reference" and pid["rmse_iqm"] == 5.0 and pid["rmse_ci_low"] is None
+    assert len({tuple(r) for r in rows}) == 1  # one set of columns for the CSV
+    md = stats.markdown_table(rows, runs, {"SmaSpine-v0": "deg"})
+    assert "| ppo | 5 | 1,000 | 5.00 [" in md and "| 3/5 |" in md and "| 0/5 |" in md
+    assert "pid (reference, 10 episodes)" in md and "RMSE [deg] IQM [95 % CI]" in md
+    assert "| SmaSpine-v0 | sac | 0 | 1,000 | 60 s | 50 s | 8.00 deg | — | — |" in md
+
+
+# --------------------------------------------------------------------------- hyperparameters
+@pytest.mark.parametrize("algo", ALGOS)
+def test_every_algorithm_has_an_entry_for_every_v0_id(algo):
+    for env_id in ENV_IDS:
+        cfg = resolve_config(algo, env_id)
+        assert cfg.n_timesteps > 0 and cfg.n_envs >= 1 and load_hyperparams(algo, env_id)
+    noise = _action_noise(resolve_config("td3", ENV_IDS[0]), 2)
+    assert noise is not None and np.allclose(noise._sigma, 0.1)
+    with pytest.raises(ValueError, match="noise_type"):
+        _action_noise(resolve_config("ppo", ENV_IDS[0], hyperparams={"noise_type": "normal"}), 2)
+
+
+# --------------------------------------------------------------------------- bad arguments
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--algos", "dqn"], "invalid choice"),
+        (["--envs", "CartPole-v9"], "unknown env id"),
+        (["-n", "0"], "-n/--n-timesteps must be a positive integer"),
+        (["--n-seeds", "0"], "--n-seeds must be a positive integer"),
+        (["--eval-freq", "-5"], "--eval-freq must be a positive integer"),
+        (["--workers", "0"], "--workers must be a positive integer"),
+        (["--budget", "SmaSpine-v0:abc"], "--budget takes ID:N"),
+        (["--envs", "SmaSpine-v0", "--budget", "SmaSpine3D-v0:100"], "--budget takes ID:N"),
+        (["--val-episodes", "2", "--reference-episodes", "3"], "--reference-episodes must be <="),
+        (["--references", "lqr"], "unknown reference"),
+        (["--bootstrap-reps", "10"], "--bootstrap-reps must be >= 100"),
+        (["-n", "x"], "invalid int value"),
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line_before_any_folder(tmp_path, capsys, argv, message):
+    out = tmp_path / "bench"
+    with pytest.raises(SystemExit) as e:
+        bm.main([*argv, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and message in err and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------- one run, resume
+TINY = {"n_steps": 32, "batch_size": 32, "n_epochs": 1}
+
+
+def _tiny_spec(**kw) -> bm.RunSpec:
+    base = dict(algo="ppo", env_id="SmaSpineChain-v0", seed=0, n_timesteps=128, n_envs=2, eval_freq=64,
+                val_episodes=1, env_kwargs={"episode_duration": 2.0}, hyperparams=TINY)  # fmt: skip
+    return bm.RunSpec(**{**base, **kw})
+
+
+def test_a_run_validates_on_schedule_and_resume_skips_it(tmp_path):
+    spec = _tiny_spec()
+    record = bm.run_one(spec, tmp_path)
+    folder = tmp_path / spec.folder
+    curve = bm.read_curve(folder / "curve.csv")
+    assert list(curve["step"]) == [0, 64, 128] and record["steps"] == 128
+    assert np.all(np.diff(curve["train_wall_s"]) > 0) and record["final_rmse"] == curve["rmse"][-1]
+    # the saved model is the one validated last: load_policy rebuilds it with its statistics
+    rows = validation_metrics(load_policy(folder), 1, {"episode_duration": 2.0}, "SmaSpineChain-v0")
+    assert rows[0]["rmse_deg"] == pytest.approx(curve["rmse"][-1], rel=1e-9)
+
+    stamp = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    time.sleep(0.01)
+    assert bm.run_one(spec, tmp_path) == record  # skipped: the stored record, nothing rewritten
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == stamp
+    # in a worker process too (the pool path of --workers)
+    [(done_spec, pooled, error)] = list(bm.execute([spec], tmp_path, workers=2))
+    assert error == "" and pooled == record and done_spec == spec
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == stamp
+
+    with pytest.raises(ValueError, match="n_timesteps=128, now 256"):
+        bm.check_finished([_tiny_spec(n_timesteps=256)], tmp_path)
+    bm.check_finished([spec], tmp_path)
+
+
+def test_an_interrupted_run_starts_over(tmp_path):
+    spec = _tiny_spec(n_timesteps=64, eval_freq=64)
+    folder = tmp_path / spec.folder
+    folder.mkdir(parents=True)
+    (folder / "curve.csv").write_text("step\n999\n")  # left by a killed run, no done marker
+    bm.run_one(spec, tmp_path)
+    assert list(bm.read_curve(folder / "curve.csv")["step"]) == [0, 64]
+    assert json.loads((folder / bm.DONE).read_text())["settings"] == spec.settings()
+
+
+# --------------------------------------------------------------------------- --quick end to end
+QUICK_TIMEOUT_S = 120  # CI budget of --quick on 2 cores
+
+
+def test_quick_runs_every_path_end_to_end_and_resumes(tmp_path):
+    out = tmp_path / "bench"
+    cmd = [sys.executable, "-m", "agents.benchmark", "--quick", "--out", str(out)]
+    t0 = time.perf_counter()
+    first = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=QUICK_TIMEOUT_S)
+    assert first.returncode == 0, first.stderr[-3000:]
+    wall = time.perf_counter() - t0
+    ids = list(bm.DEFAULT_ENV_IDS[:2])
+    n_runs = len(ids) * len(ALGOS)
+    assert f"{n_runs} runs, 0 finished before" in first.stdout, (first.stdout, wall)
+    dones = sorted(out.glob("runs/*/*/seed_0/done.json"))
+    assert len(dones) == n_runs
+    for name in ("table.md", "table.csv", "table.png", "runs.csv", "learning_curves.csv", "evaluations.csv"):
+        assert (out / name).stat().st_size > 0, name
+    for env_id in ids:
+        assert (out / f"curves_{env_id}.png").exists() and (out / "references" / f"{env_id}.json").exists()
+    evaluations = (out / "evaluations.csv").read_text().splitlines()
+    assert len(evaluations) == 1 + n_runs * 3  # header, then evaluations at 0, 256, 512 steps
+    table = (out / "table.md").read_text()
+    assert all(f"### {i}" in table for i in ids) and "pid (reference, 2 episodes)" in table
+
+    stamps = [d.stat().st_mtime_ns for d in dones]
+    second = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=QUICK_TIMEOUT_S)
+    assert second.returncode == 0, second.stderr[-3000:]
+    assert f"{n_runs} runs, {n_runs} finished before (skipped), 0 to run" in second.stdout
+    assert [d.stat().st_mtime_ns for d in dones] == stamps
