@@ -92,6 +92,25 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
         rewards = (track - self.lam * energy / self.energy_ref).astype(np.float32)
         return obs, rewards, dones, infos
 
+    def state_dict(self) -> dict:
+        """What a checkpoint keeps to resume the dual ascent: λ, the budget and the finished-episode
+        energies of the current window (the episodes under way restart on a resume)."""
+        return {"lam": self.lam, "budget_J": self.budget, "window": self.window, "finished": list(self.finished)}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Restore :meth:`state_dict` (λ checked against ``lagrangian_init``'s range, the budget and
+        window against this env's)."""
+        lam = float(state["lam"])
+        check_budget_args(float(state["budget_J"]), self.energy_ref, lam, 1.0)
+        if float(state["budget_J"]) != self.budget or int(state["window"]) != self.window:
+            raise ValueError(
+                f"the checkpoint's energy budget / window ({state['budget_J']} J, {state['window']}) differ "
+                f"from this run's ({self.budget} J, {self.window})"
+            )
+        self.lam = lam
+        self.finished.clear()
+        self.finished.extend(float(e) for e in state["finished"])
+
     def energy_ratio(self) -> float | None:
         """Mean finished-episode energy / budget (``None`` before the first episode ends)."""
         return float(np.mean(self.finished)) / self.budget if self.finished else None

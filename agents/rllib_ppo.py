@@ -71,6 +71,7 @@ __all__ = [
     "observation_stats",
     "ppo_settings",
     "runner_env_classes",
+    "runner_placement",
     "sample_throughput",
     "main",
 ]
@@ -161,6 +162,7 @@ def build_config(
     seed: int | None = 0,
     env_config: dict | None = None,
     num_epochs: int | None = None,
+    runner_resources: dict | None = None,
 ) -> PPOConfig:
     """The PPO config of this example.
 
@@ -175,6 +177,9 @@ def build_config(
         env_config: ``SmaSpine-v0`` keyword arguments; the native env defaults to
             ``parallel=False`` (one core per runner process is the better split on a shared machine).
         num_epochs: override of ppo.yml's ``n_epochs`` (e.g. 1 for a smoke run).
+        runner_resources: custom Ray resources each env runner needs besides its CPU (e.g.
+            ``{"runner_slot": 1}`` with ``ray start --resources '{"runner_slot": 1}'`` on the nodes
+            that should host runners, one runner per slot).
     """
     if vectorize not in VECTORIZE:
         raise ValueError(f"vectorize must be one of {sorted(VECTORIZE)}, got {vectorize!r}")
@@ -192,6 +197,9 @@ def build_config(
     training = dict(s["training"])
     if num_epochs is not None:
         training["num_epochs"] = int(num_epochs)
+    runner_resources = dict(runner_resources or {})
+    if not all(isinstance(v, int | float) and v > 0 for v in runner_resources.values()):
+        raise ValueError(f"runner_resources must map resource names to amounts > 0, got {runner_resources!r}")
     batch = fragment * envs_per_runner * max(env_runners, 1)
     training["minibatch_size"] = min(training["minibatch_size"], batch)
     return (
@@ -203,6 +211,7 @@ def build_config(
             gym_env_vectorize_mode=VECTORIZE[vectorize].value,
             rollout_fragment_length=fragment,
             env_to_module_connector=partial(_obs_norm_connector, mean=mean, std=std),
+            custom_resources_per_env_runner=runner_resources,
         )
         .training(train_batch_size_per_learner=batch, **training)
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=s["hiddens"], vf_share_layers=False))
@@ -214,6 +223,17 @@ def runner_env_classes(algo: Algorithm) -> list[str]:
     """Class name of the (unwrapped) env of every remote env runner."""
     return algo.env_runner_group.foreach_env_runner(
         lambda r: type(r.env.unwrapped).__name__, local_env_runner=False
+    )
+
+
+def runner_placement(algo: Algorithm) -> list[dict]:
+    """Ray node id and env steps sampled so far of every remote env runner."""
+    return algo.env_runner_group.foreach_env_runner(
+        lambda r: {
+            "node_id": ray.get_runtime_context().get_node_id(),
+            "env_steps": int(r.num_env_steps_sampled_lifetime),
+        },
+        local_env_runner=False,
     )
 
 
@@ -296,6 +316,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--address", default=None, help="Ray cluster to join ('auto' or host:port); default: local"
     )
     p.add_argument("--num-cpus", type=int, default=None, help="CPUs of a local Ray cluster (default: all)")
+    p.add_argument(
+        "--runner-resources",
+        type=json.loads,
+        default=None,
+        help="custom Ray resources per env runner, JSON (e.g. '{\"runner_slot\": 1}')",
+    )
     p.add_argument("--out", default="runs/rllib/ppo", help="run folder (checkpoint, result.json)")
     return p
 
@@ -333,6 +359,7 @@ def main(argv: list[str] | None = None) -> dict:
                 rollout_fragment_length=args.rollout_fragment_length,
                 seed=args.seed,
                 num_epochs=args.num_epochs,
+                runner_resources=args.runner_resources,
             )
         except ValueError as e:
             parser.error(str(e))
@@ -347,6 +374,8 @@ def main(argv: list[str] | None = None) -> dict:
         envs = runner_env_classes(algo)
         print(f"env runners: {len(envs)}, env per runner: {sorted(set(envs))}")
         history = _train(algo, args.iterations)
+        placement = runner_placement(algo)
+        nodes = [{"node_id": n["NodeID"], "resources": n["Resources"]} for n in ray.nodes() if n["Alive"]]
         ckpt = algo.save_to_path(str((out / CHECKPOINT).resolve()))
         algo.stop()
     finally:
@@ -354,6 +383,8 @@ def main(argv: list[str] | None = None) -> dict:
     result = {
         "command": shlex.join([sys.executable, "-m", "agents.rllib_ppo", *(argv or sys.argv[1:])]),
         "runner_envs": envs,
+        "runner_nodes": placement,
+        "cluster_nodes": nodes,
         "history": history,
         "checkpoint": str(ckpt),
     }

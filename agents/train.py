@@ -16,11 +16,27 @@ flags override them (``-params key:value``). The training env is the package's n
 
 Each run gets a folder ``<log folder>/<algo>/<env id>_<k>/`` holding ``command.txt`` (the exact
 command line), ``args.yml`` (parsed arguments), ``config.yml`` (the hyperparameters used),
-``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model +
-``VecNormalize`` every ``--save-freq`` steps), ``best_model.zip`` (by the evaluation callback),
-``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``, TensorBoard
-logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl``. ``-i path/to/checkpoint.zip`` resumes training from a checkpoint (with its
-normalisation statistics and step counter) in a new run folder.
+``meta.json`` (what :func:`agents.runtime.load_policy` needs), ``checkpoints/`` (model,
+``VecNormalize`` and Lagrange multiplier every ``--save-freq`` steps), ``best_model.zip`` (by the
+evaluation callback), ``best_vecnormalize.pkl`` (the statistics at that moment), ``evaluations.npz``,
+TensorBoard logs in ``tb/`` and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``lagrangian.json`` with an
+energy budget).
+
+Resuming an interrupted run (a crash, ``kill -9``)::
+
+    python -m agents.train --resume logs/ppo/SmaSpine-v0_3            # its newest checkpoint
+    python -m agents.train --resume logs/ppo/SmaSpine-v0_3/checkpoints/rl_model_200000_steps.zip
+
+continues the run in its own folder with the run's command line (``command.txt``'s first line; flags
+given with ``--resume`` are appended and win): the checkpoint's weights, optimiser state,
+``VecNormalize`` statistics, step counter and Lagrange multiplier (:mod:`agents.checkpoints`), up to
+the run's ``-n`` steps in all, so learning-rate and clip schedules and later checkpoints fall on the
+steps of an uninterrupted run. The envs restart their episodes from ``--seed`` and the random streams
+are seeded afresh, so the result is not the uninterrupted run's, but two resumes from one checkpoint
+give the same weights (``tests/test_train_resume.py``). Evaluations up to the checkpoint stay in
+``evaluations.npz`` and ``best_model.zip`` is replaced only by a better one.
+``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
+normalisation statistics and step counter, the multiplier from ``lagrangian_init``.
 
 The pieces are public for :mod:`agents.benchmark`, which trains through the same path:
 :func:`resolve_config` (the YAML entry with overrides), :func:`build_envs` (the wrapped training
@@ -62,11 +78,20 @@ from pathlib import Path
 import numpy as np
 import torch
 import yaml
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
 from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
+from .checkpoints import (
+    RunCheckpointCallback,
+    checkpoint_steps,
+    lagrangian_candidates,
+    latest_checkpoint,
+    load_lagrangian,
+    restore_eval_history,
+    save_lagrangian,
+)
 from .common import (
     ALGOS,
     ENV_ID,
@@ -93,7 +118,7 @@ from .runtime import (
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
-    p.add_argument("--algo", required=True, choices=ALGOS, help="RL algorithm")
+    p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
     p.add_argument("--env", default=ENV_ID, help="environment id (default: %(default)s)")
     p.add_argument(
         "-n", "--n-timesteps", type=int, default=-1, help="training steps (default: from the YAML)"
@@ -112,7 +137,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="hyperparameter YAML (default: agents/hyperparams/<algo>.yml)",
     )
     p.add_argument("-f", "--log-folder", type=str, default="logs", help="log folder (default: %(default)s)")
-    p.add_argument("-i", "--trained-agent", type=str, default="", help="checkpoint .zip to resume from")
+    p.add_argument(
+        "-i",
+        "--trained-agent",
+        type=str,
+        default="",
+        help="fine-tune this model .zip in a new run folder (-n more steps)",
+    )
+    p.add_argument(
+        "--resume",
+        type=str,
+        default="",
+        metavar="RUN",
+        help="continue an interrupted run in its folder: the run folder (its newest checkpoint) or one "
+        "of its checkpoints/rl_model_<n>_steps.zip; reuses the run's command line (flags given here "
+        "are appended to it)",
+    )
     p.add_argument("--eval-freq", type=int, default=25_000, help="evaluate every N env steps (<= 0: never)")
     p.add_argument("--eval-episodes", type=int, default=8, help="episodes per evaluation")
     p.add_argument("--save-freq", type=int, default=50_000, help="checkpoint every N env steps (<= 0: never)")
@@ -156,6 +196,42 @@ def _yaml_safe(d: dict) -> dict:
             v = _yaml_safe(v)
         out[k] = v
     return out
+
+
+def _resume_target(path: Path) -> tuple[Path, Path]:
+    """(run folder, checkpoint) of ``--resume path``: a run folder and its newest complete
+    checkpoint, or a checkpoint ``<run>/checkpoints/rl_model_<n>_steps.zip`` and its run."""
+    if path.is_dir():
+        run, ckpt = path, latest_checkpoint(path)
+        if ckpt is None:
+            raise SystemExit(f"--resume: no checkpoint in {path / 'checkpoints'} to resume from")
+    elif checkpoint_steps(path) is not None and path.parent.name == "checkpoints" and path.exists():
+        run, ckpt = path.parent.parent, path
+    else:
+        raise SystemExit(
+            f"--resume must be a run folder or its checkpoints/rl_model_<n>_steps.zip, got {path}"
+        )
+    if not (run / "command.txt").exists() or not (run / "meta.json").exists():
+        raise SystemExit(f"--resume: {run} is not a run folder of agents.train (no command.txt / meta.json)")
+    return run, ckpt
+
+
+def _parse(argv: list[str] | None):
+    """(arguments, argv, resume target or None). With ``--resume`` the run's first command line
+    comes first and this one's flags after it, so they override."""
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parser.parse_args(argv)
+    resume = None
+    if args.resume:
+        if args.trained_agent:
+            parser.error("--resume continues a run from its own checkpoint: drop -i")
+        resume = _resume_target(Path(args.resume))
+        first = shlex.split((resume[0] / "command.txt").read_text().splitlines()[0])
+        args = parser.parse_args([*first[3:], *argv])  # first[:3]: python -m agents.train
+    if args.algo is None:
+        parser.error("--algo is required (or --resume RUN)")
+    return args, argv, resume
 
 
 @dataclass
@@ -231,11 +307,14 @@ def build_envs(
     eval_env: bool = False,
     vec_env: str = "native",
     trained_agent: str = "",
+    resume: bool = False,
     verbose: int = 0,
 ) -> TrainingEnvs:
     """The training env of ``cfg`` (native vector env seeded ``seed``) inside the entry's wrappers
-    (residual, integral and history observations, energy budget, ``VecNormalize``; resuming from
-    ``trained_agent`` loads its statistics), and with ``eval_env`` the evaluation callback's env."""
+    (residual, integral and history observations, energy budget, ``VecNormalize``; starting from
+    ``trained_agent`` loads its statistics), and with ``eval_env`` the evaluation callback's env.
+    ``resume``: ``trained_agent`` is a checkpoint of the run being continued, whose energy budget and
+    Lagrange multiplier are restored too (:func:`_budget_env`)."""
     special, env_kwargs, env_id = cfg.special, cfg.env_kwargs, cfg.env_id
     meta: dict = {}
     env = make_vec_env(env_id, cfg.n_envs, seed=seed, env_kwargs=env_kwargs, kind=vec_env)
@@ -280,22 +359,9 @@ def build_envs(
             ev = HistoryObsVecEnv(ev, hspec)
     budget_env = None
     if special["energy_budget"] is not None:
-        budget = energy_budget(
-            special["energy_budget"], env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
-        )
-        probe = make_env(env_kwargs)
-        budget_env = EnergyBudgetVecEnv(
-            env,
-            budget,
-            probe.config.energy_reference,
-            lam0=float(special["lagrangian_init"]),
-            window=int(special["budget_window"]),
-        )
-        probe.close()
+        budget_env = _budget_env(cfg, env, trained_agent if resume else "", verbose)
         env = budget_env
-        meta["energy_budget_J"] = budget
-        if verbose:
-            print(f"energy budget {budget:.1f} J per episode", flush=True)
+        meta["energy_budget_J"] = budget_env.budget
     if norm is not None:
         if trained_agent:
             stats = _checkpoint_vecnormalize(Path(trained_agent))
@@ -311,6 +377,32 @@ def build_envs(
                 **{k: v for k, v in norm.items() if k != "norm_reward"},
             )
     return TrainingEnvs(env=env, eval_env=ev, budget_env=budget_env, meta=meta)
+
+
+def _budget_env(cfg: RunConfig, env, checkpoint: str = "", verbose: int = 0) -> EnergyBudgetVecEnv:
+    """``env`` inside the Lagrangian energy budget of ``cfg``'s entry; resuming from the run's
+    ``checkpoint``, its budget (a ``pid`` budget is not measured again) and multiplier."""
+    special = cfg.special
+    if checkpoint:
+        budget = float(json.loads(lagrangian_candidates(Path(checkpoint))[0].read_text())["budget_J"])
+    else:
+        budget = energy_budget(
+            special["energy_budget"], cfg.env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
+        )
+    probe = make_env(cfg.env_kwargs)
+    budget_env = EnergyBudgetVecEnv(
+        env,
+        budget,
+        probe.config.energy_reference,
+        lam0=float(special["lagrangian_init"]),
+        window=int(special["budget_window"]),
+    )
+    probe.close()
+    if checkpoint:
+        load_lagrangian(budget_env, Path(checkpoint))
+    if verbose:
+        print(f"energy budget {budget:.1f} J per episode", flush=True)
+    return budget_env
 
 
 def _action_noise(cfg: RunConfig, n_actions: int):
@@ -337,8 +429,11 @@ def build_model(
     tensorboard_log: str | None = None,
     verbose: int = 0,
     trained_agent: str = "",
+    resume: bool = False,
 ):
-    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``)."""
+    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``).
+    ``resume``: the checkpoint's last observation belongs to the envs of the stopped process, so the
+    model resets ``env`` when it starts learning."""
     algo_cls = algo_class(cfg.algo)
     if not trained_agent:
         noise = _action_noise(cfg, int(np.prod(env.action_space.shape)))
@@ -365,6 +460,8 @@ def build_model(
     replay = Path(trained_agent).with_name("replay_buffer.pkl")
     if cfg.algo in OFF_POLICY and replay.exists():
         model.load_replay_buffer(str(replay))
+    if resume:
+        model._last_obs = None  # SB3's learn resets the env when there is no last observation
     return model
 
 
@@ -376,10 +473,77 @@ def lagrangian_callbacks(cfg: RunConfig, envs: TrainingEnvs, verbose: int = 0) -
     return [LagrangianCallback(envs.budget_env, eta=eta, verbose=verbose)]
 
 
+def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] | None) -> tuple[Path, dict]:
+    """(run folder, meta): a new folder with ``command.txt``, ``args.yml``, ``config.yml``; or with
+    ``resume`` the run's folder, this command line appended to ``command.txt`` and a new entry in
+    ``meta["resumes"]``."""
+    command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
+    if resume:
+        run = resume[0]
+        with open(run / "command.txt", "a") as f:
+            f.write(command + "\n")
+        meta = json.loads((run / "meta.json").read_text())
+        meta.setdefault("resumes", []).append({"checkpoint": str(resume[1]), "command": command})
+        return run, meta
+    n_envs, n_timesteps = cfg.n_envs, cfg.n_timesteps
+    run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
+    (run / "command.txt").write_text(command + "\n")
+    (run / "args.yml").write_text(
+        yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
+    )
+    entry = {
+        **cfg.hp,
+        **cfg.special,
+        "n_envs": n_envs,
+        "n_timesteps": n_timesteps,
+        "env_kwargs": cfg.env_kwargs,
+    }
+    (run / "config.yml").write_text(yaml.safe_dump({args.env: _yaml_safe(entry)}))
+    meta = {
+        "algo": args.algo,
+        "env_id": args.env,
+        "env_kwargs": cfg.env_kwargs,
+        "seed": args.seed,
+        "n_envs": n_envs,
+        "n_timesteps": n_timesteps,
+        "command": command,
+        "resumed_from": args.trained_agent or None,
+    }
+    return run, meta
+
+
+def _eval_callback(args, run: Path, eval_env, normalized: bool, n_envs: int, resumed_at: int | None):
+    """The evaluation callback of the run (best model and its ``VecNormalize`` statistics into
+    ``run``); ``resumed_at``: the checkpoint's step, whose earlier evaluations it keeps."""
+    on_best = None
+    if normalized:
+        # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
+        # SaveVecNormalizeCallback): the final ones differ from those the best model saw
+        class _SaveBestVecNormalize(BaseCallback):
+            def _on_step(self) -> bool:
+                self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
+                return True
+
+        on_best = _SaveBestVecNormalize()
+    evaluation = EvalCallback(
+        eval_env,
+        callback_on_new_best=on_best,
+        eval_freq=max(1, args.eval_freq // n_envs),
+        n_eval_episodes=args.eval_episodes,
+        best_model_save_path=str(run),
+        log_path=str(run),
+        deterministic=True,
+        verbose=args.verbose,
+    )
+    if resumed_at is not None:
+        restore_eval_history(evaluation, run, resumed_at)
+    return evaluation
+
+
 def train(argv: list[str] | None = None) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
-    args = build_parser().parse_args(argv)
-    argv = sys.argv[1:] if argv is None else list(argv)
+    args, argv, resume = _parse(argv)
+    ckpt = str(resume[1]) if resume else args.trained_agent  # the model to load, if any
     os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
     torch.set_num_threads(max(1, args.torch_threads))
 
@@ -395,106 +559,63 @@ def train(argv: list[str] | None = None) -> Path:
         env_kwargs=args.env_kwargs,
         conf_file=args.conf_file,
     )
-    hp, special, env_kwargs = cfg.hp, cfg.special, cfg.env_kwargs
-    n_envs, n_timesteps = cfg.n_envs, cfg.n_timesteps
     set_random_seed(args.seed)
-
-    run = _next_run_folder(Path(args.log_folder), args.algo, args.env)
-    command = "python -m agents.train " + " ".join(shlex.quote(a) for a in argv)
-    (run / "command.txt").write_text(command + "\n")
-    (run / "args.yml").write_text(
-        yaml.safe_dump({**vars(args), "n_envs": n_envs, "n_timesteps": n_timesteps})
-    )
-    (run / "config.yml").write_text(
-        yaml.safe_dump(
-            {
-                args.env: _yaml_safe(
-                    {**hp, **special, "n_envs": n_envs, "n_timesteps": n_timesteps, "env_kwargs": env_kwargs}
-                )
-            }
-        )
-    )
-    meta = {
-        "algo": args.algo,
-        "env_id": args.env,
-        "env_kwargs": env_kwargs,
-        "seed": args.seed,
-        "n_envs": n_envs,
-        "n_timesteps": n_timesteps,
-        "command": command,
-        "resumed_from": args.trained_agent or None,
-    }
+    run, meta = _start_run(args, argv, cfg, resume)
     envs = build_envs(
         cfg,
         args.seed,
         eval_env=args.eval_freq > 0,
         vec_env=args.vec_env,
-        trained_agent=args.trained_agent,
+        trained_agent=ckpt,
+        resume=resume is not None,
         verbose=args.verbose,
     )
     meta.update(envs.meta)
-    env, eval_env, norm = envs.env, envs.eval_env, special["normalize"]
+    env, eval_env, norm = envs.env, envs.eval_env, cfg.special["normalize"]
     tb = None if args.no_tensorboard else str(run / "tb")
     model = build_model(
         cfg, env, args.seed, device=args.device, tensorboard_log=tb, verbose=args.verbose,
-        trained_agent=args.trained_agent,
+        trained_agent=ckpt, resume=resume is not None,
     )  # fmt: skip
+    if resume:
+        start = int(meta.get("start_timesteps", 0))
+    else:
+        start = int(model.num_timesteps)  # 0, or the fine-tuned model's count
+        meta["start_timesteps"] = start
+    # up to the run's -n steps in all: a resume trains the rest, a fine-tune -n more
+    remaining = max(0, start + cfg.n_timesteps - int(model.num_timesteps))
 
     callbacks = lagrangian_callbacks(cfg, envs, args.verbose)
     if args.save_freq > 0:
+        save_freq = max(1, args.save_freq // cfg.n_envs)
         callbacks.append(
-            CheckpointCallback(
-                save_freq=max(1, args.save_freq // n_envs),
-                save_path=str(run / "checkpoints"),
-                save_vecnormalize=norm is not None,
-                save_replay_buffer=False,
-            )
+            RunCheckpointCallback(run / "checkpoints", save_freq, start, envs.budget_env, args.verbose)
         )
     if eval_env is not None:
-        on_best = None
-        if norm is not None:
-            # keep the normalisation statistics of the moment the best model was saved (RL Zoo's
-            # SaveVecNormalizeCallback): the final ones differ from those the best model saw
-            class _SaveBestVecNormalize(BaseCallback):
-                def _on_step(self) -> bool:
-                    self.model.get_vec_normalize_env().save(str(run / "best_vecnormalize.pkl"))
-                    return True
-
-            on_best = _SaveBestVecNormalize()
-        callbacks.append(
-            EvalCallback(
-                eval_env,
-                callback_on_new_best=on_best,
-                eval_freq=max(1, args.eval_freq // n_envs),
-                n_eval_episodes=args.eval_episodes,
-                best_model_save_path=str(run),
-                log_path=str(run),
-                deterministic=True,
-                verbose=args.verbose,
-            )
-        )
+        resumed_at = int(model.num_timesteps) if resume else None
+        callbacks.append(_eval_callback(args, run, eval_env, norm is not None, cfg.n_envs, resumed_at))
+    segment = meta["resumes"][-1] if resume else meta
+    segment["start_step"] = int(model.num_timesteps)
+    if envs.budget_env is not None:
+        segment["lagrangian_start"] = envs.budget_env.lam
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     t0, c0 = time.time(), time.process_time()
     model.learn(
-        total_timesteps=n_timesteps,
+        total_timesteps=remaining,
         callback=CallbackList(callbacks),
         progress_bar=args.progress,
-        reset_num_timesteps=not args.trained_agent,
+        reset_num_timesteps=not ckpt,
         tb_log_name=args.algo,
     )
     wall, cpu = time.time() - t0, time.process_time() - c0
     model.save(run / "model.zip")
     if norm is not None:
         env.save(str(run / "vecnormalize.pkl"))
-    meta.update(
-        {
-            "train_wall_time_s": round(wall, 1),
-            "train_cpu_time_s": round(cpu, 1),
-            "total_timesteps": int(model.num_timesteps),
-        }
-    )
+    segment.update({"train_wall_time_s": round(wall, 1), "train_cpu_time_s": round(cpu, 1)})
+    meta["total_timesteps"] = int(model.num_timesteps)
     if envs.budget_env is not None:
         meta["lagrangian_final"] = envs.budget_env.lam
+        save_lagrangian(envs.budget_env, run / "lagrangian.json")
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
     if args.verbose:
         print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")

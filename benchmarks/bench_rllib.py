@@ -77,17 +77,20 @@ def main(argv=None) -> dict:
         envs = {f"{v}_{k}": sorted(set(runner_env_classes(a))) for (v, k), a in algos.items()}
         print("runner envs:", envs)
         rates: dict[tuple[str, int], list[float]] = {c: [] for c in CONFIGS}
+        loads = []  # 1-min load average after each round: what shared the cores with the runners
         for rnd in range(args.repeats + 1):  # round 0: warm-up
             for c in CONFIGS:
                 r = sample_throughput(algos[c], args.steps)
                 if rnd:
                     rates[c].append(r)
+            loads.append(os.getloadavg()[0])
             print(f"round {rnd}: " + ", ".join(f"{v}x{k} {rates[(v, k)][-1]:.0f}" for v, k in CONFIGS if rnd))
         for a in algos.values():
             a.stop()
     finally:
         ray.shutdown()
     info["load_average_end"] = os.getloadavg()
+    info["load_average_1min_after_each_round"] = loads
     results = {}
     for vec, k in CONFIGS:
         med = float(np.median(rates[(vec, k)]))
