@@ -173,9 +173,12 @@ def validation_metrics(
     return rows
 
 
-def validation_scores(policy, n_episodes: int, env_kwargs: dict | None = None) -> tuple[float, float]:
-    """Mean RMSE [deg] and mean energy [J] of ``policy`` over the validation episodes."""
-    rows = validation_metrics(policy, n_episodes, env_kwargs)
+def validation_scores(
+    policy, n_episodes: int, env_kwargs: dict | None = None, env_id: str = ENV_ID
+) -> tuple[float, float]:
+    """Mean RMSE (the env's unit: deg, mm for the chain) and mean energy [J] of ``policy`` over the
+    validation episodes of ``env_id``."""
+    rows = validation_metrics(policy, n_episodes, env_kwargs, env_id)
     return float(np.mean([r["rmse_deg"] for r in rows])), float(np.mean([r["energy_J"] for r in rows]))
 
 

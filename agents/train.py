@@ -387,9 +387,13 @@ def _budget_env(cfg: RunConfig, env, checkpoint: str = "", verbose: int = 0) -> 
         budget = float(json.loads(lagrangian_candidates(Path(checkpoint))[0].read_text())["budget_J"])
     else:
         budget = energy_budget(
-            special["energy_budget"], cfg.env_kwargs, int(special["budget_episodes"]), special["budget_scale"]
+            special["energy_budget"],
+            cfg.env_kwargs,
+            int(special["budget_episodes"]),
+            special["budget_scale"],
+            env_id=cfg.env_id,
         )
-    probe = make_env(cfg.env_kwargs)
+    probe = make_env(cfg.env_kwargs, env_id=cfg.env_id)
     budget_env = EnergyBudgetVecEnv(
         env,
         budget,
@@ -625,10 +629,12 @@ def train(argv: list[str] | None = None) -> Path:
     return run
 
 
-def energy_budget(spec, env_kwargs: dict, n_episodes: int, scale: float = 1.0) -> float:
+def energy_budget(
+    spec, env_kwargs: dict, n_episodes: int, scale: float = 1.0, env_id: str = ENV_ID
+) -> float:
     """The energy budget per episode [J]: ``scale`` × a number as given, or ``"pid"``: ``scale`` ×
-    the tuned PID's mean energy on ``n_episodes`` validation episodes of the training distribution
-    ``env_kwargs``."""
+    the tuned PID's mean energy on ``n_episodes`` validation episodes of ``env_id`` with the training
+    distribution ``env_kwargs``."""
     try:
         scale = float(scale)
     except (TypeError, ValueError):
@@ -637,10 +643,10 @@ def energy_budget(spec, env_kwargs: dict, n_episodes: int, scale: float = 1.0) -
         raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}")
     if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
         kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
-        probe = make_env(kw)
+        probe = make_env(kw, env_id=env_id)
         pid = build_controller("pid", probe)
         probe.close()
-        return scale * validation_scores(pid, n_episodes, kw)[1]
+        return scale * validation_scores(pid, n_episodes, kw, env_id)[1]
     try:
         value = float(spec)
     except (TypeError, ValueError):

@@ -11,7 +11,7 @@ from test_agents import TINY, run_cli
 
 from agents.envs import make_vec_env
 from agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
-from agents.runtime import make_env
+from agents.runtime import build_controller, make_env, validation_scores
 from agents.train import energy_budget
 
 torch.set_num_threads(1)
@@ -84,3 +84,14 @@ def test_pid_budget_is_the_pids_validation_energy_and_a_training_run_records_it(
     meta = json.loads((tmp_path / "ppo" / "SmaSpine-v0_1" / "meta.json").read_text())
     assert meta["energy_budget_J"] == pytest.approx(budget, rel=1e-12)
     assert 0.02 <= meta["lagrangian_final"] <= 20.0 and meta["residual"]["kind"] == "pid"
+
+
+def test_a_pid_budget_is_measured_on_the_runs_own_env_id():
+    """The spatial ids' budget is the spatial PID's energy on their validation episodes, not the
+    planar spine's."""
+    kw = {"episode_duration": 3.0}
+    for env_id in ("SmaSpine3D-v1", "SmaSpineChain-v1"):
+        pid = build_controller("pid", make_env(kw, env_id=env_id))
+        expected = validation_scores(pid, 2, kw, env_id)[1]
+        assert energy_budget("pid", kw, 2, 0.9, env_id=env_id) == pytest.approx(0.9 * expected, rel=1e-12)
+    assert energy_budget("pid", kw, 2, env_id="SmaSpineChain-v1") != energy_budget("pid", kw, 2)
