@@ -116,7 +116,8 @@ ERR_ROOT = 2  # composite solve did not converge
 ERR_NONFINITE = 3  # a non-finite number appeared
 ERR_SUBSTEPS = 4  # more sub-steps than allowed in one output step
 ERR_TEMPERATURE = 5  # wire temperature outside the model's range
-ERR_BUCKLING = 6  # the equilibrium is unstable: a load past buckling (physics.stability)
+ERR_BUCKLING = 6  # the equilibrium is unstable: a load past buckling (physics.stability), or, in the spatial
+# core, the equilibrium path ends at a wire's slack kink past which the spine is unstable (SPATIAL.md §8.11)
 
 STATUS_TEXT = {
     OK: "ok",

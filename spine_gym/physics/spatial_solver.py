@@ -117,6 +117,7 @@ from .spatial_layout import (
 )
 from .spatial_stability import (
     add_wire_term,
+    is_buckled_at,
     is_buckled_in,
     needs_stability_check,
     stability_work,
@@ -139,6 +140,7 @@ FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the sa
 INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
 MAX_HALVINGS = 30  # back-tracking halvings of one safeguarded Newton step
 SAFE_TOL = 0.01  # shape tolerance of the safeguard relative to tol_theta
+MECH_RETRY = 0.25  # a coupled sub-step whose composite solve failed is retried this much shorter
 
 
 # ---------------------------------------------------------------- state views and work arrays
@@ -213,7 +215,8 @@ def wire_block(state, field, nw):
     # the whole-shape Newton and the stability test
     WK_STEP,  # (2N,) Newton step on ω
     WK_STAB,  # the tuple of spatial_stability.stability_work
-) = range(37)
+    WK_SAVED_S,  # (2N, 2K) S at the start of the fallbacks (restored if they fail)
+) = range(38)
 
 
 @jit
@@ -257,6 +260,7 @@ def make_work(nw, nm, ns):
         np.empty(sens_offset(nw, nm, ns)),
         np.empty(2 * ns),
         stability_work(nw, nm, ns),
+        np.empty((2 * ns, 2 * nm)),
     )
 
 
@@ -564,28 +568,17 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
         (status, iterations); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
     """
     ns = omega.shape[0]
-    n2 = 2 * ns
     frames, chords, new = wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW]
     trial = wk[WK_WTRIAL]
     gm = wk[WK_G]
     step = wk[WK_STEP]
-    mats, rows, s_frames, s_chords, sums, dg, wires = wk[WK_STAB]
-    jac = mats[0]
     for it in range(int(ks[S_MAXROOT])):
-        wire_mechanics(omega, xp, xm, kp, kw, km, wk)
-        copy_pairs(mw, gm)
-        e = shape_pass(omega, mw, vforce, kp, km, frames, chords, new)
+        e = _full_residual(mw, omega, xp, xm, vforce, kp, kw, km, wk)
         if not math.isfinite(e):
             return ERR_NONFINITE, it
         if e < ks[S_TOLTH]:
             return OK, it + 1
-        tube_jacobian(omega, mw, vforce, kp, km, jac, rows, s_frames, s_chords)
-        add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires)
-        for r in range(n2):
-            for c in range(n2):
-                jac[r, c] = (1.0 if r == c else 0.0) - jac[r, c]
-            step[r] = new[r // 2, r % 2] - omega[r // 2, r % 2]  # −R
-        if not solve_in_place(jac, step):
+        if not _full_step(mw, omega, xp, xm, vforce, kp, kw, km, wk):
             return ERR_ROOT, it + 1
         lam = 1.0  # back-tracking: a full step can jump across a wire's slack kink and cycle
         for _ in range(MAX_HALVINGS):
@@ -598,6 +591,65 @@ def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
             lam *= 0.5
         copy_pairs(omega, trial)
     return ERR_ROOT, int(ks[S_MAXROOT])
+
+
+@hot
+def _full_residual(mw, omega, xp, xm, vforce, kp, kw, km, wk):
+    """The whole-shape Newton's residual at ``omega``: wk[WK_EPS], wk[WK_SIG], wk[WK_G] of the shape,
+    ``mw`` = G, the shape pass into wk[WK_NEW]; returns max|f(ω, G(ω)) − ω|."""
+    wire_mechanics(omega, xp, xm, kp, kw, km, wk)
+    copy_pairs(mw, wk[WK_G])
+    return shape_pass(omega, mw, vforce, kp, km, wk[WK_FRAMES], wk[WK_CHORDS], wk[WK_NEW])
+
+
+@hot
+def _full_step(mw, omega, xp, xm, vforce, kp, kw, km, wk):
+    """The whole-shape Newton step (I − J) Δω = f − ω into wk[WK_STEP], after :func:`_full_residual`
+    at the same ``omega`` (its shape pass is the right-hand side). False if I − J is singular."""
+    n2 = 2 * omega.shape[0]
+    new = wk[WK_NEW]
+    step = wk[WK_STEP]
+    stab = wk[WK_STAB]
+    jac = stab[0][0]
+    tube_jacobian(omega, mw, vforce, kp, km, jac, stab[1], stab[2], stab[3])
+    add_wire_term(omega, xp, xm, kp, kw, km, jac, stab[4], stab[5], stab[6], stab[7])
+    for r in range(n2):
+        for c in range(n2):
+            jac[r, c] = (1.0 if r == c else 0.0) - jac[r, c]
+        step[r] = new[r // 2, r % 2] - omega[r // 2, r % 2]  # −R
+    return solve_in_place(jac, step)
+
+
+@hot
+def slack_fold(omega, xp, xm, vforce, kp, kw, km, wk):
+    """True if a solve from the equilibrium ``omega`` (of the fractions or loads before the change)
+    ends at a wire's slack kink past which the spine is unstable: a limit point, no equilibrium
+    beyond it nearby (SPATIAL.md §8.11). The first whole-shape Newton step (the linearised
+    equilibrium under the new fractions ``xp``, ``xm`` and loads) slackens wires that are taut at
+    the start, and with those wires at their threshold the start fails the stability test
+    (:func:`.spatial_stability.is_buckled_at`). ``omega`` and the state are left as they are
+    (scratch: wk[WK_MTRIAL], wk[WK_WTRIAL] and the whole-shape Newton's arrays)."""
+    mt = wk[WK_MTRIAL]
+    trial = wk[WK_WTRIAL]
+    step = wk[WK_STEP]
+    sig = wk[WK_SIG]
+    at = wk[WK_STAB][8]
+    e = _full_residual(mt, omega, xp, xm, vforce, kp, kw, km, wk)
+    for j in range(sig.shape[0]):
+        at[j] = sig[j] > 0.0
+    if not math.isfinite(e) or not _full_step(mt, omega, xp, xm, vforce, kp, kw, km, wk):
+        return False
+    for i in range(omega.shape[0]):
+        trial[i, 0] = omega[i, 0] + step[2 * i]
+        trial[i, 1] = omega[i, 1] + step[2 * i + 1]
+    wire_mechanics(trial, xp, xm, kp, kw, km, wk)
+    slackened = False
+    for j in range(sig.shape[0]):
+        at[j] = at[j] and sig[j] <= 0.0
+        slackened = slackened or at[j]
+    wire_mechanics(omega, xp, xm, kp, kw, km, wk)  # mt = G of the start for the test (any M_w would do)
+    copy_pairs(mt, wk[WK_G])
+    return slackened and is_buckled_at(omega, mt, xp, xm, vforce, kp, kw, km, wk[WK_STAB], at)
 
 
 @hot
@@ -658,9 +710,11 @@ def _newton_attempt(
 @hot
 def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check):
     """After a failed coupled Newton, from the untouched start (wk[WK_SAVED_W], wk[WK_SAVED_M]): the
-    whole-shape Newton, then the safeguard. If both fail the start is restored and the failure
-    reported (as ERR_BUCKLING if, unchecked so far, the start is unstable). Returns (status, passes)."""
-    saved_w, saved_m = wk[WK_SAVED_W], wk[WK_SAVED_M]
+    whole-shape Newton, then the safeguard. If both fail the start (and S) is restored and the
+    failure reported: as ERR_BUCKLING if, unchecked so far, the start is unstable, or if the solve
+    runs into a slack kink past which the spine is unstable (:func:`slack_fold`), else with the
+    solver's own status. Returns (status, passes)."""
+    saved_w, saved_m, saved_s = wk[WK_SAVED_W], wk[WK_SAVED_M], wk[WK_SAVED_S]
     copy_pairs(omega, saved_w)
     copy_pairs(mw, saved_m)
     st, passes = composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk)
@@ -668,14 +722,26 @@ def _fallback_solves(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, check)
         return st, passes
     copy_pairs(omega, saved_w)
     copy_pairs(mw, saved_m)
+    _copy_matrix(saved_s, sens)
     st, p2 = composite_safeguard(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk)
     passes += p2
     if st != OK:
         copy_pairs(omega, saved_w)
         copy_pairs(mw, saved_m)
+        _copy_matrix(sens, saved_s)
         if not check and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
             return ERR_BUCKLING, passes
+        if slack_fold(omega, xp, xm, vforce, kp, kw, km, wk):
+            return ERR_BUCKLING, passes
     return st, passes
+
+
+@hot
+def _copy_matrix(dst, src):
+    """dst[:, :] = src (an explicit loop, as :func:`copy_pairs`)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
 
 
 @hot
@@ -1132,6 +1198,13 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
                 st, p = _mechanics_fallback(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, p)
             passes += p
             solved = True
+            if st != OK and hh > h_min:
+                # the composite solve failed from the start (ω, M_w and S restored): a shorter step
+                # moves the fractions less, back to the start of the sub-step and retry
+                for i in range(nb):
+                    state[i] = back[i]
+                h = max(MECH_RETRY * hh, h_min)
+                continue
         if st != OK:
             return st, hh, passes, solved
         _end_rates(sig, temp, kp, back, wk[WK_RT], wk[WK_RT_NEW])

@@ -89,7 +89,8 @@ def needs_stability_check(vforce, kp, km):
 def stability_work(nw, nm, ns):
     """Scratch of :func:`is_buckled_in` (allocated once, no allocation in the test):
     (mats (2, 2N, 2N), rows (3, N, 2), frames (N + 1, 3, 3), chords (N, 3), sums (K, 3),
-    dg (2, 2N), wires (3, W))."""
+    dg (2, 2N), wires (3, W), none (W,) bool, all False (no wire taken at its threshold: the
+    plain test), at (W,) bool (the wires :func:`is_buckled_at` takes at their threshold))."""
     return (
         np.empty((2, 2 * ns, 2 * ns)),
         np.empty((3, ns, 2)),
@@ -98,6 +99,8 @@ def stability_work(nw, nm, ns):
         np.empty((nm, 3)),
         np.empty((2, 2 * ns)),
         np.empty((3, nw)),
+        np.zeros(nw, dtype=np.bool_),
+        np.zeros(nw, dtype=np.bool_),
     )
 
 
@@ -152,11 +155,12 @@ def chord_shortening(omega, seg0, nk, ls):
 
 
 @hot
-def add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires):
+def add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires, at):
     """Add the wires' stiffening term of the coupled map to ``jac`` (see the module docstring).
 
-    Scratch: ``sums`` (K, 3) (chord sums), ``dg`` (2, 2N) (∂G_k/∂ω of the current module),
-    ``wires`` (3, W) (the module's threshold wires: d_j, e_j).
+    ``at`` (W,) bool: wires taken at their threshold whatever their strain (:func:`is_buckled_at`;
+    all False for the plain test). Scratch: ``sums`` (K, 3) (chord sums), ``dg`` (2, 2N)
+    (∂G_k/∂ω of the current module), ``wires`` (3, W) (the module's threshold wires: d_j, e_j).
     """
     nw = kw.shape[0]
     ns = omega.shape[0]
@@ -184,14 +188,14 @@ def add_wire_term(omega, xp, xm, kp, kw, km, jac, sums, dg, wires):
             ex = kw[j, W_EX]
             ey = kw[j, W_EY]
             stiff = kw[j, W_NW] * aw * a / (compliance(xp[j], xm[j], kp) * lref)
-            if ex_strain > SLACK_TOL:  # taut: exact gradient
+            if ex_strain > SLACK_TOL and not at[j]:  # taut: exact gradient
                 for i in range(seg0, seg0 + nk):
                     g1, g2 = length_gradient(omega[i, 0], omega[i, 1], ls, a, ex, ey)
                     dg[0, 2 * i] += stiff * ex * g1
                     dg[0, 2 * i + 1] += stiff * ex * g2
                     dg[1, 2 * i] += stiff * ey * g1
                     dg[1, 2 * i + 1] += stiff * ey * g2
-            elif ex_strain >= -(SLACK_TOL + 2.0 * short / lref):  # at the threshold (see above)
+            elif at[j] or ex_strain >= -(SLACK_TOL + 2.0 * short / lref):  # at the threshold (see above)
                 d[m] = stiff * a
                 e1[m] = ex
                 e2[m] = ey
@@ -228,7 +232,16 @@ def is_buckled(omega, mw, xp, xm, vforce, kp, kw, km):
 @hot
 def is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, work):
     """:func:`is_buckled` on the scratch ``work`` of :func:`stability_work` (no allocation)."""
-    mats, rows, frames, chords, sums, dg, wires = work
+    return is_buckled_at(omega, mw, xp, xm, vforce, kp, kw, km, work, work[7])
+
+
+@hot
+def is_buckled_at(omega, mw, xp, xm, vforce, kp, kw, km, work, at):
+    """:func:`is_buckled_in` with the wires flagged in ``at`` (W,) taken at their threshold, taut
+    or not: they resist bending only as antiparallel pairs (module docstring). With a taut wire
+    about to go slack, this is the stability of the shape just past the slack kink (a wire at its
+    threshold stretched by the shape keeps its tension, one slackened by it adds nothing)."""
+    mats, rows, frames, chords, sums, dg, wires = work[0], work[1], work[2], work[3], work[4], work[5], work[6]
     tube_jacobian(omega, mw, vforce, kp, km, mats[0], rows, frames, chords)
-    add_wire_term(omega, xp, xm, kp, kw, km, mats[0], sums, dg, wires)
+    add_wire_term(omega, xp, xm, kp, kw, km, mats[0], sums, dg, wires, at)
     return unstable_modes(mats[0], mats[1]) > 0
