@@ -39,7 +39,7 @@ horizontal, in any azimuth):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from spine_gym.envs.task_spatial import BendTarget, ChainTarget
@@ -359,13 +359,17 @@ SUITES_BY_ENV = {
 def get_suite(
     name: str = "full", groups: list[str] | None = None, names: list[str] | None = None, env_id: str = ENV_ID
 ) -> list[Scenario]:
-    """The scenarios of suite ``name`` of ``env_id``, optionally only some groups / scenario names."""
+    """The scenarios of suite ``name`` of ``env_id``, optionally only some groups / scenario names.
+
+    Every version and tier of a family shares its ``-v0`` suite (the same targets, loads and plants,
+    pinned by the reset options); the scenarios run on ``env_id`` itself, so a policy meets the
+    observation it was trained on (and a tier's sensor noise and delay)."""
     if env_id not in ENV_SPECS:
         raise ValueError(f"env_id must be one of {sorted(ENV_SPECS)}, got {env_id!r}")
     suites = SUITES_BY_ENV[base_id(env_id)]
     if name not in suites:
         raise ValueError(f"suite must be one of {sorted(suites)}, got {name!r}")
-    suite = suites[name]()
+    suite = [replace(s, env_id=env_id) for s in suites[name]()]
     if groups:
         bad = set(groups) - {s.group for s in suite}
         if bad:
