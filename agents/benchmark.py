@@ -2,7 +2,7 @@
 
 Example::
 
-    python -m agents.benchmark --n-seeds 5 --workers 2     # every algorithm on the default env ids
+    python -m agents.benchmark --workers 2                 # every algorithm on the default env ids
     python -m agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
 
 Every algorithm (PPO, SAC, TD3, TQC) trains on every env id with every seed, with the
@@ -82,11 +82,13 @@ from .train import build_envs, build_model, lagrangian_callbacks, resolve_config
 
 DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family
 REFERENCES = ("pid", "mpc_estimated", "mpc_oracle")
+SEEDS_PER_ALGO = {"ppo": 5}  # seeds of each algorithm by default; DEFAULT_SEEDS for the others
+DEFAULT_SEEDS = 3
 DONE = "done.json"
 
 # flags whose default depends on --quick: normal default, quick default (a given flag wins over both)
 DEFAULTS = {
-    "n_seeds": (5, 1),
+    "n_seeds": ([], ["1"]),  # []: SEEDS_PER_ALGO
     "n_timesteps": (-1, 512),
     "n_envs": (-1, 2),
     "eval_freq": (10_000, 256),
@@ -438,7 +440,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two)",
     )
     p.add_argument(
-        "--n-seeds", type=int, default=None, help="seeds 0..N-1 per algorithm and env id (default 5)"
+        "--n-seeds",
+        nargs="+",
+        default=None,
+        metavar="N|ALGO:N",
+        help="seeds 0..N-1 per env id: N for every algorithm and/or ALGO:N for one "
+        f"(default: ppo:{SEEDS_PER_ALGO['ppo']}, {DEFAULT_SEEDS} for the others; --quick: 1)",
     )
     p.add_argument(
         "-n",
@@ -520,6 +527,26 @@ def _budgets(items: list[str], env_ids: list[str]) -> dict[str, int]:
     return out
 
 
+def seed_counts(items: list[str], algos: list[str]) -> dict[str, int]:
+    """Seeds per algorithm from ``--n-seeds`` items (``N`` for all, ``ALGO:N`` for one; later items
+    win); the defaults (:data:`SEEDS_PER_ALGO`, :data:`DEFAULT_SEEDS`) where none is given."""
+    counts = {a: SEEDS_PER_ALGO.get(a, DEFAULT_SEEDS) for a in algos}
+    for item in items:
+        algo, sep, n = str(item).rpartition(":")
+        if sep and algo not in ALGOS:
+            raise ValueError(f"--n-seeds: unknown algorithm {algo!r} in {item!r}; choose from {list(ALGOS)}")
+        try:
+            value = int(n)
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise ValueError(f"--n-seeds must be a positive integer or ALGO:N, got {item!r}")
+        for a in [algo] if sep else algos:
+            if a in counts:
+                counts[a] = value
+    return counts
+
+
 def make_plan(args: argparse.Namespace) -> Plan:
     """Validate the arguments and list the runs; ValueError (one line) on anything invalid, before
     any file is written."""
@@ -531,7 +558,8 @@ def make_plan(args: argparse.Namespace) -> Plan:
             f"unknown env id(s) {unknown}; registered spine envs: "
             f"{sorted(i for i in gym.envs.registry if 'Spine' in i)}"
         )
-    for name in ("n_seeds", "eval_freq", "val_episodes", "reference_episodes", "bootstrap_reps"):
+    seeds = seed_counts(s["n_seeds"], args.algos)
+    for name in ("eval_freq", "val_episodes", "reference_episodes", "bootstrap_reps"):
         _positive(f"--{name.replace('_', '-')}", s[name])
     _positive("--workers", args.workers)
     _positive("-n/--n-timesteps", s["n_timesteps"], allow_default=True)
@@ -576,7 +604,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
                     dict(task_kwargs),
                     hyperparams,
                 )  # fmt: skip
-                for seed in range(s["n_seeds"])
+                for seed in range(seeds[algo])
             ]
     return Plan(specs, env_ids, references, task_kwargs, s["val_episodes"], s["reference_episodes"],
                 s["bootstrap_reps"], units)  # fmt: skip

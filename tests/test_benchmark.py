@@ -231,3 +231,14 @@ def test_quick_runs_every_path_end_to_end_and_resumes(tmp_path):
     assert second.returncode == 0, second.stderr[-3000:]
     assert f"{n_runs} runs, {n_runs} finished before (skipped), 0 to run" in second.stdout
     assert [d.stat().st_mtime_ns for d in dones] == stamps
+
+
+def test_seed_counts_default_to_five_for_ppo_and_three_for_the_others():
+    seed_counts = bm.seed_counts
+    assert seed_counts([], ["ppo", "sac", "td3", "tqc"]) == {"ppo": 5, "sac": 3, "td3": 3, "tqc": 3}
+    assert seed_counts(["2"], ["ppo", "sac"]) == {"ppo": 2, "sac": 2}
+    assert seed_counts(["4", "ppo:7"], ["ppo", "sac"]) == {"ppo": 7, "sac": 4}
+    assert seed_counts(["tqc:9"], ["ppo"]) == {"ppo": 5}  # an algorithm not run is ignored
+    for bad in (["0"], ["ppo:x"], ["a2c:3"]):
+        with pytest.raises(ValueError, match="--n-seeds"):
+            seed_counts(bad, ["ppo"])
