@@ -4,6 +4,7 @@ Example::
 
     python -m agents.benchmark --workers 2                 # every algorithm on the default env ids
     python -m agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
+    python -m agents.benchmark --address HOST:6379         # one run per Ray task on a Ray cluster
 
 Every algorithm (PPO, SAC, TD3, TQC) trains on every env id with every seed, with the
 hyperparameters of ``agents/hyperparams/{algo}.yml`` (the entry of the env id; its
@@ -35,6 +36,12 @@ Output folder (``--out``, default ``results/benchmark``):
   and CPU time, steps, steps and wall time to reach the PID's validation RMSE), ``table.md``,
   ``table.png``; ``command.txt`` (every invocation).
 
+``--address`` farms the runs out to a Ray cluster (``local``: a Ray instance started here with
+``--workers`` CPUs; ``auto`` or ``HOST:PORT``: a running cluster), one run per Ray task of one CPU.
+A task trains in a temporary folder of its node and returns the run folder's files as bytes; the
+driver writes them into ``--out`` as a local run does (so the nodes need no shared file system).
+Ray is imported only then: it is not a dependency of the ``rl`` extra.
+
 ``--quick`` is the same pipeline at toy size (two env ids, one seed, 512 steps, 3-s episodes, the
 PID as the only reference): every code path in well under two minutes. Docs: docs/benchmark.md.
 """
@@ -44,12 +51,16 @@ from __future__ import annotations
 import argparse
 import copy
 import csv
+import importlib.util
 import json
+import logging
 import multiprocessing
 import os
+import re
 import shlex
 import shutil
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -299,18 +310,53 @@ def run_one(spec: RunSpec, out: Path, progress: bool = False) -> dict:
     return record
 
 
+def run_files(spec: RunSpec) -> tuple[dict, dict[str, bytes]]:
+    """Train ``spec`` (:func:`run_one`) in a temporary folder; return its record and the files of
+    its run folder (path relative to it -> bytes), which :func:`write_run` writes elsewhere. What a
+    Ray task of ``--address`` runs: its results reach the driver without a shared file system."""
+    with tempfile.TemporaryDirectory(prefix="spine_bench_") as tmp:
+        record = run_one(spec, Path(tmp))
+        folder = Path(tmp) / spec.folder
+        paths = sorted(p for p in folder.rglob("*") if p.is_file())
+        files = {p.relative_to(folder).as_posix(): p.read_bytes() for p in paths}
+    return record, files
+
+
+def write_run(out: Path, spec: RunSpec, files: dict[str, bytes]) -> None:
+    """Write the files of a run (from :func:`run_files`) into ``out / spec.folder`` as
+    :func:`run_one` leaves them; ``done.json`` last, so an interrupted write is a run to start over."""
+    folder = Path(out) / spec.folder
+    if folder.exists():
+        shutil.rmtree(folder)
+    for name in sorted(files, key=lambda n: n == DONE):
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(files[name])
+
+
 def _worker_init() -> None:
     torch.set_num_threads(1)
 
 
-def execute(specs: list[RunSpec], out: Path, workers: int) -> Iterator[tuple[RunSpec, dict | None, str]]:
+def execute(
+    specs: list[RunSpec], out: Path, workers: int, address: str | None = None
+) -> Iterator[tuple[RunSpec, dict | None, str]]:
     """Run ``specs``, yielding ``(spec, record, error)`` as each finishes (``record`` None and the
     error's text if it failed; the others go on).
 
-    ``workers`` 1 runs them in this process (with a step progress bar), more in a pool of that many
-    spawned processes (one torch thread each). The planned Ray backend (``--address``) is a third
-    branch here: one :func:`run_one` per Ray task, yielded as ``ray.wait`` returns them.
+    Without ``address``: ``workers`` 1 runs them in this process (with a step progress bar), more in
+    a pool of that many spawned processes (one torch thread each). With a Ray ``address``: one
+    :func:`run_files` per Ray task (:func:`execute_on_ray`), the files written here by :func:`write_run`.
     """
+    if address is not None:
+        for spec, result, error in execute_on_ray(specs, address, workers):
+            if result is None:
+                yield spec, None, error
+            else:
+                record, files = result
+                write_run(out, spec, files)
+                yield spec, record, ""
+        return
     if workers == 1:
         for spec in specs:
             try:
@@ -326,6 +372,43 @@ def execute(specs: list[RunSpec], out: Path, workers: int) -> Iterator[tuple[Run
                 yield futures[fut], fut.result(), ""
             except Exception as e:  # noqa: BLE001
                 yield futures[fut], None, f"{type(e).__name__}: {e}"
+
+
+def execute_on_ray(
+    specs: list[RunSpec], address: str, local_cpus: int
+) -> Iterator[tuple[RunSpec, tuple[dict, dict[str, bytes]] | None, str]]:
+    """Run :func:`run_files` of each of ``specs`` as a Ray task of one CPU on the cluster at
+    ``address`` (``local``: a Ray instance started in this process with ``local_cpus`` CPUs, shut
+    down at the end); yield ``(spec, (record, files), "")``, or ``(spec, None, error)``, as each ends.
+
+    Ray is imported here, not at the top: it is optional (``pip install 'ray[default]'``), needed only
+    with ``--address``. Every node needs this package (and its dependencies) installed.
+    """
+    import ray  # optional dependency, see the docstring
+
+    if address == "local":
+        ray.init(address="local", num_cpus=local_cpus, include_dashboard=False, logging_level=logging.WARNING)
+    else:
+        ray.init(address=address, logging_level=logging.WARNING)
+    try:
+        cpus = int(ray.cluster_resources().get("CPU", 0))
+        tqdm.write(f"Ray cluster at {address}: {cpus} CPU(s), one run per CPU at a time")
+        task = ray.remote(num_cpus=1)(run_files)
+        pending = {task.remote(spec): spec for spec in specs}
+        while pending:
+            [ref], _ = ray.wait(list(pending), num_returns=1)
+            spec = pending.pop(ref)
+            try:
+                result = ray.get(ref)
+            except ray.exceptions.RayTaskError as e:  # the run's own exception, raised on the node
+                cause = e.cause if e.cause is not None else e
+                yield spec, None, f"{type(cause).__name__}: {cause}"
+            except ray.exceptions.RayError as e:  # a lost node or worker, after Ray's retries
+                yield spec, None, f"{type(e).__name__}: {str(e).splitlines()[0]}"
+            else:
+                yield spec, result, ""
+    finally:
+        ray.shutdown()
 
 
 # --------------------------------------------------------------------------- references
@@ -486,7 +569,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--bootstrap-reps", type=int, default=None, help="bootstrap resamples per CI (default 2000)"
     )
     p.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
-    # a Ray cluster (--address, one run per Ray task) is planned: it plugs in as a backend of execute()
+    p.add_argument(
+        "--address",
+        default=None,
+        help="farm the runs out to a Ray cluster, one per task: 'auto', HOST:PORT, ray://HOST:PORT, or "
+        "'local' (a Ray instance started here with --workers CPUs); needs Ray",
+    )
     p.add_argument("-o", "--out", default="results/benchmark", help="output folder (default: %(default)s)")
     p.add_argument("--quick", action="store_true", help="toy sizes: every code path in under 2 minutes")
     return p
@@ -547,6 +635,20 @@ def seed_counts(items: list[str], algos: list[str]) -> dict[str, int]:
     return counts
 
 
+ADDRESS = re.compile(r"local|auto|(ray://)?[\w.\-]+:\d{1,5}")
+
+
+def _check_address(address: str | None, workers: int) -> None:
+    if address is None:
+        return
+    if not ADDRESS.fullmatch(address):
+        raise ValueError(f"--address takes local, auto, HOST:PORT or ray://HOST:PORT, got {address!r}")
+    if address != "local" and workers != 1:
+        raise ValueError("--workers sets the CPUs of --address local; a cluster runs one run per CPU it has")
+    if importlib.util.find_spec("ray") is None:
+        raise ValueError("--address needs Ray, which is not installed: pip install 'ray[default]'")
+
+
 def make_plan(args: argparse.Namespace) -> Plan:
     """Validate the arguments and list the runs; ValueError (one line) on anything invalid, before
     any file is written."""
@@ -562,6 +664,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
     for name in ("eval_freq", "val_episodes", "reference_episodes", "bootstrap_reps"):
         _positive(f"--{name.replace('_', '-')}", s[name])
     _positive("--workers", args.workers)
+    _check_address(args.address, args.workers)
     _positive("-n/--n-timesteps", s["n_timesteps"], allow_default=True)
     _positive("--n-envs", s["n_envs"], allow_default=True)
     if s["val_episodes"] > MAX_VALIDATION_EPISODES:
@@ -651,11 +754,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
         line = ", ".join(f"{n} {r['rmse']:.2f} {plan.units[env_id]}" for n, r in refs.items())
         print(f"references on {env_id}: {line}", flush=True)
     pending = [s for s in plan.specs if not (out / s.folder / DONE).exists()]
+    where = f"on Ray ({args.address})" if args.address else f"with {args.workers} worker(s)"
     print(f"{len(plan.specs)} runs, {len(plan.specs) - len(pending)} finished before (skipped), "
-          f"{len(pending)} to run with {args.workers} worker(s)", flush=True)  # fmt: skip
+          f"{len(pending)} to run {where}", flush=True)  # fmt: skip
     failed = []
     with tqdm(total=len(pending), desc="runs", unit="run", disable=not pending) as bar:
-        for spec, record, error in execute(pending, out, args.workers):
+        for spec, record, error in execute(pending, out, args.workers, args.address if pending else None):
             bar.update(1)
             if record is None:
                 failed.append(spec.label)
@@ -675,4 +779,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    # `python -m` runs this file as __main__, whose functions Ray would send by value (their code):
+    # run the importable module's main instead, so that a Ray task names agents.benchmark.run_files
+    from agents.benchmark import main as _main
+
+    _main(sys.argv[1:])

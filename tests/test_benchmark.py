@@ -145,6 +145,8 @@ def test_every_algorithm_has_an_entry_for_every_v0_id(algo):
         (["--references", "lqr"], "unknown reference"),
         (["--bootstrap-reps", "10"], "--bootstrap-reps must be >= 100"),
         (["-n", "x"], "invalid int value"),
+        (["--address", "head node"], "--address takes local, auto, HOST:PORT or ray://HOST:PORT"),
+        (["--address", "10.0.0.5:6379", "--workers", "2"], "--workers sets the CPUs of --address local"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line_before_any_folder(tmp_path, capsys, argv, message):
@@ -154,6 +156,16 @@ def test_bad_arguments_exit_2_with_one_line_before_any_folder(tmp_path, capsys, 
     err = capsys.readouterr().err
     assert e.value.code == 2 and message in err and err.count("\n") == 1, err
     assert not out.exists()
+
+
+def test_address_without_ray_exits_2_with_one_line_before_any_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # as where Ray is not installed
+    out = tmp_path / "bench"
+    with pytest.raises(SystemExit) as e:
+        bm.main(["--address", "auto", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "--address needs Ray, which is not installed" in err
+    assert err.count("\n") == 1 and not out.exists()
 
 
 # --------------------------------------------------------------------------- one run, resume
@@ -199,6 +211,28 @@ def test_an_interrupted_run_starts_over(tmp_path):
     bm.run_one(spec, tmp_path)
     assert list(bm.read_curve(folder / "curve.csv")["step"]) == [0, 64]
     assert json.loads((folder / bm.DONE).read_text())["settings"] == spec.settings()
+
+
+def test_a_run_sent_as_files_is_written_as_run_one_writes_it(tmp_path):
+    spec = _tiny_spec(n_timesteps=64, eval_freq=64)
+    record, files = bm.run_files(spec)  # what a Ray task returns: no folder of its own is left
+    assert sorted(files) == ["curve.csv", "done.json", "meta.json", "model.zip", "vecnormalize.pkl"]
+    stale = tmp_path / "sent" / spec.folder
+    stale.mkdir(parents=True)
+    (stale / "curve.csv").write_text("step\n999\n")  # an interrupted run is replaced
+    bm.write_run(tmp_path / "sent", spec, files)
+    local = bm.run_one(spec, tmp_path / "local")
+    sent, here = tmp_path / "sent" / spec.folder, tmp_path / "local" / spec.folder
+    assert sorted(p.name for p in sent.iterdir()) == sorted(files)
+    assert all((sent / name).read_bytes() == data for name, data in files.items())
+    a, b = bm.read_curve(sent / "curve.csv"), bm.read_curve(here / "curve.csv")
+    for column in ("step", "rmse", "energy_J", "time_over_limit_s"):  # the same run: equal numbers
+        assert np.array_equal(a[column], b[column]), column
+    untimed = [{k: v for k, v in r.items() if k not in ("wall_s", "cpu_s")} for r in (record, local)]
+    assert untimed[0] == untimed[1]
+    # the written run counts as finished: resuming skips it
+    assert bm.run_one(spec, tmp_path / "sent") == record
+    bm.check_finished([spec], tmp_path / "sent")
 
 
 # --------------------------------------------------------------------------- --quick end to end

@@ -7,7 +7,8 @@ steps sampled, on both nodes.
 
 The cluster lives in a temp dir (its own ``HOME`` for the token, its own ``--temp-dir``) on ports
 picked free, not Ray's defaults; whatever happens, its processes (those whose command line names the
-temp dir) are stopped by id. ``ray stop`` is not used: it stops every Ray process of the machine.
+temp dir) are stopped by id (tests/ray_cluster.py); ``ray stop`` is not used: it stops every Ray process of
+the machine.
 
 Runs where ``ray[rllib]`` is installed (``.ci/run``'s ``.venv-rllib``); skipped in the main venv.
 """
@@ -17,15 +18,13 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
+from ray_cluster import cluster_pids, free_ports, node_ports, stop_cluster
 
 pytest.importorskip("ray.rllib", reason="ray[rllib] is not installed (it runs in .venv-rllib, see .ci/run)")
 
@@ -33,49 +32,6 @@ ROOT = Path(__file__).resolve().parents[1]
 RAY = str(Path(sys.executable).with_name("ray"))
 ITERATIONS = 2
 BATCH = 2 * 2 * 32  # runners x sub-envs x fragment
-
-
-def _free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    try:
-        for s in socks:
-            s.bind(("127.0.0.1", 0))
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
-
-
-def _node_ports(ports: list[int]) -> list[str]:
-    """The ports one node opens, so that two nodes on one machine do not collide."""
-    names = ("node-manager", "object-manager", "dashboard-agent-listen", "dashboard-agent-grpc",
-             "runtime-env-agent", "metrics-export")  # fmt: skip
-    return [f"--{name}-port={port}" for name, port in zip(names, ports, strict=True)]
-
-
-def _cluster_pids(tag: str) -> list[int]:
-    """Processes whose command line names ``tag`` (the cluster's temp dir)."""
-    pids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit() and int(d.name) != os.getpid():
-            try:
-                if tag in (d / "cmdline").read_bytes().decode(errors="replace"):
-                    pids.append(int(d.name))
-            except OSError:
-                pass
-    return pids
-
-
-def _stop(tag: str) -> None:
-    for sig, wait in ((signal.SIGTERM, 10.0), (signal.SIGKILL, 5.0)):
-        for pid in _cluster_pids(tag):
-            try:
-                os.kill(pid, sig)
-            except ProcessLookupError:
-                pass
-        deadline = time.monotonic() + wait
-        while _cluster_pids(tag) and time.monotonic() < deadline:
-            time.sleep(0.2)
 
 
 def _run(args: list[str], env: dict, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -95,15 +51,16 @@ def cluster_run():
         "OMP_NUM_THREADS": "1",
         "PYTHONPATH": str(ROOT),
     }
-    gcs, client, *ports = _free_ports(14)
+    gcs, client, *ports = free_ports(14)
     head = f"127.0.0.1:{gcs}"
     try:
         _run([RAY, "get-auth-token", "--generate"], env)
         _run([RAY, "start", "--head", f"--port={gcs}", f"--ray-client-server-port={client}",
               "--node-ip-address=127.0.0.1", "--num-cpus=1", '--resources={"runner_slot": 1}',
-              "--include-dashboard=false", f"--temp-dir={tmp / 'ray'}", *_node_ports(ports[:6])], env)  # fmt: skip
+              "--include-dashboard=false", f"--temp-dir={tmp / 'ray'}", *node_ports(ports[:6])],
+             env)  # fmt: skip
         _run([RAY, "start", f"--address={head}", "--node-ip-address=127.0.0.1", "--num-cpus=1",
-              '--resources={"runner_slot": 1, "worker_node": 1}', *_node_ports(ports[6:12])], env)  # fmt: skip
+              '--resources={"runner_slot": 1, "worker_node": 1}', *node_ports(ports[6:12])], env)  # fmt: skip
         status = _run([RAY, "status", f"--address={head}"], env).stdout
         out = tmp / "out"
         _run([sys.executable, "-m", "agents.rllib_ppo", "--address", head,
@@ -112,8 +69,8 @@ def cluster_run():
               "--runner-resources", '{"runner_slot": 1}', "--out", str(out)], env, timeout=600)  # fmt: skip
         yield status, json.loads((out / "result.json").read_text())
     finally:
-        _stop(str(tmp))
-        left = _cluster_pids(str(tmp))
+        stop_cluster(str(tmp))
+        left = cluster_pids(str(tmp))
         shutil.rmtree(tmp, ignore_errors=True)
         assert not left, f"Ray processes of the test cluster still running: {left}"
 
