@@ -42,7 +42,6 @@ from pathlib import Path
 
 import minari
 import numpy as np
-from minari.storage.datasets_root_dir import get_dataset_path
 from tqdm import tqdm
 
 import spine_gym
@@ -67,6 +66,9 @@ __all__ = [
     "NAMESPACE",
     "DatasetPlan",
     "dataset_id",
+    "data_dir",
+    "dataset_dir",
+    "datasets_path",
     "plan",
     "record",
     "load_metadata",
@@ -116,6 +118,17 @@ def dataset_id(env_id: str, controller: str, version: int = 0) -> str:
     return f"{NAMESPACE}/{env_id}/{_safe_name(controller)}-v{int(version)}"
 
 
+def data_dir() -> Path:
+    """Minari's data directory: ``MINARI_DATASETS_PATH``, else ``~/.minari/datasets`` (not created here)."""
+    path = os.environ.get("MINARI_DATASETS_PATH")
+    return Path(path) if path else Path.home() / ".minari" / "datasets"
+
+
+def dataset_dir(did: str) -> Path:
+    """Where Minari keeps dataset ``did``."""
+    return data_dir() / did
+
+
 def _check_int(name: str, value, low: int, high: int) -> None:
     if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or not low <= value <= high:
         raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
@@ -129,7 +142,8 @@ def _make(env_id: str, env_kwargs: dict):
 
 
 def _controller(controller: str, env_id: str, env_kwargs: dict):
-    """(env, controller, settings) of a registry name or a policy folder; ValueError otherwise."""
+    """(env, its kwargs, controller, settings) of a registry name or a policy folder (the env gets
+    the policy's observation kwargs too); ValueError otherwise."""
     if controller in registry_for(env_id):
         env = _make(env_id, env_kwargs)
         spec = get_spec(controller, env_id)
@@ -141,21 +155,22 @@ def _controller(controller: str, env_id: str, env_kwargs: dict):
             "tuned": load_tuned(env_id=env_id)[controller] if spec.tuned else None,
             "temperature_guard_margin_K": GUARD_MARGIN_K if spec.guard else None,
         }
-        return env, build_controller(controller, env), settings
+        return env, env_kwargs, build_controller(controller, env), settings
     if not _is_path(controller):
         raise ValueError(
             f"controller must be one of {sorted(registry_for(env_id))} for {env_id} or a policy folder, "
             f"got {controller!r}"
         )
     policy = load_policy(controller)
-    env = _make(env_id, {**evaluation_env_kwargs(policy.env_kwargs), **env_kwargs})
+    env_kwargs = {**evaluation_env_kwargs(policy.env_kwargs), **env_kwargs}  # what the policy observes
+    env = _make(env_id, env_kwargs)
     obs, _ = env.reset(seed=DATASET_SEED_BASE)
     try:
         policy.predict(obs[None, :], None, np.ones((1,), dtype=bool), True)
     except Exception as e:  # noqa: BLE001 - any failure means the policy does not fit this env
         raise ValueError(f"policy {controller} does not fit {env_id}'s observation: {e}") from None
     settings = {"kind": "policy", "path": str(Path(controller).resolve()), "meta": policy.meta}
-    return env, policy, settings
+    return env, env_kwargs, policy, settings
 
 
 def plan(
@@ -178,10 +193,12 @@ def plan(
     _check_int("version", version, 0, 10**6)
     env_kwargs = dict(env_kwargs or {})
     did = dataset_id(env_id, controller, version)
-    if get_dataset_path(did).exists() and not overwrite:
-        raise ValueError(f"dataset {did} exists in {get_dataset_path()}; pass overwrite (--overwrite) to replace it")
-    env, policy, settings = _controller(controller, env_id, env_kwargs)
-    return DatasetPlan(env_id, controller, int(episodes), int(seed_base), env_kwargs, did, settings, policy, env)
+    if dataset_dir(did).exists() and not overwrite:
+        raise ValueError(f"dataset {did} exists in {data_dir()}; pass overwrite (--overwrite) to replace it")
+    env, env_kwargs, policy, settings = _controller(controller, env_id, env_kwargs)
+    return DatasetPlan(
+        env_id, controller, int(episodes), int(seed_base), env_kwargs, did, settings, policy, env
+    )
 
 
 def _git_commit() -> str | None:
@@ -229,7 +246,7 @@ def record(p: DatasetPlan, *, record_infos: bool = True, progress: bool = True, 
         for seed in tqdm(p.seeds, desc=p.dataset_id, unit="episode", disable=not progress):
             m = episode_metrics(run_episode(collector, p.policy, seed=seed), temperature_limit=limit, dt=dt)
             rows.append({"seed": seed, "rmse": m["rmse_deg"], "energy_J": m["energy_J"]})
-        if get_dataset_path(p.dataset_id).exists():
+        if dataset_dir(p.dataset_id).exists():
             minari.delete_dataset(p.dataset_id)
         with warnings.catch_warnings():  # no e-mail address to give
             warnings.filterwarnings("ignore", message="`author_email` is set to None")
@@ -301,12 +318,20 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="python -m agents.datasets", description=__doc__.split("\n")[0])
     p.add_argument("--env", nargs="+", required=True, help="env id(s): one dataset each")
-    p.add_argument("--controller", required=True, help="registry name (pid, mpc_oracle, ...) or policy folder")
-    p.add_argument("--episodes", type=int, required=True, help=f"episodes per dataset (1..{MAX_DATASET_EPISODES})")
+    p.add_argument(
+        "--controller", required=True, help="registry name (pid, mpc_oracle, ...) or policy folder"
+    )
+    p.add_argument(
+        "--episodes", type=int, required=True, help=f"episodes per dataset (1..{MAX_DATASET_EPISODES})"
+    )
     p.add_argument("--env-kwargs", nargs="*", action=StoreDict, default={}, help="env kwargs key:value")
-    p.add_argument("--seed-base", type=int, default=DATASET_SEED_BASE, help="first reset seed (default: %(default)s)")
+    p.add_argument(
+        "--seed-base", type=int, default=DATASET_SEED_BASE, help="first reset seed (default: %(default)s)"
+    )
     p.add_argument("--version", type=int, default=0, help="the dataset id's version (default: %(default)s)")
-    p.add_argument("--data-path", default=None, help="data directory (default: MINARI_DATASETS_PATH or ~/.minari)")
+    p.add_argument(
+        "--data-path", default=None, help="data directory (default: MINARI_DATASETS_PATH or ~/.minari)"
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing dataset of the same id")
     p.add_argument("--no-infos", action="store_true", help="do not record the env's info dicts")
     return p
@@ -314,10 +339,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:  # argparse's exit (2 on a bad argument, 0 after --help)
+        return int(e.code or 0)
     command = "python -m agents.datasets " + " ".join(shlex.quote(a) for a in argv)
     if args.data_path is not None and Path(args.data_path).exists() and not Path(args.data_path).is_dir():
         print(f"error: --data-path {args.data_path} is not a directory", file=sys.stderr)
+        return 2
+    if len(set(args.env)) != len(args.env):
+        print(f"error: --env names an id twice: {args.env}", file=sys.stderr)
         return 2
     with datasets_path(args.data_path):
         try:
@@ -335,7 +366,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{p.dataset_id}: {ds.total_episodes} episodes, {ds.total_steps} steps, "
                 f"mean RMSE {meta['mean_rmse']:.3f}, mean energy {meta['mean_energy_J']:.2f} J -> "
-                f"{get_dataset_path(p.dataset_id)}"
+                f"{dataset_dir(p.dataset_id)}"
             )
     return 0
 
