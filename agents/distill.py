@@ -69,6 +69,7 @@ __all__ = [
     "build_expert",
     "student_controller",
     "collect_episode",
+    "obs_statistics",
     "fit_student",
     "save_student",
     "distill",
@@ -202,7 +203,7 @@ def collect_episode(env, expert, student, tap, seed: int, beta: float, rng: np.r
     return np.asarray(xs, np.float32), np.asarray(ys, np.float32), rmse, energy
 
 
-def _rms(x: np.ndarray) -> RunningMeanStd:
+def obs_statistics(x: np.ndarray) -> RunningMeanStd:
     """A ``RunningMeanStd`` of the rows of ``x`` (as ``VecNormalize`` keeps it)."""
     rms = RunningMeanStd(shape=x.shape[1:])
     rms.mean = x.mean(axis=0).astype(np.float64)
@@ -401,7 +402,7 @@ def distill(
     history = []
     meta = dict(base_meta)
     if xs:  # start from the student fitted on the earlier data
-        obs_rms = _rms(xs[0])
+        obs_rms = obs_statistics(xs[0])
         t1 = time.time()
         losses = fit_student(
             model, xs[0], ys[0], obs_rms, epochs=epochs, lr=lr, batch_size=batch_size, seed=seed + 10_000
@@ -435,7 +436,7 @@ def distill(
             stats.append((dist, r, e))
         t_collect = time.time() - t0
         X, Y = np.concatenate(xs), np.concatenate(ys)
-        obs_rms = _rms(X)
+        obs_rms = obs_statistics(X)
         t1 = time.time()
         losses = fit_student(model, X, Y, obs_rms, epochs=epochs, lr=lr, batch_size=batch_size, seed=seed + k)
         t_fit = time.time() - t1

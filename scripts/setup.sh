@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Create .venv (Python 3.11) and install spine_gym with every extra but rllib (`.[all]`: RL, design
+# Create .venv (Python 3.11) and install spine_gym with every extra but rllib (`.[all]`: RL, Minari datasets, design
 # studies, calibration, videos, tests). `pip install spine_gym` alone is the simulator and the envs.
 # torch is pinned to 2.13.0 in pyproject.toml: on these machines pip takes the CPU build from local
 # disk; an unpinned torch would pull several GB of CUDA wheels.

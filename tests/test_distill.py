@@ -33,7 +33,7 @@ def test_fit_reduces_action_error_deterministically():
         torch.manual_seed(0)
         model, _, _, _ = dg.make_student(obs_history=None, seed=0)
         x, y = _labelled_set(model)
-        rms = dg._rms(x)
+        rms = dg.obs_statistics(x)
         before = dg.action_error(model, x, y, rms)
         losses = dg.fit_student(model, x, y, rms, epochs=20, lr=3e-3, batch_size=64, seed=1)
         after = dg.action_error(model, x, y, rms)
@@ -105,9 +105,9 @@ def test_helpers_reject_bad_arguments():
     model, _, _, _ = dg.make_student(obs_history=None)
     x, y = _labelled_set(model, n=8)
     with pytest.raises(ValueError, match="epochs"):
-        dg.fit_student(model, x, y, dg._rms(x), epochs=0)
+        dg.fit_student(model, x, y, dg.obs_statistics(x), epochs=0)
     with pytest.raises(ValueError, match="x and y"):
-        dg.fit_student(model, x, y[:4], dg._rms(x))
+        dg.fit_student(model, x, y[:4], dg.obs_statistics(x))
     env = make_env()
     with pytest.raises(ValueError, match="w_energy"):
         dg.build_expert(env, "pid", w_energy=1.0)
