@@ -1,4 +1,4 @@
-"""Is issue 10's target physically reachable? The oracle MPC's RMSE–energy trade-off on validation episodes.
+"""Is an RMSE target of the hard group physically reachable? The oracle MPC's RMSE–energy trade-off on validation episodes.
 
 Example::
 

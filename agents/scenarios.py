@@ -226,7 +226,7 @@ SUITES = {
 }
 
 
-# ---------------------------------------------------------------- spatial envs (issue 9)
+# ---------------------------------------------------------------- spatial envs
 def _polar(theta: float, azimuth: float) -> tuple[float, float]:
     r = np.radians(azimuth)
     return float(np.round(theta * np.cos(r), 6)), float(np.round(theta * np.sin(r), 6))

@@ -1,7 +1,7 @@
 """Benchmark: speed and accuracy of the physics core on the 20-s hysteresis run (MODEL.md §6, §10.2).
 
 The seed paper needed "under one minute" for 20 s of simulated time at a 0.01 s step. The target
-of this project (issue 11): the 20-s run (right wire at 3.2 V, 0–20 s of the §10.2 hysteresis run)
+of this project: the 20-s run (right wire at 3.2 V, 0–20 s of the §10.2 hysteresis run)
 in ≤ 5 ms on one core after compilation, with the angle within 0.5° of the fine-step reference at
 every output.
 
@@ -89,7 +89,7 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
 DURATION = 20.0  # [s] simulated time of the timed run
 PAPER_SECONDS = 60.0  # [s] the seed's "under one minute" for 20 s (an upper bound, Table 3 lost)
-TARGET_SECONDS = 0.005  # [s] project target per 20-s run (issue 11)
+TARGET_SECONDS = 0.005  # [s] project target per 20-s run
 TARGET_ANGLE_DEG = 0.5  # [deg] accuracy target against the fine-step reference
 
 CONFIGS = {
@@ -123,7 +123,7 @@ SPATIAL_LABELS = {
     "chain_stepped": "spatial 2-module chain (8 wires), coupled, stepped",
     "chain_frozen": "spatial 2-module chain (8 wires), frozen",
 }
-SPATIAL_TARGETS = {"spatial": 2.0, "chain": 4.0}  # issue 11: run time / the planar default's
+SPATIAL_TARGETS = {"spatial": 2.0, "chain": 4.0}  # run time / the planar default's
 SPATIAL_SOLVERS = {
     "": SolverOptions(),
     "_stepped": SolverOptions(dense_output=False),

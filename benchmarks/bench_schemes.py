@@ -1,4 +1,4 @@
-"""Benchmark: the phase-step schemes (issue 11) under the MPC and the vector env, before/after in one run.
+"""Benchmark: the phase-step schemes under the MPC and the vector env, before/after in one run.
 
 ``SolverOptions(scheme="frozen")`` (the previous default, MODEL.md §6.1) against the default coupled
 step (MODEL.md §6.5), interleaved in one process so that machine load hits both alike:

@@ -1,4 +1,4 @@
-"""Benchmark: process-CPU-time cost of the spatial 20-s runs as ratios to the planar default (issue 11).
+"""Benchmark: process-CPU-time cost of the spatial 20-s runs as ratios to the planar default.
 
 The three 20-s runs of ``bench_physics.py`` (planar default; the seed four-wire module with wire 0
 at the MODEL.md §10.2 drive; the two-module chain with wire 0 of the lower and wire 1 of the upper

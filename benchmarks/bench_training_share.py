@@ -1,5 +1,5 @@
 """Benchmark: the environment's share of PPO training, the env layer's cost over the bare kernel,
-and 1 → 2 numba threads (issue 11). One command prints all three against the issue's targets.
+and 1 → 2 numba threads. One command prints all three against the issue's targets.
 
 1. **Env share of PPO training** (target ≤ 10 %). The shipped PPO configuration
    (``agents/hyperparams/ppo.yml``: 8 native envs, ``n_steps`` 256, 10 epochs of minibatch 256,

@@ -1,4 +1,4 @@
-"""agents/ on the spatial envs (issue 9): train/evaluate/tune CLIs on the new ids with tiny budgets,
+"""agents/ on the spatial envs: train/evaluate/tune CLIs on the new ids with tiny budgets,
 their scenario suites and registries, and the shipped SmaSpine3D-v0 policy."""
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ def test_registry_builds_every_spatial_baseline_with_its_tuned_settings(env_id):
         )
         if name == "pid":
             assert ctrl.gains.kp == tuned["pid"]["kp"]
-    assert {"mpc_oracle", "mpc_estimated"} <= set(registry.registry_for(env_id))  # issue 10: every env id
+    assert {"mpc_oracle", "mpc_estimated"} <= set(registry.registry_for(env_id))  # every env id
     assert build_controller("mpc_oracle", env).mode == "oracle"
     with pytest.raises(ValueError, match="unknown controller 'lqr'"):
         build_controller("lqr", env)

@@ -1,4 +1,4 @@
-"""Buckling: detection in the solver, the critical-load function, the env and design tools (issue 14).
+"""Buckling: detection in the solver, the critical-load function, the env and design tools.
 
 The critical loads are checked against the column theory of MODEL.md §4.9 (Euler's clamped-free
 π² E I / (4 L²); with the tube's weight, an independent shooting solution of the continuum column

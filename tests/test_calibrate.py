@@ -27,7 +27,7 @@ from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 ROOT = Path(__file__).resolve().parents[1]
 BASE = ModelParams()
 T_DIRECTION = {"T_low": 1.0, "T_high": 1.0}
-# the known perturbation of the identifiability test (issue 13)
+# the known perturbation of the identifiability test
 TRUTH = apply_offsets(
     BASE, [{"alpha": 1.0}, {"E_t": 1.0}, T_DIRECTION], [0.2 * BASE.alpha, -0.15 * BASE.E_t, 5.0]
 )

@@ -1,4 +1,4 @@
-"""Rows dealt out one at a time to the threads of a prange loop (spine_gym.physics._deal, issue 11).
+"""Rows dealt out one at a time to the threads of a prange loop (spine_gym.physics._deal).
 
 Every row is taken exactly once whatever the number of rows and threads; the serial twin of a
 kernel takes them in order; and with one slow row the other thread takes the rest, which fixed

@@ -1,4 +1,4 @@
-"""Sub-steps across held output steps with dense output (MODEL.md §6.5, ``physics.dense``, issue 11).
+"""Sub-steps across held output steps with dense output (MODEL.md §6.5, ``physics.dense``).
 
 Accuracy is checked against the fine-step reference of MODEL.md §6.2 (:data:`FINE_REFERENCE`), never
 against the dense run's own output; the MODEL.md §10.2–§10.4 rows and the energy balance with the
@@ -16,7 +16,7 @@ from spine_gym.params import FINE_REFERENCE, ModelParams
 from spine_gym.physics import batch, dense, solver
 from spine_gym.physics import layout as L
 
-GATE_DEG = 0.5  # issue 11: every output within 0.5° of the fine-step reference
+GATE_DEG = 0.5  # every output within 0.5° of the fine-step reference
 STEPPED = SolverOptions(dense_output=False)
 
 

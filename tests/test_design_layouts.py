@@ -1,4 +1,4 @@
-"""Design studies over spatial / chained layouts (issue 9): the ``n_modules`` design parameter.
+"""Design studies over spatial / chained layouts: the ``n_modules`` design parameter.
 
 Checked against the specs: a one-module four-wire layout with its 90°/270° wires unpowered is the
 planar spine (SPATIAL.md §7.1, within the adaptive stepping's round-off sensitivity of §8.1), and

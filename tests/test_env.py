@@ -521,7 +521,7 @@ def test_default_physics_dt_is_the_control_period_within_the_accuracy_gate():
 
     Drive: the right wire heated at 3.2 V for 20 s, then both off for 10 s (the §10.2 run's
     transformation and cooling), then the left at 3.2 V. Every observed angle must be within 0.5° of
-    the fixed 0.1-ms fine-step reference (FINE_REFERENCE), as issue 11's gate asks of the default.
+    the fixed 0.1-ms fine-step reference (FINE_REFERENCE), the gate of the default.
     """
     on, off = 2.0 * 3.2 / 5.0 - 1.0, -1.0  # action of 3.2 V and of 0 V (v_max = 5 V)
     actions = [np.array([on, off])] * 200 + [np.array([off, off])] * 100 + [np.array([off, on])] * 100

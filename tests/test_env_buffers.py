@@ -1,4 +1,4 @@
-"""The env layer's preallocated step buffers (issue 11): every env id keeps the Gymnasium and SB3
+"""The env layer's preallocated step buffers: every env id keeps the Gymnasium and SB3
 contracts of its single env, and nothing it hands out is overwritten by a later step.
 
 The vector envs step into per-batch buffers and hand out fresh copies; the SB3 adapter builds its

@@ -136,7 +136,7 @@ def test_budget_scale_multiplies_the_budget_and_is_validated():
 
 
 def test_the_shipped_budget_policy_loads_plain_with_its_preview():
-    """ppo_bud (issue 10, the new default physics_dt): no integral, no history, the 3-s preview."""
+    """ppo_bud (the new default physics_dt): no integral, no history, the 3-s preview."""
     from agents.common import POLICIES_DIR
     from agents.runtime import SavedPolicy, evaluation_env_kwargs
 

@@ -34,6 +34,6 @@ def test_serial_kernel_never_runs_the_parallel_machine_code():
 
 
 def test_default_kernel_at_small_n_starts_no_threads():
-    """Issue 11: below PARALLEL_MIN_ENVS sub-envs the default (parallel=None) is the serial kernel,
+    """Below PARALLEL_MIN_ENVS sub-envs the default (parallel=None) is the serial kernel,
     so OpenMP's thread pool (and its spinning idle workers) never starts."""
     assert "threads started: False" in _run(parallel=None)

@@ -1,4 +1,4 @@
-"""Snapshot/restore, the batched rollout kernel, the phase-fraction estimator and MPPI (issue 10)."""
+"""Snapshot/restore, the batched rollout kernel, the phase-fraction estimator and MPPI."""
 
 import gymnasium as gym
 import numpy as np

@@ -121,7 +121,7 @@ def test_plain_make_vec_env_with_the_single_env():
 
 
 def test_failed_step_status_text_in_infos_as_dummy_vec_env():
-    """Issue 12: the per-env info (= final info) of a failed step has ``status_text``, with the keys
+    """The per-env info (= final info) of a failed step has ``status_text``, with the keys
     DummyVecEnv gives."""
     crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
     kw = {"tip_force_range": None, "payload_range": None, "episode_duration": 3.0}
@@ -148,7 +148,7 @@ def test_failed_step_status_text_in_infos_as_dummy_vec_env():
 
 
 def test_get_attr_gives_per_env_values_as_dummy_vec_env():
-    """Issue 12: spaces of one env (not the batch), one generator per env, the env's own seed and
+    """Spaces of one env (not the batch), one generator per env, the env's own seed and
     episode, and every single-env attribute (episode_duration)."""
     ours = SmaSpineSB3VecEnv(2, **KW)
     ref = DummyVecEnv([lambda: SmaSpineEnv(**KW) for _ in range(2)])

@@ -1,4 +1,4 @@
-"""The spatial core's coupled time step (MODEL.md §6.5 over arrays of wires, issue 11).
+"""The spatial core's coupled time step (MODEL.md §6.5 over arrays of wires).
 
 Accuracy is checked against the fine-step reference of MODEL.md §6.2 (frozen rates, fixed 0.1-ms
 sub-steps, :data:`spine_gym.params.FINE_REFERENCE`) on the same layout, never against the coupled
@@ -22,7 +22,7 @@ from spine_gym.params import FINE_REFERENCE
 from spine_gym.physics.stability import lu_factor, lu_solve
 
 DURATION = 20.0  # [s] the timed run of benchmarks/bench_physics.py (MODEL.md §10.2, 0–20 s)
-GATE_DEG = 0.5  # issue 11: every output within 0.5° of the fine-step reference
+GATE_DEG = 0.5  # every output within 0.5° of the fine-step reference
 
 
 def _drive(layout: SpineLayout) -> np.ndarray:

@@ -262,7 +262,7 @@ def test_render_returns_one_frame_per_env():
 
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_failed_step_carries_status_text_as_sync_vector_env(mode):
-    """Issue 12: a failed sub-env step has ``status_text`` (masked to that row), as SyncVectorEnv
+    """A failed sub-env step has ``status_text`` (masked to that row), as SyncVectorEnv
     over single envs gives it; in SAME_STEP mode inside ``final_info``."""
     crush = LoadSchedule(tip_force_events=((1.0, math.inf, (0.0, -8.0)),))  # past buckling (5.6 N)
     kw = {"tip_force_range": None, "payload_range": None, "episode_duration": 3.0}
@@ -290,7 +290,7 @@ def test_failed_step_carries_status_text_as_sync_vector_env(mode):
 
 
 def test_same_step_with_all_envs_done_has_the_sync_vector_env_keys():
-    """Issue 12: equal episode lengths end every sub-env in one step; the info is then the reset
+    """Equal episode lengths end every sub-env in one step; the info is then the reset
     info (no all-False reward masks), and reset infos have every step key."""
     kw = {"episode_duration": 0.5}
     native = SmaSpineVectorEnv(2, autoreset_mode=AutoresetMode.SAME_STEP, **kw)

@@ -115,7 +115,7 @@ class MPPIConfig:
             rollouts then reproduce the env exactly); a whole fraction of the control period.
         plan_step_c: adaptive sub-step criterion c of the rollouts (MODEL.md §6.1 b: rate × h <= c),
             in (0, 1]; ``None``: the env's (``SolverOptions.step_c``). It acts only on the
-            frozen-rate scheme; the coupled scheme (the default of every env since issue 11)
+            frozen-rate scheme; the coupled scheme (the default of every env)
             chooses its sub-steps by ``tol_x``. (Before, the planning default 0.03 took a third of
             the frozen scheme's sub-steps.)
         plan_h_min: smallest adaptive sub-step of the rollouts [s], in (0, plan_physics_dt];
@@ -125,7 +125,7 @@ class MPPIConfig:
             hundreds (the phase update is implicit, so coarse sub-steps stay stable).
         plan_scheme: time-stepping scheme of the rollouts (``SolverOptions.scheme``: ``"coupled"``
             or ``"frozen"``); ``None``: the env's. benchmarks/bench_mpc.py compares the plan time
-            of both (issue 11).
+            of both.
         disturbance: the estimated mode's disturbance filter
             (:class:`~spine_gym.controllers.estimator.DisturbanceConfig`: λ_A of the plant and,
             if enabled, an equivalent tip force, held over the horizon), or None (nominal λ_A,

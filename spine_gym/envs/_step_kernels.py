@@ -1,4 +1,4 @@
-"""One env step in one jitted call: inputs, physics, readings and bookkeeping (issue 11).
+"""One env step in one jitted call: inputs, physics, readings and bookkeeping.
 
 A step of every env id is four jitted pieces — :func:`._bookkeeping.begin_step` (clipped actions,
 voltages, loads, resolve flags), the plant's per-spine control period

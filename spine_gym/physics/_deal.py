@@ -1,4 +1,4 @@
-"""Rows dealt out one at a time to the threads of a ``prange`` loop (issue 11: thread scaling).
+"""Rows dealt out one at a time to the threads of a ``prange`` loop.
 
 numba's ``prange`` splits its iterations into one contiguous block per thread, fixed before the
 loop starts. The env kernels' rows are spines whose control periods differ in cost (in the random
