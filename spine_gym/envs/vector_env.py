@@ -24,7 +24,9 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..physics._jit import launch_threads
 from ._infos import VectorInfo, row_infos, vector_info_keys
+from ._kernel_choice import KernelChoice
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -105,7 +107,7 @@ class SmaSpineVectorEnv(VectorEnv):
         *,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         max_episode_steps: int | None = None,
-        parallel: bool | None = None,
+        parallel: bool | str | None = None,
         **env_kwargs,
     ):
         self._renderer = None  # first: gymnasium < 1.3 closes an env whose __init__ raised
@@ -124,13 +126,18 @@ class SmaSpineVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
+        if isinstance(parallel, bool | np.bool_):
+            parallel = bool(parallel)
+        elif not (parallel is None or (isinstance(parallel, str) and parallel == "auto")):
+            raise ValueError(f"parallel must be True, False, None or 'auto', got {parallel!r}")
         self.config = cfg = self.CONFIG(**env_kwargs)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": 1.0 / cfg.control_period}
-        self.parallel = self.num_envs >= PARALLEL_MIN_ENVS if parallel is None else bool(parallel)
-        self._core = self.BATCH(cfg, self.num_envs, parallel=self.parallel)
+        self.kernel_choice = self._kernel_choice(parallel)
+        start_parallel = parallel is True if self.kernel_choice is None else self.kernel_choice.parallel
+        self._core = self.BATCH(cfg, self.num_envs, parallel=start_parallel)
         self.single_action_space = spaces.Box(-1.0, 1.0, (cfg.n_wires,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.single_observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
@@ -153,6 +160,32 @@ class SmaSpineVectorEnv(VectorEnv):
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
         self._info_keys = vector_info_keys(self._core.table)
+
+    # ------------------------------------------------------------------ kernel choice
+    def _kernel_choice(self, parallel: bool | str | None) -> KernelChoice | None:
+        """The online chooser for ``parallel=None`` (from PARALLEL_MIN_ENVS envs on) and ``"auto"``,
+        else None (a fixed kernel). Starts numba's threads if the parallel kernel may run
+        (:func:`spine_gym.physics._jit.launch_threads`: idle workers sleep)."""
+        if parallel is False or (parallel is None and self.num_envs < PARALLEL_MIN_ENVS):
+            return None
+        launch_threads()
+        return None if parallel is True else KernelChoice(parallel=True)
+
+    @property
+    def parallel(self) -> bool:
+        """Whether the next step runs the parallel kernel (fixed, or the chooser's current pick)."""
+        return self._core.parallel
+
+    def _advance(self, actions: np.ndarray, rows: np.ndarray | None) -> None:
+        """One step of ``rows`` (None: all) with the chosen kernel, timed for the chooser."""
+        choice = self.kernel_choice
+        if choice is None:
+            self._core.advance(actions, self._rngs, rows)
+            return
+        self._core.parallel = choice.parallel
+        choice.start()
+        self._core.advance(actions, self._rngs, rows)
+        choice.stop(self.num_envs if rows is None else rows.size)
 
     # ------------------------------------------------------------------ facts (as the single env)
     @property
@@ -315,7 +348,7 @@ class SmaSpineVectorEnv(VectorEnv):
             rows = np.flatnonzero(~self._autoreset)
             self._reset_rows(reset_rows, self._no_seeds, {})
         if rows is None or rows.size:
-            core.advance(a, self._rngs, rows)
+            self._advance(a, rows)
         terminated, truncated = core.terminated.copy(), core.truncated.copy()
         reward = core.last_row[:, core.reward_col].copy()
         self._autoreset = terminated | truncated
