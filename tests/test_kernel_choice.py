@@ -102,8 +102,8 @@ def test_a_small_difference_does_not_switch():
 
 @pytest.mark.parametrize(
     "kw",
-    [{"probe": 0}, {"probe": 20, "window": 16}, {"first_interval": 0}, {"first_interval": 64, "max_interval": 32},
-     {"margin": 1.0}, {"abort": 1.0}, {"rise": 0.5}],
+    [{"probe": 0}, {"probe": 20, "window": 16}, {"first_interval": 0},
+     {"first_interval": 64, "max_interval": 32}, {"margin": 1.0}, {"abort": 1.0}, {"rise": 0.5}],
 )  # fmt: skip
 def test_bad_settings_raise(kw):
     with pytest.raises(ValueError, match="KernelChoice needs"):
@@ -142,7 +142,9 @@ def test_switching_kernels_mid_episode_is_bit_identical_to_serial():
     venv = SmaSpineVectorEnv(n, parallel="auto", **KW)
     # the kernel in use always looks 3x slower than the other: every probe switches
     clock = CostClock(lambda par, k: 3.0 if par == venv.kernel_choice.current else 1.0)
-    venv.kernel_choice = clock.choice = KernelChoice(window=2, probe=1, first_interval=2, max_interval=2, clock=clock)
+    venv.kernel_choice = clock.choice = KernelChoice(
+        window=2, probe=1, first_interval=2, max_interval=2, clock=clock
+    )
     got = rollout(venv, n_steps, n)
     choice = venv.kernel_choice
     assert choice.switches >= 10 and min(choice.steps) >= 20

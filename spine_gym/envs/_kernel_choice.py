@@ -71,7 +71,8 @@ class KernelChoice:
             raise ValueError(f"KernelChoice needs 1 <= probe <= window, got probe={probe}, window={window}")
         if not 1 <= first_interval <= max_interval:
             raise ValueError(
-                f"KernelChoice needs 1 <= first_interval <= max_interval, got {first_interval}, {max_interval}"
+                "KernelChoice needs 1 <= first_interval <= max_interval, "
+                f"got {first_interval}, {max_interval}"
             )
         if not (0.0 <= margin < 1.0 and abort > 1.0 and rise > 1.0):
             raise ValueError(
