@@ -31,13 +31,12 @@ choice alone.
 
 from __future__ import annotations
 
-import os
-import sys
-
 import argparse
 import json
+import os
 import platform
 import subprocess
+import sys
 import time
 from pathlib import Path
 
