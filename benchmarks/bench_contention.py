@@ -186,7 +186,12 @@ def plot(res: dict, path: Path) -> None:
         ax.set_xticks(x, [f"N = {n}" for n in sizes])
         ax.set_xlabel("number of sub-envs N (ratios: over the serial kernel, same run)")
         title = "quiet (nothing started beside it)" if name == "quiet" else "beside one CPU-bound process"
-        ax.set_title(f"SmaSpine-v0 native vector env, {title}", fontsize=9)
+        ends = ("load_start", "load_end")
+        loads = [res["runs"][str(n)][name][k]["loadavg"][0] for n in sizes for k in ends]
+        ax.set_title(
+            f"SmaSpine-v0 native vector env, {title}\n1-min load average {min(loads):.1f}-{max(loads):.1f}",
+            fontsize=9,
+        )
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].set_ylabel("env steps per wall second [thousands]")
     axes[0].legend(title="kernel", fontsize=8)
