@@ -7,6 +7,7 @@ probes) on the faster one, leaves a kernel that became slow, and a bad probe cos
 """
 
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -182,3 +183,16 @@ def test_threads_start_with_sleeping_workers_and_the_environment_is_restored():
     assert "OMP_WAIT_POLICY = 'PASSIVE'" in r.stderr
     r = _launch({"OMP_WAIT_POLICY": "ACTIVE"})
     assert r.stdout.split() == ["omp", "ACTIVE"] and "OMP_WAIT_POLICY = 'ACTIVE'" in r.stderr
+
+
+def test_a_pickled_env_keeps_its_chooser_and_steps_as_the_original():
+    n = PARALLEL_MIN_ENVS
+    venv = SmaSpineVectorEnv(n, **KW)
+    venv.reset(seed=2)
+    a = np.random.default_rng(1).uniform(-1, 1, size=(n, 2)).astype(np.float32)
+    venv.step(a)
+    clone = pickle.loads(pickle.dumps(venv))
+    assert isinstance(clone.kernel_choice, KernelChoice) and clone.kernel_choice is not venv.kernel_choice
+    assert clone.kernel_choice.steps == venv.kernel_choice.steps == [0, 1]
+    obs = [env.step(a)[0] for env in (venv, clone)]
+    assert np.array_equal(obs[0], obs[1]) and clone.kernel_choice.steps == [0, 2]

@@ -484,3 +484,8 @@ class SmaSpineVectorEnv(VectorEnv):
         d = self.__dict__.copy()
         d["_renderer"] = None
         return d
+
+    def __setstate__(self, d):
+        self.__dict__.update(d)
+        if self.kernel_choice is not None or self._core.parallel:  # a fresh process: start numba's threads
+            launch_threads()
