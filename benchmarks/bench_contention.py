@@ -17,7 +17,10 @@ The three do the same work (same seeds and actions; the kernels are bit-identica
 compare directly. The default env is the same object in both phases, so its chooser sees the load
 start between them (as a training run would). Reported per configuration: the median of the
 blocks' env steps per wall second, and the process's CPU time per env step (all threads: spinning
-OpenMP workers show up here). Writes ``benchmarks/results/contention<tag>.json`` and ``.png``.
+OpenMP workers show up here). Then a **trace**: the default env at N = ``--trace`` (64) runs on
+without a break for four ``--segment`` (3 s) segments, quiet, busy, quiet, busy (load that starts
+and stops mid-run): its rate and the share of its steps on the parallel kernel per segment.
+Writes ``benchmarks/results/contention<tag>.json`` and ``.png``.
 
     PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py [--sizes 8 64 256] [--repeats 7]
     GOMP_SPINCOUNT=300000 PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py --tag _spin
@@ -126,6 +129,47 @@ def measure(n: int, args) -> dict:
     return res
 
 
+def trace(n: int, segment: float, count: int) -> list[dict]:
+    """The default env at N = ``n`` run on without a break while the busy process is started and
+    stopped every ``segment`` seconds (quiet first, ``count`` segments): its rate and the share of
+    steps on the parallel kernel per segment (load that starts or stops mid-run)."""
+    venv = gym.make_vec("SmaSpine-v0", num_envs=n)
+    choice = venv.kernel_choice
+    rng = np.random.default_rng(n)
+    venv.reset(seed=SEED)
+    drive(venv, rng.uniform(-1.0, 1.0, size=(250, n, 2)).astype(np.float32))
+    out = []
+    for k in range(count):
+        busy = subprocess.Popen([sys.executable, "-c", BUSY]) if k % 2 else None
+        try:
+            before, steps, t0, c0 = list(choice.steps), 0, time.perf_counter(), time.process_time()
+            while time.perf_counter() - t0 < segment:
+                drive(venv, rng.uniform(-1.0, 1.0, size=(10, n, 2)).astype(np.float32))
+                steps += 10
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        finally:
+            if busy:
+                busy.kill()
+                busy.wait()
+        serial, par = (a - b for a, b in zip(choice.steps, before, strict=True))
+        seg = {
+            "phase": "busy" if busy else "quiet",
+            "steps_per_s": n * steps / wall,
+            "cpu_us_per_step": 1e6 * cpu / (n * steps),
+            "parallel_share": par / max(serial + par, 1),
+            "load_end": load(),
+        }
+        out.append(seg)
+        print(
+            f"trace N={n} segment {k} {seg['phase']:>5}: {seg['steps_per_s']:>9,.0f} env steps/s, "
+            f"{seg['cpu_us_per_step']:.1f} CPU µs/step, {100 * seg['parallel_share']:.0f} % on the parallel "
+            f"kernel, load {seg['load_end']['loadavg'][0]:.2f}",
+            flush=True,
+        )
+    venv.close()
+    return out
+
+
 def print_header() -> None:
     print(
         f"{'N':>4} {'phase':>5} | {'serial':>8} {'parallel':>8} {'default':>8}  env steps/s | "
@@ -206,12 +250,18 @@ def main(argv=None) -> int:
     ap.add_argument("--warm", type=int, default=250, help="untimed steps per phase (default 250 = 25 s)")
     ap.add_argument("--repeats", type=int, default=7, help="timed blocks per env and phase (median)")
     ap.add_argument("--block", type=int, default=20000, help="env steps per timed block (>= 50 vector steps)")
+    ap.add_argument("--trace", type=int, default=64, help="N of the start/stop trace (0: none)")
+    ap.add_argument("--segment", type=float, default=3.0, help="seconds per trace segment (default 3)")
     ap.add_argument("--tag", default="", help="suffix of the output names (contention<tag>.json/.png)")
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
     for name in ("warm", "repeats", "block"):
         if getattr(args, name) < 1:
             ap.error(f"--{name} must be >= 1, got {getattr(args, name)}")
+    if args.trace and args.trace < PARALLEL_MIN_ENVS:
+        ap.error(f"--trace must be 0 or >= PARALLEL_MIN_ENVS = {PARALLEL_MIN_ENVS}, got {args.trace}")
+    if args.segment <= 0:
+        ap.error(f"--segment must be > 0, got {args.segment}")
     if min(args.sizes) < 1:
         ap.error(f"--sizes must be >= 1, got {args.sizes}")
     info = machine()
@@ -224,8 +274,10 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     print_header()
     runs = {str(n): measure(n, args) for n in sorted(args.sizes)}
+    traced = trace(args.trace, args.segment, 4) if args.trace else []
     info["load_end"] = load()
     res = {"sizes": sorted(args.sizes), "warm_steps": args.warm, "repeats": args.repeats, "runs": runs}
+    res["trace"] = {"num_envs": args.trace, "segment_s": args.segment, "segments": traced}
     res["wall_time_s"] = time.perf_counter() - t0
     args.out.mkdir(parents=True, exist_ok=True)
     out = {"machine": info, "results": res}
