@@ -10,6 +10,7 @@ import os
 import pickle
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ import pytest
 
 import spine_gym  # noqa: F401 - registers the envs
 from spine_gym.envs import SmaSpineVectorEnv
-from spine_gym.envs._kernel_choice import KernelChoice
+from spine_gym.envs._kernel_choice import KernelChoice, step_clock
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
 
 KW = {  # short episodes (autoresets), every source of randomness on
@@ -36,7 +37,7 @@ class CostClock:
         self.cost, self.rows, self.t, self.calls, self.step = cost, rows, 0.0, 0, 0
         self.choice: KernelChoice | None = None
 
-    def __call__(self) -> float:
+    def __call__(self, parallel: bool) -> float:
         self.calls += 1
         if self.calls % 2 == 0:  # the stop() call of a step
             self.t += self.rows * self.cost(self.choice.parallel, self.step)
@@ -196,3 +197,11 @@ def test_a_pickled_env_keeps_its_chooser_and_steps_as_the_original():
     assert clone.kernel_choice.steps == venv.kernel_choice.steps == [0, 1]
     obs = [env.step(a)[0] for env in (venv, clone)]
     assert np.array_equal(obs[0], obs[1]) and clone.kernel_choice.steps == [0, 2]
+
+
+def test_step_clock_times_serial_steps_in_thread_cpu_time():
+    """A serial step is timed in the calling thread's CPU time: a sleep (the thread waiting, as when
+    spinning OpenMP workers or another process hold its core) does not count; in wall time it does."""
+    t = [step_clock(False), step_clock(True)]
+    time.sleep(0.05)
+    assert step_clock(False) - t[0] < 0.01 and step_clock(True) - t[1] >= 0.05

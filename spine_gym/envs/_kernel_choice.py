@@ -8,7 +8,14 @@ its join for the thread that shares a core with the other process). :class:`Kern
 whichever is faster now:
 
 * it times every step of the kernel in use (seconds per env row stepped, so autoresets that step
-  fewer rows do not count as fast steps) and keeps the last ``window`` of them;
+  fewer rows do not count as fast steps) and keeps the last ``window`` of them; a parallel step in
+  wall time, a serial step in the calling thread's CPU time (the serial kernel runs on that thread
+  alone). Wall time would charge the serial kernel for OpenMP workers that still spin after a
+  parallel step (libgomp's default: up to ``GOMP_SPINCOUNT`` rounds, milliseconds) and compete
+  with the calling thread: every probe of the parallel kernel would make the serial one look slow
+  for the next steps and could keep the choice on a parallel kernel 10x slower. Where the calling
+  thread gets less than a core (two or more other busy processes on two cores) CPU time
+  understates the serial step's wall time, which errs towards the serial kernel;
 * every ``interval`` steps it probes the other kernel for up to ``probe`` steps and switches if the
   probe's median is below ``1 - margin`` times the current kernel's recent median; a probe whose
   steps are all slower than ``abort`` times that median ends at once (a probe of a kernel that is
@@ -28,7 +35,13 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-__all__ = ["KernelChoice"]
+__all__ = ["KernelChoice", "step_clock"]
+
+
+def step_clock(parallel: bool) -> float:
+    """Seconds for timing a step of the kernel ``parallel``: wall time for the parallel kernel, the
+    calling thread's CPU time for the serial one (module docstring)."""
+    return time.perf_counter() if parallel else time.thread_time()
 
 
 def _median(values) -> float:
@@ -51,7 +64,8 @@ class KernelChoice:
             current median (> 1).
         rise: probe at once when the current median exceeds this many times its value at the last
             decision (> 1).
-        clock: seconds, monotonic (default ``time.perf_counter``).
+        clock: ``clock(parallel)`` -> seconds, monotonic, for a step of that kernel
+            (default :func:`step_clock`).
     """
 
     def __init__(
@@ -65,7 +79,7 @@ class KernelChoice:
         margin: float = 0.1,
         abort: float = 2.0,
         rise: float = 1.5,
-        clock: Callable[[], float] = time.perf_counter,
+        clock: Callable[[bool], float] = step_clock,
     ):
         if not 1 <= probe <= window:
             raise ValueError(f"KernelChoice needs 1 <= probe <= window, got probe={probe}, window={window}")
@@ -96,11 +110,11 @@ class KernelChoice:
 
     def start(self) -> None:
         """Call right before the step runs (with the kernel :attr:`parallel`)."""
-        self._t0 = self._clock()
+        self._t0 = self._clock(self.parallel)
 
     def stop(self, rows: int) -> None:
         """Call right after the step, which stepped ``rows`` (>= 1) env rows; updates :attr:`parallel`."""
-        per_row = (self._clock() - self._t0) / rows
+        per_row = (self._clock(self.parallel) - self._t0) / rows
         k = int(self.parallel)
         self.steps[k] += 1
         first, self._seen[k] = not self._seen[k], True
