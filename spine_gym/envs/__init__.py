@@ -7,7 +7,8 @@ versions (observed tracking errors, rewards of order one) and the ``Easy``/``Har
   planes) and :class:`SmaSpineChainEnv` (``"SmaSpineChain-v0"``, chained four-wire modules) — the
   spatial spines (SPATIAL.md), on the same env layer.
 * :class:`SmaSpineVectorEnv` (``gym.make_vec(id, num_envs=N)``, and its spatial subclasses) — N
-  environments stepped by one numba loop over the same code (parallel from 64 envs).
+  environments stepped by one numba loop over the same code (from 64 envs serial or parallel,
+  whichever runs faster).
 * :mod:`spine_gym.envs.table` — the declarative observation/info table every env is built from.
 * :mod:`spine_gym.envs.task` — :class:`TargetProfile`, :class:`LoadSchedule`, :class:`TipForceEvent`.
 * :mod:`spine_gym.envs.sb3` — a Stable-Baselines3 ``VecEnv`` over the vector env (imports SB3).

@@ -1,10 +1,11 @@
-"""Native vector env of ``SmaSpine-v0``: N spines stepped by one numba loop (parallel from 64 envs).
+"""Native vector env of ``SmaSpine-v0``: N spines stepped by one numba loop (serial or parallel: the faster).
 
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
 :class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
 ``seed + i`` like ``SyncVectorEnv``; the physics and bookkeeping of all N spines is one jitted call
-per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``). Row i therefore equals
+per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``: from 64 envs whichever runs faster
+now, :mod:`spine_gym.envs._kernel_choice`). Row i therefore equals
 ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
 A step writes the batch's preallocated buffers (observations, table rows, flags) and hands out
 fresh copies of them (:meth:`SmaSpineVectorEnv.step_arrays`); the Gymnasium info dict is a plain
@@ -24,7 +25,9 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..physics._jit import launch_threads
 from ._infos import row_infos, vector_info, vector_info_keys
+from ._kernel_choice import KernelChoice
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -39,7 +42,7 @@ from .planar import PlanarBatch
 
 __all__ = ["SmaSpineVectorEnv", "StepArrays", "FinalArrays", "PARALLEL_MIN_ENVS"]
 
-# fewest sub-envs for which the parallel kernel is the default (parallel=None; benchmarks/README.md)
+# fewest sub-envs for which the default (parallel=None) chooses the kernel online, serial below it
 PARALLEL_MIN_ENVS = 64
 _FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 
@@ -79,18 +82,23 @@ class SmaSpineVectorEnv(VectorEnv):
       the single spaces for ``observation_space``/``action_space``, each sub-env's generator, seed,
       state and episode for ``np_random``, ``np_random_seed``, ``state``, ``target_profile``,
       ``load_schedule``, ``model_params``; any other attribute is shared and repeated.
-    * ``parallel``: run the loop over spines on all numba threads (``True``), serially (``False``) or,
-      by default (``None``), in parallel only from ``PARALLEL_MIN_ENVS`` = 64 sub-envs on. Below
-      that a step's physics is too short for the threads to pay on a machine other processes
-      also use: every parallel step waits for its slowest thread, and GNU OpenMP's idle workers
-      spin after each step, competing with the Python work in between (measured on the shared
-      2-core machine: at N = 8 the parallel kernel on 2 threads ran at 0.05-0.3x the serial one,
-      at N = 256 at 0.6-0.7x, and never beat it at N = 8 ... 256 with the one-call step either;
-      on an idle machine 1.4-1.9x from N = 8 on with the previous 0.01-s physics step;
-      benchmarks/README.md).
-      The serial default also never starts OpenMP's threads. With the parallel kernel on a
-      shared machine start Python with ``OMP_WAIT_POLICY=PASSIVE`` (the workers sleep at once)
-      or ``NUMBA_THREADING_LAYER=workqueue`` (no spinning; one parallel call at a time).
+    * ``parallel``: which of the two bit-identical step kernels runs the loop over spines: the
+      ``prange`` one on all numba threads (``True``), the serial one (``False``), or whichever is
+      faster now, chosen online by measurement (``"auto"``; the default ``None`` is ``"auto"``
+      from ``PARALLEL_MIN_ENVS`` = 64 sub-envs on and serial below). The chooser
+      (:class:`~spine_gym.envs._kernel_choice.KernelChoice`, ``kernel_choice``) times every step,
+      tries the other kernel for a few steps now and then (at once when the steps get slower) and
+      keeps the faster; the probes become rarer while the choice holds (~1 % of the steps). Why:
+      a parallel step waits at its join for every thread, and beside a CPU-bound process one of
+      the two threads shares its core and is scheduled late; with GNU OpenMP's spinning idle
+      workers the parallel kernel at 64 envs fell to 0.05-0.16x the serial one there, while on
+      idle cores it runs ~1.8x. The env therefore also starts numba's threads with sleeping idle
+      workers (``OMP_WAIT_POLICY=PASSIVE`` while libgomp loads, unless ``OMP_WAIT_POLICY`` or
+      ``GOMP_SPINCOUNT`` is set; :func:`spine_gym.physics._jit.launch_threads`), which are woken
+      at once when the next step starts. Both kernels give the same results bit for bit, so a
+      switch changes nothing but speed (tested). Measurements and the command:
+      ``benchmarks/bench_contention.py``, benchmarks/README.md. Below 64 envs the default never
+      starts OpenMP's threads (the serial kernel; a step is too short for them to pay reliably).
     * ``render()`` returns a tuple of ``num_envs`` frames.
     """
 
@@ -105,7 +113,7 @@ class SmaSpineVectorEnv(VectorEnv):
         *,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         max_episode_steps: int | None = None,
-        parallel: bool | None = None,
+        parallel: bool | str | None = None,
         **env_kwargs,
     ):
         self._renderer = None  # first: gymnasium < 1.3 closes an env whose __init__ raised
@@ -124,13 +132,18 @@ class SmaSpineVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
+        if isinstance(parallel, bool | np.bool_):
+            parallel = bool(parallel)
+        elif not (parallel is None or (isinstance(parallel, str) and parallel == "auto")):
+            raise ValueError(f"parallel must be True, False, None or 'auto', got {parallel!r}")
         self.config = cfg = self.CONFIG(**env_kwargs)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode, "render_fps": 1.0 / cfg.control_period}
-        self.parallel = self.num_envs >= PARALLEL_MIN_ENVS if parallel is None else bool(parallel)
-        self._core = self.BATCH(cfg, self.num_envs, parallel=self.parallel)
+        self.kernel_choice = self._kernel_choice(parallel)
+        start_parallel = parallel is True if self.kernel_choice is None else self.kernel_choice.parallel
+        self._core = self.BATCH(cfg, self.num_envs, parallel=start_parallel)
         self.single_action_space = spaces.Box(-1.0, 1.0, (cfg.n_wires,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.single_observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
@@ -153,6 +166,32 @@ class SmaSpineVectorEnv(VectorEnv):
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         self._ever_reset = False
         self._info_keys = vector_info_keys(self._core.table)
+
+    # ------------------------------------------------------------------ kernel choice
+    def _kernel_choice(self, parallel: bool | str | None) -> KernelChoice | None:
+        """The online chooser for ``parallel=None`` (from PARALLEL_MIN_ENVS envs on) and ``"auto"``,
+        else None (a fixed kernel). Starts numba's threads if the parallel kernel may run
+        (:func:`spine_gym.physics._jit.launch_threads`: idle workers sleep)."""
+        if parallel is False or (parallel is None and self.num_envs < PARALLEL_MIN_ENVS):
+            return None
+        launch_threads()
+        return None if parallel is True else KernelChoice(parallel=True)
+
+    @property
+    def parallel(self) -> bool:
+        """Whether the next step runs the parallel kernel (fixed, or the chooser's current pick)."""
+        return self._core.parallel
+
+    def _advance(self, actions: np.ndarray, rows: np.ndarray | None) -> None:
+        """One step of ``rows`` (None: all) with the chosen kernel, timed for the chooser."""
+        choice = self.kernel_choice
+        if choice is None:
+            self._core.advance(actions, self._rngs, rows)
+            return
+        self._core.parallel = choice.parallel
+        choice.start()
+        self._core.advance(actions, self._rngs, rows)
+        choice.stop(self.num_envs if rows is None else rows.size)
 
     # ------------------------------------------------------------------ facts (as the single env)
     @property
@@ -315,7 +354,7 @@ class SmaSpineVectorEnv(VectorEnv):
             rows = np.flatnonzero(~self._autoreset)
             self._reset_rows(reset_rows, self._no_seeds, {})
         if rows is None or rows.size:
-            core.advance(a, self._rngs, rows)
+            self._advance(a, rows)
         terminated, truncated = core.terminated.copy(), core.truncated.copy()
         reward = core.last_row[:, core.reward_col].copy()
         self._autoreset = terminated | truncated
@@ -445,3 +484,8 @@ class SmaSpineVectorEnv(VectorEnv):
         d = self.__dict__.copy()
         d["_renderer"] = None
         return d
+
+    def __setstate__(self, d):
+        self.__dict__.update(d)
+        if self.kernel_choice is not None or self._core.parallel:  # a fresh process: start numba's threads
+            launch_threads()
