@@ -577,6 +577,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("-o", "--out", default="results/benchmark", help="output folder (default: %(default)s)")
     p.add_argument("--quick", action="store_true", help="toy sizes: every code path in under 2 minutes")
+    p.add_argument(
+        "--report-only",
+        action="store_true",
+        help="train nothing: write the table and curves of the runs of the plan that have finished",
+    )
     return p
 
 
@@ -753,7 +758,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for env_id, refs in references.items():
         line = ", ".join(f"{n} {r['rmse']:.2f} {plan.units[env_id]}" for n, r in refs.items())
         print(f"references on {env_id}: {line}", flush=True)
-    pending = [s for s in plan.specs if not (out / s.folder / DONE).exists()]
+    pending = [] if args.report_only else [s for s in plan.specs if not (out / s.folder / DONE).exists()]
     where = f"on Ray ({args.address})" if args.address else f"with {args.workers} worker(s)"
     print(f"{len(plan.specs)} runs, {len(plan.specs) - len(pending)} finished before (skipped), "
           f"{len(pending)} to run {where}", flush=True)  # fmt: skip

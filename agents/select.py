@@ -3,6 +3,7 @@
 Example::
 
     python -m agents.select logs/ppo/SmaSpine-v0_* --episodes 20
+    python -m agents.select logs/ppo/SmaSpine3D-v1_* --env SmaSpine3D-v1
 
 Each model (run folder: its final ``model.zip``; with ``--best`` also its ``best_model.zip``)
 runs ``--episodes`` episodes drawn by the env's own samplers (the training distribution: random
@@ -26,7 +27,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import StoreDict
+from .common import ENV_ID, ENV_IDS, StoreDict
 from .evaluate import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
@@ -43,6 +44,9 @@ __all__ = ["VALIDATION_SEED_BASE", "validation_scores", "main"]
 def main(argv: list[str] | None = None) -> list[dict]:
     p = argparse.ArgumentParser(prog="python -m agents.select", description=__doc__.split("\n")[0])
     p.add_argument("runs", nargs="+", help="run folders of agents.train")
+    p.add_argument(
+        "--env", default=ENV_ID, choices=ENV_IDS, help="env id the runs were trained on (default: %(default)s)"
+    )
     p.add_argument("--episodes", type=int, default=20, help="validation episodes (default: %(default)s)")
     p.add_argument("--best", action="store_true", help="also score each run's best_model.zip")
     p.add_argument("--out", default=None, help="CSV file for the scores")
@@ -59,8 +63,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     torch.set_num_threads(1)
     # the PID reference sees the env's default observation (preview), as in the evaluation suite
     pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
-    probe = make_env(pid_kwargs)
-    ref_rmse, ref_energy = validation_scores(build_controller("pid", probe), args.episodes, pid_kwargs)
+    probe = make_env(pid_kwargs, env_id=args.env)
+    pid = build_controller("pid", probe)
+    ref_rmse, ref_energy = validation_scores(pid, args.episodes, pid_kwargs, args.env)
     probe.close()
     rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):
@@ -72,7 +77,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 kw = {k: v for k, v in own.items() if k != "episode_duration"}
             else:  # the given distribution, observed as the model was trained to (its preview)
                 kw = {**args.env_kwargs, **{k: own[k] for k in OBSERVATION_KWARGS if k in own}}
-            r, e = validation_scores(pol, args.episodes, kw)
+            r, e = validation_scores(pol, args.episodes, kw, args.env)
             rows.append(
                 {
                     "model": str(t),

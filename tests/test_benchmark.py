@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -265,6 +266,15 @@ def test_quick_runs_every_path_end_to_end_and_resumes(tmp_path):
     assert second.returncode == 0, second.stderr[-3000:]
     assert f"{n_runs} runs, {n_runs} finished before (skipped), 0 to run" in second.stdout
     assert [d.stat().st_mtime_ns for d in dones] == stamps
+
+    # --report-only trains nothing: a run whose folder is gone stays gone, the table drops it
+    shutil.rmtree(dones[0].parent)
+    third = subprocess.run(
+        [*cmd, "--report-only"], cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=QUICK_TIMEOUT_S
+    )
+    assert third.returncode == 0, third.stderr[-3000:]
+    assert "0 to run" in third.stdout and not dones[0].parent.exists()
+    assert len((out / "runs.csv").read_text().splitlines()) == 1 + n_runs - 1
 
 
 def test_seed_counts_default_to_five_for_ppo_and_three_for_the_others():
