@@ -157,7 +157,7 @@ def test_switching_kernels_mid_episode_is_bit_identical_to_serial():
 
 SHOW_POLICY = (
     "import os\n"
-    "from spine_gym.physics._jit import launch_threads\n"
+    "from spine_gym.envs._kernel_choice import launch_threads\n"
     "print(launch_threads(), os.environ.get('OMP_WAIT_POLICY'))\n"
 )
 

@@ -25,9 +25,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..physics._jit import launch_threads
 from ._infos import row_infos, vector_info, vector_info_keys
-from ._kernel_choice import KernelChoice
+from ._kernel_choice import KernelChoice, launch_threads
 from .core import (
     EPISODE_ATTRS,
     RESET_OPTION_KEYS,
@@ -94,7 +93,7 @@ class SmaSpineVectorEnv(VectorEnv):
       workers the parallel kernel at 64 envs fell to 0.05-0.16x the serial one there, while on
       idle cores it runs ~1.8x. The env therefore also starts numba's threads with sleeping idle
       workers (``OMP_WAIT_POLICY=PASSIVE`` while libgomp loads, unless ``OMP_WAIT_POLICY`` or
-      ``GOMP_SPINCOUNT`` is set; :func:`spine_gym.physics._jit.launch_threads`), which are woken
+      ``GOMP_SPINCOUNT`` is set; :func:`spine_gym.envs._kernel_choice.launch_threads`), which are woken
       at once when the next step starts. Both kernels give the same results bit for bit, so a
       switch changes nothing but speed (tested). Measurements and the command:
       ``benchmarks/bench_contention.py``, benchmarks/README.md. Below 64 envs the default never
@@ -171,7 +170,7 @@ class SmaSpineVectorEnv(VectorEnv):
     def _kernel_choice(self, parallel: bool | str | None) -> KernelChoice | None:
         """The online chooser for ``parallel=None`` (from PARALLEL_MIN_ENVS envs on) and ``"auto"``,
         else None (a fixed kernel). Starts numba's threads if the parallel kernel may run
-        (:func:`spine_gym.physics._jit.launch_threads`: idle workers sleep)."""
+        (:func:`spine_gym.envs._kernel_choice.launch_threads`: idle workers sleep)."""
         if parallel is False or (parallel is None and self.num_envs < PARALLEL_MIN_ENVS):
             return None
         launch_threads()

@@ -7,15 +7,9 @@ the source (``__pycache__``) and later processes load it instead of compiling ag
 
 from __future__ import annotations
 
-import os
-
 import numba
 
-__all__ = ["hot", "jit", "jit_inline", "launch_threads", "pjit"]
-
-# GNU OpenMP's wait policy for numba's worker threads (read once, when numba loads the runtime)
-OMP_WAIT_POLICY = "PASSIVE"
-
+__all__ = ["hot", "jit", "jit_inline", "pjit"]
 
 def jit(func):
     """Serial kernel: ``@njit(cache=True, nogil=True)``."""
@@ -45,32 +39,6 @@ def pjit(func):
     twin.__module__ = func.__module__
     twin.__doc__ = func.__doc__
     return numba.njit(cache=True, nogil=True, parallel=True)(twin)
-
-
-def launch_threads() -> str:
-    """Start numba's thread pool (once per process) with idle workers that sleep; returns the layer.
-
-    numba starts its pool at the first parallel call; with its OpenMP layer (GNU libgomp here) the
-    idle workers then spin after every parallel loop until ``GOMP_SPINCOUNT`` runs out. Beside a
-    CPU-bound process a spinning worker is just one more CPU-bound thread: the scheduler gives it
-    its turn late, and every parallel step waits at the loop's join for it (the native vector env
-    at 64 envs ran at 0.05-0.16x its serial kernel beside one busy process). Sleeping workers
-    (``OMP_WAIT_POLICY=PASSIVE``) are woken at the next loop and, having slept, are scheduled at
-    once. libgomp reads the variable only when it is loaded, so this sets it for that moment
-    (restoring the environment after: nothing else in the process, e.g. torch's own OpenMP runtime,
-    sees it), unless the user set ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` (theirs then holds). If
-    the pool is already running, or numba picked another layer (``tbb``, ``workqueue``), this
-    changes nothing. benchmarks/README.md (``bench_contention.py``) has the measurements.
-    """
-    if "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
-        numba.get_num_threads()  # starts the pool
-        return numba.threading_layer()
-    os.environ["OMP_WAIT_POLICY"] = OMP_WAIT_POLICY
-    try:
-        numba.get_num_threads()  # starts the pool; libgomp reads its environment as it loads
-    finally:
-        del os.environ["OMP_WAIT_POLICY"]
-    return numba.threading_layer()
 
 
 def hot(func):
