@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -70,6 +71,14 @@ def _unit(psi_deg: float) -> tuple[float, float]:
 
 WIRE_VALUES = ("lam_scale", "T_shift", "eps0")  # the per-wire material values of a WireGroup
 WIRE_VALUE_RANGES = {"lam_scale": (0.2, 5.0), "T_shift": (-100.0, 100.0), "eps0": (0.0, 0.2)}
+_WIRE_KEY = re.compile(r"^wire(\d+)\.(" + "|".join(WIRE_VALUES) + r")$")
+
+
+def wire_key(name: str) -> tuple[int, str] | None:
+    """(wire index, value) of a per-wire name ``wire<j>.<value>`` (a fit parameter or a direction
+    key of :func:`spine_gym.uncertainty.apply_offsets`; j in voltage order), else None."""
+    m = _WIRE_KEY.match(name)
+    return (int(m.group(1)), m.group(2)) if m else None
 
 
 @dataclass(frozen=True)
