@@ -22,7 +22,6 @@ from spine_gym.calibrate import synthetic_spatial_experiment
 from spine_gym.calibrate.protocols import EXAMPLE_WIRE_VALUES, MODULE_CHANNELS, module_protocol
 
 
-
 def main(out: str) -> None:
     truth = SpineLayout.seed().with_wire_values(list(EXAMPLE_WIRE_VALUES))
     rng = np.random.default_rng(0)

@@ -265,7 +265,8 @@ class SpineLayout:
         values = list(values) if isinstance(values, list | tuple) else None
         if values is None or len(values) != self.n_wires:
             raise ValueError(
-                f"wire values must be a sequence of {self.n_wires} mappings (one per wire group), got {values!r}"
+                f"wire values must be a sequence of {self.n_wires} mappings (one per wire group), "
+                f"got {values!r}"
             )
         mods, j = [], 0
         for m in self.modules:

@@ -23,9 +23,9 @@ from pathlib import Path
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
-from .spatial_data import SpatialExperiment
 from .fit import fit
 from .parameters import PARAMETER_SETS, FitParameter, resolve_parameters
+from .spatial_data import SpatialExperiment
 
 
 def _pairs(text: str, what: str) -> dict[str, str]:
@@ -74,7 +74,9 @@ def _experiments(paths, noise, layout_text, params):
     """(experiments, start) : planar CSVs with the params, spatial ones with the layout."""
     spatial = [_is_spatial(p) for p in paths]
     if any(spatial) and not all(spatial):
-        raise ValueError("give either planar CSVs (voltage_right/left) or spatial ones (voltage_0 …), not both")
+        raise ValueError(
+            "give either planar CSVs (voltage_right/left) or spatial ones (voltage_0 …), not both"
+        )
     if all(spatial):
         return [SpatialExperiment.from_csv(p, noise=noise) for p in paths], _layout(layout_text, params)
     return [Experiment.from_csv(p, noise=noise) for p in paths], params

@@ -41,10 +41,10 @@ from tqdm import tqdm
 from ..layout import SpineLayout
 from ..params import ModelParams, SolverOptions
 from .data import Experiment
-from .spatial_data import SpatialExperiment
 from .model import Evaluator
 from .parameters import FitParameter, resolve_parameters
 from .result import FitResult, parameter_rows
+from .spatial_data import SpatialExperiment
 
 __all__ = ["fit"]
 
@@ -269,7 +269,11 @@ def fit(
     single = isinstance(experiments, Experiment | SpatialExperiment)
     experiments = (experiments,) if single else tuple(experiments)
     if start is None:
-        start = SpineLayout.seed() if experiments and isinstance(experiments[0], SpatialExperiment) else ModelParams()
+        start = (
+            SpineLayout.seed()
+            if experiments and isinstance(experiments[0], SpatialExperiment)
+            else ModelParams()
+        )
     if not isinstance(start, ModelParams | SpineLayout):
         raise ValueError(f"start must be a ModelParams or a SpineLayout, got {type(start).__name__}")
     _check_options(seed, n_starts, cma_evals, cma_sigma, max_nfev, fd_step, identify_fraction, loss)

@@ -39,7 +39,9 @@ _SPATIAL = {"bend_1": ("tip_bending_deg", 0), "bend_2": ("tip_bending_deg", 1), 
 
 
 def simulate_experiment(
-    params: ModelParams | SpineLayout, exp: Experiment | SpatialExperiment, solver: SolverOptions | None = None
+    params: ModelParams | SpineLayout,
+    exp: Experiment | SpatialExperiment,
+    solver: SolverOptions | None = None,
 ) -> SimulationResult | SpatialResult:
     """Run the model over the experiment's inputs, one output step per sample (zero-order hold).
 
@@ -61,7 +63,9 @@ def simulate_experiment(
             solver=solver,
         )
     if not isinstance(params, ModelParams):
-        raise ValueError(f"{exp.name}: a planar experiment needs a ModelParams start, got {_describe(params)}")
+        raise ValueError(
+            f"{exp.name}: a planar experiment needs a ModelParams start, got {_describe(params)}"
+        )
     return simulate(
         exp.n_samples * exp.dt - exp.dt,
         exp.voltage_right[:-1],

@@ -112,7 +112,9 @@ class FitParameter:
         key = wire_key(self.name)
         if key is not None:
             if not isinstance(params, SpineLayout):
-                raise ValueError(f"{self.name}: a per-wire parameter needs a SpineLayout start, got ModelParams")
+                raise ValueError(
+                    f"{self.name}: a per-wire parameter needs a SpineLayout start, got ModelParams"
+                )
             if key[0] >= params.n_wires:
                 raise ValueError(f"{self.name}: wire index must be < {params.n_wires} (the layout's wires)")
             return float(params.wire_values[key[0]][key[1]])

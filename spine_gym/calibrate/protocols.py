@@ -15,8 +15,10 @@ __all__ = ["MODULE_PULSES", "MODULE_CHANNELS", "EXAMPLE_WIRE_VALUES", "module_pr
 
 MODULE_PULSES = ((0,), (1,), (2,), (3,), (0, 1), (2, 3))  # powered wires per experiment
 # what the protocol records: the tip bending vector and every wire's temperature and resistance
-MODULE_CHANNELS = ("bend_1", "bend_2") + tuple(f"temperature_{j}" for j in range(4)) + tuple(
-    f"resistance_{j}" for j in range(4)
+MODULE_CHANNELS = (
+    ("bend_1", "bend_2")
+    + tuple(f"temperature_{j}" for j in range(4))
+    + tuple(f"resistance_{j}" for j in range(4))
 )
 # the module of the identifiability test and of the worked example: transformation temperatures
 # −4/0/+3/+6 K, wire 1 with 10 % higher resistivity (SpineLayout.with_wire_values)

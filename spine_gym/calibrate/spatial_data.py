@@ -10,7 +10,7 @@ uniform time base) and the same named errors. Wires are numbered in the layout's
 | ``time`` | s | yes | sample times, uniformly spaced (≤ 1 s apart) |
 | ``voltage_0`` … ``voltage_<W-1>`` | V | yes, all W | voltage on wire j, held until the next row |
 | ``bend_1``, ``bend_2`` | deg | both, or the tip | tip bending vector (Θ cos β, Θ sin β), SPATIAL.md §2 |
-| ``tip_x``, ``tip_y``, ``tip_z`` | m | all three, or the bend | tip position (global frame, z up, base at 0) |
+| ``tip_x``, ``tip_y``, ``tip_z`` | m | all three, or the bend | tip position (global frame, z up) |
 | ``temperature_<j>`` | K | no | temperature of wire j (any subset of wires) |
 | ``resistance_<j>`` | Ohm | no | resistance of one wire of group j |
 | ``tip_force_x``, ``tip_force_y``, ``tip_force_z`` | N | no | force on the top disk, held like the voltages |
