@@ -45,7 +45,7 @@ from .layout import RATE_KP
     W_L0,  # [m] wire length, straight module
     W_LREF,  # [m] stress-free wire length L0/(1+ε0) of this wire's pre-strain
     W_LAMS,  # [-] resistivity scale of this wire (multiplies λ_A, λ_M of the material constants)
-    W_DU,  # [J/m^3] offset of the internal-energy jump Δu: Δη · (this wire's transformation-temperature shift)
+    W_DU,  # [J/m^3] offset of the internal-energy jump Δu: Δη · this wire's transformation-temperature shift
     W_EPS0,  # [-] pre-strain ε0 of this wire
     KW_SIZE,
 ) = range(11)
@@ -101,7 +101,8 @@ def sens_offset(n_wires, n_mod, n_seg):
     return omega_offset(n_wires, n_mod) + 2 * n_seg
 
 
-RCACHE_WIRE = 3 + 12  # floats per wire of the rate cache: the key (σ, T, the wire's Δu offset), the rates and slopes
+# floats per wire of the rate cache: the key (σ, T, the wire's Δu offset), then the rates and slopes
+RCACHE_WIRE = 3 + 12
 
 
 @jit
