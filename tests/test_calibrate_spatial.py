@@ -24,7 +24,7 @@ from spine_gym.physics import spatial_layout as SL
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
 # tolerance per parameter kind (absolute; lam_scale and eps0 relative to the truth)
-TOL = {"T_shift": 0.25, "lam_scale": 1e-3, "eps0": 2e-3, "E_t": 0.03, "alpha": 2e-3}
+TOL = {"T_shift": 0.25, "lam_scale": 6e-4, "eps0": 3e-3, "E_t": 0.04, "alpha": 3e-3}
 
 
 def _truth() -> SpineLayout:
@@ -157,7 +157,7 @@ def _rows(n=5, **override):
 
 
 def _csv(tmp_path, header, **override):
-    return _write(tmp_path / "e.csv", header, [[r[h] for h in header] for r in _rows(**override)])
+    return _write(tmp_path / "e.csv", header, [[r.get(h, 300.0) for h in header] for r in _rows(**override)])
 
 
 def test_spatial_csv_roundtrip(tmp_path):
