@@ -21,6 +21,7 @@ from spine_gym.calibrate import SpatialExperiment, fit, synthetic_spatial_experi
 from spine_gym.calibrate.parameters import resolve_parameters
 from spine_gym.calibrate.protocols import EXAMPLE_WIRE_VALUES, MODULE_CHANNELS, module_protocol
 from spine_gym.physics import spatial_layout as SL
+from spine_gym.simulate_spatial import simulate_spatial
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
 # tolerance per parameter kind (absolute; lam_scale and eps0 relative to the truth)
@@ -143,7 +144,8 @@ def _write(path, header, rows):
     return path
 
 
-HEAD = ["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3", "bend_1", "bend_2"]
+VOLTS = ["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3"]
+HEAD = [*VOLTS, "bend_1", "bend_2"]
 
 
 def _rows(n=5, **override):
@@ -171,15 +173,15 @@ def test_spatial_csv_roundtrip(tmp_path):
 @pytest.mark.parametrize(
     "header, override, match",
     [
-        (["time", "voltage_0", "voltage_1", "voltage_3", "bend_1", "bend_2"], {}, r"missing column\(s\) \['voltage_2'\]"),
-        (["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3", "bend_1"], {}, r"missing column\(s\) \['bend_2'\]"),
-        (["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3"], {}, "the bending vector"),
-        (["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3", "tip_x", "tip_y"], {}, r"\['tip_z'\]"),
+        (["time", "voltage_0", "voltage_1", "voltage_3", *HEAD[5:]], {}, r"missing column.*'voltage_2'"),
+        ([*VOLTS, "bend_1"], {}, r"missing column\(s\) \['bend_2'\]"),
+        (VOLTS, {}, "the bending vector"),
+        ([*VOLTS, "tip_x", "tip_y"], {}, r"\['tip_z'\]"),
         ([*HEAD, "temperatur_1"], {}, r"unknown column\(s\) \['temperatur_1'\]"),
         ([*HEAD, "temperature_7"], {}, r"unknown column\(s\) \['temperature_7'\]"),
         (HEAD, {"voltage_0": 3200.0}, "is it in mV"),
         ([*HEAD, "temperature_1"], {"temperature_1": 27.0}, "°C instead of K"),
-        (["time", "voltage_0", "voltage_1", "voltage_2", "voltage_3", "tip_x", "tip_y", "tip_z"], {"tip_z": 450.0},
+        ([*VOLTS, "tip_x", "tip_y", "tip_z"], {"tip_z": 450.0},
          "is it in mm"),
         (HEAD, {"bend_1": float("nan")}, "NaN"),
     ],
@@ -193,3 +195,23 @@ def test_spatial_experiment_needs_a_matching_layout(tmp_path):
     e = SpatialExperiment.from_csv(_csv(tmp_path, HEAD))
     with pytest.raises(ValueError, match="4 voltage columns, the start layout 8 wires"):
         fit([e], ["E_t"], SpineLayout.chain(2), progress=False)
+
+
+def test_chain_tip_position_fit():
+    """A chain measured by its tip position only [m]: the channels are the simulator's tip position,
+    and a bottom-module wire's transformation-temperature shift is recovered from them."""
+    chain = SpineLayout.chain(2)
+    truth = chain.with_wire_values([{"T_shift": 5.0}] + [{}] * 7)
+    t = np.arange(0.0, 30.05, 0.1)
+    v = np.zeros((t.size, 8))
+    v[t < 15.0, 0] = 3.2 * chain.voltage_scale[0]
+    clean = synthetic_spatial_experiment(
+        truth, t, v, channels=("tip_x", "tip_y", "tip_z"), noise={"tip": 1e-9}
+    )
+    ref = simulate_spatial(t[-1], v[:-1], layout=truth, dt=0.1)
+    np.testing.assert_allclose(clean.measured["tip_x"], ref.tip_position[:, 0], atol=1e-8)
+    assert np.ptp(clean.measured["tip_x"]) > 0.02  # the drive moves the tip by centimetres
+    exp = synthetic_spatial_experiment(truth, t, v, channels=("tip_x", "tip_y", "tip_z"), noise={"tip": 1e-3})
+    res = fit([exp], ["wire0.T_shift"], chain, seed=0, n_starts=1, cma_evals=24, max_nfev=8, progress=False)
+    assert abs(res.value("wire0.T_shift") - 5.0) < 0.5, res.report()
+    assert res.is_identified("wire0.T_shift")
