@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,13 +69,39 @@ def _unit(psi_deg: float) -> tuple[float, float]:
     return out[0], out[1]
 
 
+WIRE_VALUES = ("lam_scale", "T_shift", "eps0")  # the per-wire material values of a WireGroup
+WIRE_VALUE_RANGES = {"lam_scale": (0.2, 5.0), "T_shift": (-100.0, 100.0), "eps0": (0.0, 0.2)}
+_WIRE_KEY = re.compile(r"^wire(\d+)\.(" + "|".join(WIRE_VALUES) + r")$")
+
+
+def wire_key(name: str) -> tuple[int, str] | None:
+    """(wire index, value) of a per-wire name ``wire<j>.<value>`` (a fit parameter or a direction
+    key of :func:`spine_gym.uncertainty.apply_offsets`; j in voltage order), else None."""
+    m = _WIRE_KEY.match(name)
+    return (int(m.group(1)), m.group(2)) if m else None
+
+
 @dataclass(frozen=True)
 class WireGroup:
-    """n_w parallel wires in one pore at azimuth ``psi_deg`` and offset ``a`` (SPATIAL.md §1)."""
+    """n_w parallel wires in one pore at azimuth ``psi_deg`` and offset ``a`` (SPATIAL.md §1).
+
+    A wire batch is never uniform, so each group may differ from the layout's ``params`` in three
+    material values (defaults: no difference):
+
+    * ``lam_scale`` [-]: its resistivities are ``lam_scale`` × λ_A, λ_M of the params (Joule
+      heating and resistance);
+    * ``T_shift`` [K]: its transformation temperatures are shifted by ``T_shift``, exactly as the
+      params' ``T_low`` and ``T_high`` moved together (σ_A(T) and σ_M(T) move along T at unchanged
+      slope: Δu grows by Δη·``T_shift``, MODEL.md §3.1);
+    * ``eps0`` [-]: its pre-strain (None: the params' ``eps0``).
+    """
 
     psi_deg: float  # [deg] azimuth in the material frame, in [0, 360); 0 = +d1 (global x at the base)
     a: float  # [m] offset of the pore from the tube axis
     n_w: int  # [-] identical parallel wires, each at the full voltage
+    lam_scale: float = 1.0  # [-] resistivity scale, in [0.2, 5]
+    T_shift: float = 0.0  # [K] transformation-temperature shift, in [-100, 100]
+    eps0: float | None = None  # [-] pre-strain in [0, 0.2]; None: the params' eps0
 
     def __post_init__(self):
         try:
@@ -87,6 +114,20 @@ class WireGroup:
         _check("a", self.a, 1e-4, 0.5)
         object.__setattr__(self, "a", float(self.a))
         object.__setattr__(self, "n_w", _integer("n_w", self.n_w, 1, 100))
+        for name in WIRE_VALUES:
+            v = getattr(self, name)
+            if name == "eps0" and v is None:
+                continue
+            _check(name, v, *WIRE_VALUE_RANGES[name])
+            object.__setattr__(self, name, float(v))
+
+    def values(self, params: ModelParams) -> dict[str, float]:
+        """{lam_scale, T_shift, eps0} of this group (``eps0`` resolved against ``params``)."""
+        return {
+            "lam_scale": self.lam_scale,
+            "T_shift": self.T_shift,
+            "eps0": params.eps0 if self.eps0 is None else self.eps0,
+        }
 
     @property
     def pore(self) -> tuple[float, float]:
@@ -215,6 +256,40 @@ class SpineLayout:
         mod = Module(wires, n_seg, ls, params.L0 / n_modules, params.m_top)
         return cls((mod,) * n_modules, params)
 
+    def with_wire_values(self, values) -> SpineLayout:
+        """A copy whose wire groups (voltage order) take the per-wire material values ``values``:
+        a sequence of one mapping per wire group with keys among ``lam_scale``, ``T_shift``,
+        ``eps0`` (missing keys keep the group's value), or None (no change)."""
+        if values is None:
+            return self
+        values = list(values) if isinstance(values, list | tuple) else None
+        if values is None or len(values) != self.n_wires:
+            raise ValueError(
+                f"wire values must be a sequence of {self.n_wires} mappings (one per wire group), "
+                f"got {values!r}"
+            )
+        mods, j = [], 0
+        for m in self.modules:
+            groups = []
+            for w in m.wires:
+                v = values[j]
+                if not isinstance(v, dict) or set(v) - set(WIRE_VALUES):
+                    raise ValueError(
+                        f"wire values[{j}] must be a mapping with keys among {list(WIRE_VALUES)}, got {v!r}"
+                    )
+                try:
+                    groups.append(dataclasses.replace(w, **v))
+                except ValueError as e:
+                    raise ValueError(f"wire values[{j}]: {e}") from None
+                j += 1
+            mods.append(dataclasses.replace(m, wires=tuple(groups)))
+        return self.replace(modules=tuple(mods))
+
+    @property
+    def wire_values(self) -> list[dict[str, float]]:
+        """Per wire group (voltage order) its {lam_scale, T_shift, eps0} (eps0 resolved)."""
+        return [w.values(self.params) for m in self.modules for w in m.wires]
+
     def replace(self, **changes) -> SpineLayout:
         """A validated copy with ``changes`` applied (fields: ``modules``, ``params``)."""
         unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
@@ -294,7 +369,11 @@ class SpineLayout:
                 kw[j, SL.W_A] = w.a
                 kw[j, SL.W_NW] = w.n_w
                 kw[j, SL.W_L0] = m.L0
-                kw[j, SL.W_LREF] = m.L0 / (1.0 + p.eps0)
+                eps0 = p.eps0 if w.eps0 is None else w.eps0
+                kw[j, SL.W_LREF] = m.L0 / (1.0 + eps0)
+                kw[j, SL.W_LAMS] = w.lam_scale
+                kw[j, SL.W_DU] = p.delta_eta * w.T_shift
+                kw[j, SL.W_EPS0] = eps0
                 j += 1
         return p.to_kernel(), kw, km
 

@@ -10,6 +10,11 @@ reads and samples. It needs numpy only, so the environments can use it without s
 Draws: the identified parameters from a multivariate normal with the fit's covariance, each
 clipped to its fit bounds; a parameter the data could not identify (flagged by the fit) uniformly
 over its bounds, independently, because the data say nothing about it beyond those bounds.
+
+A spatial fit also has per-wire directions ``{"wire<j>.<value>": 1}`` (a wire's ``lam_scale``,
+``T_shift`` or ``eps0``, :class:`~spine_gym.WireGroup`); the fitted per-wire values are kept in
+``wire_values`` (provenance ``["layout"]["wire_values"]``), and :meth:`ParameterUncertainty.draw_plant`
+draws both the params and the per-wire values.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .layout import SpineLayout, wire_key
 from .params import ModelParams, load_preset
 
 __all__ = ["ParameterUncertainty", "apply_offsets"]
@@ -26,13 +32,41 @@ __all__ = ["ParameterUncertainty", "apply_offsets"]
 MAX_REDRAWS = 100  # draws that leave the model's valid range are redrawn at most this often
 
 
-def apply_offsets(base: ModelParams, directions, offsets) -> ModelParams:
-    """``base`` moved by ``offsets[j]`` along ``directions[j]`` ({field: coefficient}); validated."""
+def apply_offsets(base: ModelParams | SpineLayout, directions, offsets):
+    """``base`` moved by ``offsets[j]`` along ``directions[j]`` ({field: coefficient}); validated.
+
+    ``base`` is a ModelParams, or a SpineLayout whose params take the ModelParams fields and whose
+    wire groups take the per-wire keys ``wire<j>.<value>``."""
+    params = base.params if isinstance(base, SpineLayout) else base
     changes: dict[str, float] = {}
+    wires: dict[tuple[int, str], float] = {}
     for direction, off in zip(directions, offsets, strict=True):
         for field, coef in direction.items():
-            changes[field] = changes.get(field, getattr(base, field)) + coef * float(off)
-    return base.replace(**changes)
+            key = wire_key(field)
+            if key is None:
+                changes[field] = changes.get(field, getattr(params, field)) + coef * float(off)
+                continue
+            if not isinstance(base, SpineLayout) or key[0] >= base.n_wires:
+                raise ValueError(f"direction {field!r} needs a SpineLayout with more than {key[0]} wires")
+            wires[key] = wires.get(key, base.wire_values[key[0]][key[1]]) + coef * float(off)
+    if not isinstance(base, SpineLayout):
+        return params.replace(**changes)
+    values = [{} for _ in range(base.n_wires)]
+    for (j, name), v in wires.items():
+        values[j][name] = v
+    out = base.replace(params=params.replace(**changes)) if changes else base
+    return out.with_wire_values(values) if wires else out
+
+
+def with_wire_values(layout: SpineLayout, wire_values) -> SpineLayout:
+    """``layout`` with the per-wire values ``wire_values`` (one mapping per wire, or None)."""
+    if wire_values is None:
+        return layout
+    if len(wire_values) != layout.n_wires:
+        raise ValueError(
+            f"wire_values must have one entry per wire of the layout ({layout.n_wires}), got {len(wire_values)}"
+        )
+    return layout.with_wire_values([dict(v) for v in wire_values])
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +83,8 @@ class ParameterUncertainty:
         identified: per parameter, whether the data identified it.
         params: the fitted preset.
         source: the file it came from ('' if built in memory).
+        wire_values: a spatial fit's per-wire values (one {lam_scale, T_shift, eps0} per wire, in
+            voltage order), or None.
     """
 
     names: tuple[str, ...]
@@ -60,6 +96,7 @@ class ParameterUncertainty:
     identified: np.ndarray
     params: ModelParams
     source: str = ""
+    wire_values: tuple | None = None
 
     def __post_init__(self):
         n = len(self.names)
@@ -117,9 +154,34 @@ class ParameterUncertainty:
                 identified=np.array([bool(p["identified"]) for p in items]),
                 params=params,
                 source=str(path),
+                wire_values=_wire_values(provenance, path),
             )
         except (KeyError, TypeError, AttributeError) as e:
             raise ValueError(f"{path}: malformed provenance['fit'] ({type(e).__name__}: {e})") from None
+
+    @property
+    def per_wire(self) -> bool:
+        """Whether any direction moves a per-wire value (the draws need a layout)."""
+        return any(wire_key(f) is not None for d in self.directions for f in d)
+
+    def shared_only(self) -> ParameterUncertainty:
+        """The same uncertainty without the per-wire parameters (their marginal is unchanged)."""
+        keep = [j for j, d in enumerate(self.directions) if all(wire_key(f) is None for f in d)]
+        if not keep:
+            raise ValueError(f"{self.source or 'fit'}: the fit has no shared (non per-wire) parameters")
+        k = np.array(keep)
+        return ParameterUncertainty(
+            names=tuple(self.names[j] for j in keep),
+            directions=tuple(self.directions[j] for j in keep),
+            values=self.values[k],
+            covariance=np.asarray(self.covariance)[np.ix_(k, k)],
+            lower=self.lower[k],
+            upper=self.upper[k],
+            identified=self.identified[k],
+            params=self.params,
+            source=self.source,
+            wire_values=self.wire_values,
+        )
 
     # ------------------------------------------------------------------ draws
     def draw_offsets(self, rng: np.random.Generator) -> np.ndarray:
@@ -148,6 +210,18 @@ class ParameterUncertainty:
             f"{self.source or 'fit'}: {MAX_REDRAWS} draws in a row left the model's range: {err}"
         )
 
+    def draw_plant(self, rng: np.random.Generator, base: SpineLayout) -> SpineLayout:
+        """A layout drawn about ``base`` (its params and per-wire values), redrawing invalid sets."""
+        err = None
+        for _ in range(MAX_REDRAWS):
+            try:
+                return apply_offsets(base, self.directions, self.draw_offsets(rng))
+            except ValueError as e:
+                err = e
+        raise ValueError(
+            f"{self.source or 'fit'}: {MAX_REDRAWS} draws in a row left the model's range: {err}"
+        )
+
     def extremes(self, base: ModelParams | None = None) -> list[ModelParams]:
         """``base`` with each parameter at its lower and at its upper draw limit (valid ones only)."""
         base = base or self.params
@@ -161,3 +235,14 @@ class ParameterUncertainty:
                 except ValueError:
                     continue
         return out
+
+
+def _wire_values(provenance: dict, path) -> tuple | None:
+    """The per-wire values a spatial fit stored (provenance["layout"]["wire_values"]), or None."""
+    lay = provenance.get("layout")
+    if lay is None:
+        return None
+    values = lay.get("wire_values") if isinstance(lay, dict) else None
+    if not isinstance(values, list) or not all(isinstance(v, dict) for v in values):
+        raise ValueError(f"{path}: provenance['layout']['wire_values'] must be a list of mappings")
+    return tuple({str(k): float(x) for k, x in v.items()} for v in values)

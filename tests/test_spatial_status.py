@@ -79,8 +79,9 @@ def replay_substeps(r):
         check = needs_stability_check(vf, kp, km)
         st, _ = ss.solve_mechanics(mw, omega, sens, wb[0], wb[1], wb[4], wb[3], vf, kp, ks, kw, km, wk, check)
         assert st == L.OK, "the load change itself failed, yet the start was found stable"
-    wk[ss.WK_JNUM][:] = r["volts"] ** 2 / kw[:, ss.W_L0] ** 2
-    ss._load_rates(state, kp, kw, km, ns, wk[ss.WK_RT])
+    ss.wire_constants(kp, kw, wk[ss.WK_KPW])
+    wk[ss.WK_JNUM][:] = r["volts"] ** 2 / kw[:, ss.W_L0] ** 2 / kw[:, ss.W_LAMS]
+    ss._load_rates(state, kp, kw, km, ns, wk[ss.WK_RT], wk[ss.WK_KPW])
     rem = r["dt"]
     while rem > 0.0:
         start = state.copy()

@@ -7,6 +7,11 @@ Example::
 
 writes ``fit.json`` (the preset, loadable with ``ModelParams.from_file`` and usable as
 ``domain_randomization="fit.json"``), ``report.md``, ``report.json`` and PNG plots to ``--out``.
+
+CSVs with ``voltage_0`` … columns are spatial experiments (:mod:`.spatial_data`), fitted on the
+layout ``--layout`` (``seed``: the four-wire module; ``chain:<n>``: n modules), e.g.
+``--params wires`` for every wire's resistivity scale, transformation-temperature shift and
+pre-strain plus E_t and α.
 """
 
 from __future__ import annotations
@@ -15,10 +20,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
 from .fit import fit
 from .parameters import PARAMETER_SETS, FitParameter, resolve_parameters
+from .spatial_data import SpatialExperiment
 
 
 def _pairs(text: str, what: str) -> dict[str, str]:
@@ -49,7 +56,33 @@ def _start(text: str) -> tuple[ModelParams, str]:
     return ModelParams.from_file(text), text
 
 
-def _parameters(names: str, bounds: str | None, start: ModelParams) -> tuple[FitParameter, ...]:
+def _layout(text: str, params: ModelParams) -> SpineLayout:
+    if text == "seed":
+        return SpineLayout.seed(params)
+    kind, sep, n = text.partition(":")
+    if kind == "chain" and sep and n.isdigit():
+        return SpineLayout.chain(int(n), params)
+    raise ValueError(f"--layout must be 'seed' or 'chain:<n>', got {text!r}")
+
+
+def _is_spatial(path: str) -> bool:
+    with open(path, newline="") as fh:
+        return "voltage_0" in [h.strip() for h in fh.readline().split(",")]
+
+
+def _experiments(paths, noise, layout_text, params):
+    """(experiments, start) : planar CSVs with the params, spatial ones with the layout."""
+    spatial = [_is_spatial(p) for p in paths]
+    if any(spatial) and not all(spatial):
+        raise ValueError(
+            "give either planar CSVs (voltage_right/left) or spatial ones (voltage_0 …), not both"
+        )
+    if all(spatial):
+        return [SpatialExperiment.from_csv(p, noise=noise) for p in paths], _layout(layout_text, params)
+    return [Experiment.from_csv(p, noise=noise) for p in paths], params
+
+
+def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ...]:
     """Names (or a set) with default bounds, overridden by ``--bounds name=lo:hi,...``."""
     params = list(resolve_parameters(names, start))
     for key, val in _pairs(bounds or "", "--bounds").items():
@@ -68,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="python -m spine_gym.calibrate",
         description="Fit spine_gym ModelParams to measured experiments (CSV: time, voltage_right, "
-        "voltage_left, angle [+ temperature_*, resistance_*, tip_force_x/y]).",
+        "voltage_left, angle [+ temperature_*, resistance_*, tip_force_x/y]; or spatial: time, "
+        "voltage_0.., bend_1, bend_2 and/or tip_x/y/z [+ temperature_<j>, resistance_<j>, tip_force_x/y/z]).",
     )
     ap.add_argument("csv", nargs="+", help="measured experiments (CSV files)")
     ap.add_argument(
@@ -87,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--noise",
         default=None,
         help="noise levels: channel-or-kind=std,... (angle deg, temperature K, resistance Ohm)",
+    )
+    ap.add_argument(
+        "--layout", default="seed", help="spatial CSVs: the layout, 'seed' (four-wire module) or 'chain:<n>'"
     )
     ap.add_argument("--out", default="results/calibration", help="output folder")
     ap.add_argument("--seed", type=int, default=0)
@@ -108,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         start, start_name = _start(args.start)
         noise = _noise(args.noise)
-        experiments = [Experiment.from_csv(p, noise=noise) for p in args.csv]
+        experiments, start = _experiments(args.csv, noise, args.layout, start)
         params = _parameters(args.params, args.bounds, start)
         res = fit(
             experiments,

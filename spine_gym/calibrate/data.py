@@ -28,7 +28,7 @@ import numpy as np
 
 from ..simulate import V_MAX_ALLOWED
 
-__all__ = ["Experiment", "CHANNELS", "DEFAULT_NOISE", "INPUTS", "noise_levels"]
+__all__ = ["Experiment", "CHANNELS", "DEFAULT_NOISE", "INPUTS", "Samples", "noise_levels", "read_table"]
 
 # measured channels a fit can compare: column -> (unit, plausible range, hint when outside)
 CHANNELS = {
@@ -57,28 +57,151 @@ def _kind(channel: str) -> str:
     return channel.split("_")[0]
 
 
-def noise_levels(source: str, noise, channels) -> dict[str, float]:
-    """{channel: standard deviation} from a mapping keyed by channel or kind, defaults filled in."""
+def noise_levels(source: str, noise, channels, table=None, defaults=None) -> dict[str, float]:
+    """{channel: standard deviation} from a mapping keyed by channel or kind, defaults filled in.
+
+    ``table`` (default :data:`CHANNELS`) names the valid channels, ``defaults`` (default
+    :data:`DEFAULT_NOISE`) the level per kind (a channel's kind is its name up to the first ``_``).
+    """
+    table = CHANNELS if table is None else table
+    defaults = DEFAULT_NOISE if defaults is None else defaults
     if not isinstance(noise, Mapping):
         raise ValueError(f"{source}: noise must be a mapping {{channel or kind: std}}, got {noise!r}")
-    kinds = {_kind(c) for c in CHANNELS}
-    unknown = set(noise) - set(CHANNELS) - kinds
+    kinds = {_kind(c) for c in table}
+    unknown = set(noise) - set(table) - kinds
     if unknown:
         raise ValueError(
-            f"{source}: noise has unknown key(s) {sorted(unknown)}; valid: {sorted(kinds | set(CHANNELS))}"
+            f"{source}: noise has unknown key(s) {sorted(unknown)}; valid: {sorted(kinds | set(table))}"
         )
     out = {}
     for ch in channels:
-        v = noise.get(ch, noise.get(_kind(ch), DEFAULT_NOISE[_kind(ch)]))
+        v = noise.get(ch, noise.get(_kind(ch), defaults[_kind(ch)]))
         if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
             raise ValueError(f"{source}: noise[{ch!r}] must be a finite number > 0, got {v!r}")
         out[ch] = float(v)
     return out
 
 
+def read_table(path: Path, known, required) -> dict[str, np.ndarray]:
+    """{column: values} of a CSV with a header row; ValueError naming the file, column and line for
+    an empty file, unknown, missing or repeated columns, short rows and non-numbers."""
+    with path.open(newline="") as fh:
+        reader = csv.reader(fh)
+        try:
+            header = [h.strip() for h in next(reader)]
+        except StopIteration:
+            raise ValueError(f"{path}: empty file (expected a header row with {list(required)})") from None
+        rows = list(reader)
+    unknown = [h for h in header if h not in known]
+    if unknown:
+        raise ValueError(f"{path}: unknown column(s) {unknown}; valid columns: {sorted(known)}")
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise ValueError(f"{path}: missing column(s) {missing} (required: {list(required)})")
+    if len(set(header)) != len(header):
+        raise ValueError(f"{path}: repeated column names in the header {header}")
+    data = {h: np.empty(len(rows)) for h in header}
+    for i, row in enumerate(rows):
+        if len(row) != len(header):
+            raise ValueError(f"{path}: line {i + 2} has {len(row)} fields, the header has {len(header)}")
+        for h, cell in zip(header, row, strict=True):
+            try:
+                data[h][i] = float(cell)
+            except ValueError:
+                raise ValueError(f"{path}: column {h!r}, line {i + 2}: not a number: {cell!r}") from None
+    return data
+
+
+def write_table(path: Path, cols: dict[str, np.ndarray]) -> Path:
+    """Write {column: values} as a CSV with a header row."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(np.column_stack(list(cols.values())).tolist())
+    return path
+
+
+class Samples:
+    """Validation shared by the experiment kinds: a uniform time base and plausible columns.
+
+    Subclasses are frozen dataclasses with ``name`` and ``rows`` fields and a ``time`` array, and
+    define :meth:`column_table` ({column: (unit, plausible range, hint)}).
+    """
+
+    def column_table(self) -> dict:
+        raise NotImplementedError
+
+    def unit(self, channel: str) -> str:
+        """Unit of a measured channel."""
+        return self.column_table()[channel][0]
+
+    def _row(self, i: int) -> str:
+        return f"line {i + 2}" if self.rows == "line" else f"row {i}"
+
+    def _column(self, name: str, values, n: int) -> np.ndarray:
+        arr = np.asarray(values, dtype=float)
+        if arr.ndim != 1 or arr.shape[0] != n:
+            raise ValueError(
+                f"{self.name}: column {name!r} must have {n} rows (like 'time'), got shape {arr.shape}"
+            )
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(
+                f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {float(arr[bad[0]])} (NaN/inf)"
+            )
+        unit, (lo, hi), hint = self.column_table()[name]
+        out = np.flatnonzero((arr < lo) | (arr > hi))
+        if out.size:
+            i = out[0]
+            raise ValueError(
+                f"{self.name}: column {name!r}, {self._row(i)}: {arr[i]:g} {unit} is outside the plausible "
+                f"range [{lo:g}, {hi:g}] {unit}; {hint}".rstrip("; ")
+            )
+        return np.ascontiguousarray(arr)
+
+    def _check_time(self, t: np.ndarray) -> None:
+        if t.shape[0] < 2:
+            raise ValueError(f"{self.name}: column 'time' needs at least 2 rows, got {t.shape[0]}")
+        d = np.diff(t)
+        bad = np.flatnonzero(d <= 0.0)
+        if bad.size:
+            i = bad[0] + 1
+            raise ValueError(
+                f"{self.name}: column 'time', {self._row(i)}: time must increase, "
+                f"got {t[i]:g} s after {t[i - 1]:g} s"
+            )
+        dt = (t[-1] - t[0]) / (t.shape[0] - 1)
+        if dt > MAX_DT:
+            raise ValueError(
+                f"{self.name}: column 'time': sample spacing {dt:g} s exceeds {MAX_DT:g} s; is time in ms?"
+            )
+        off = np.flatnonzero(np.abs(d - dt) > UNIFORM_TOL * dt)
+        if off.size:
+            i = off[0] + 1
+            raise ValueError(
+                f"{self.name}: column 'time', {self._row(i)}: samples must be uniformly spaced "
+                f"(mean step {dt:g} s, this step {d[i - 1]:g} s); resample the data first"
+            )
+
+    @property
+    def dt(self) -> float:
+        """Sample spacing [s]."""
+        return float((self.time[-1] - self.time[0]) / (self.time.shape[0] - 1))
+
+    @property
+    def duration(self) -> float:
+        """Span of the record [s]."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.time.shape[0])
+
+
 @dataclass(frozen=True)
-class Experiment:
-    """One measured run.
+class Experiment(Samples):
+    """One measured run of the planar spine.
 
     Attributes:
         name: label used in reports and error messages (the file name for CSVs).
@@ -131,69 +254,8 @@ class Experiment:
         if not (isinstance(self.weight, int | float) and np.isfinite(self.weight) and self.weight > 0):
             raise ValueError(f"{self.name}: weight must be a finite number > 0, got {self.weight!r}")
 
-    # ------------------------------------------------------------------ validation
-    def _row(self, i: int) -> str:
-        return f"line {i + 2}" if self.rows == "line" else f"row {i}"
-
-    def _column(self, name: str, values, n: int) -> np.ndarray:
-        arr = np.asarray(values, dtype=float)
-        if arr.ndim != 1 or arr.shape[0] != n:
-            raise ValueError(
-                f"{self.name}: column {name!r} must have {n} rows (like 'time'), got shape {arr.shape}"
-            )
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            raise ValueError(
-                f"{self.name}: column {name!r}, {self._row(bad[0])}: value is {float(arr[bad[0]])} (NaN/inf)"
-            )
-        unit, (lo, hi), hint = (CHANNELS | INPUTS)[name]
-        out = np.flatnonzero((arr < lo) | (arr > hi))
-        if out.size:
-            i = out[0]
-            raise ValueError(
-                f"{self.name}: column {name!r}, {self._row(i)}: {arr[i]:g} {unit} is outside the plausible "
-                f"range [{lo:g}, {hi:g}] {unit}; {hint}".rstrip("; ")
-            )
-        return np.ascontiguousarray(arr)
-
-    def _check_time(self, t: np.ndarray) -> None:
-        if t.shape[0] < 2:
-            raise ValueError(f"{self.name}: column 'time' needs at least 2 rows, got {t.shape[0]}")
-        d = np.diff(t)
-        bad = np.flatnonzero(d <= 0.0)
-        if bad.size:
-            i = bad[0] + 1
-            raise ValueError(
-                f"{self.name}: column 'time', {self._row(i)}: time must increase, "
-                f"got {t[i]:g} s after {t[i - 1]:g} s"
-            )
-        dt = (t[-1] - t[0]) / (t.shape[0] - 1)
-        if dt > MAX_DT:
-            raise ValueError(
-                f"{self.name}: column 'time': sample spacing {dt:g} s exceeds {MAX_DT:g} s; is time in ms?"
-            )
-        off = np.flatnonzero(np.abs(d - dt) > UNIFORM_TOL * dt)
-        if off.size:
-            i = off[0] + 1
-            raise ValueError(
-                f"{self.name}: column 'time', {self._row(i)}: samples must be uniformly spaced "
-                f"(mean step {dt:g} s, this step {d[i - 1]:g} s); resample the data first"
-            )
-
-    # ------------------------------------------------------------------ derived
-    @property
-    def dt(self) -> float:
-        """Sample spacing [s]."""
-        return float((self.time[-1] - self.time[0]) / (self.time.shape[0] - 1))
-
-    @property
-    def duration(self) -> float:
-        """Span of the record [s]."""
-        return float(self.time[-1] - self.time[0])
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.time.shape[0])
+    def column_table(self) -> dict:
+        return CHANNELS | INPUTS
 
     # ------------------------------------------------------------------ I/O
     @classmethod
@@ -207,35 +269,9 @@ class Experiment:
     ) -> Experiment:
         """Read a CSV with the columns of the module table (header names exactly as listed)."""
         path = Path(path)
-        with path.open(newline="") as fh:
-            reader = csv.reader(fh)
-            try:
-                header = [h.strip() for h in next(reader)]
-            except StopIteration:
-                raise ValueError(
-                    f"{path}: empty file (expected a header row with {list(REQUIRED)})"
-                ) from None
-            rows = list(reader)
-        known = set(CHANNELS) | set(INPUTS)
-        unknown = [h for h in header if h not in known]
-        if unknown:
-            raise ValueError(f"{path}: unknown column(s) {unknown}; valid columns: {sorted(known)}")
-        missing = [c for c in REQUIRED if c not in header]
-        if missing:
-            raise ValueError(f"{path}: missing column(s) {missing} (required: {list(REQUIRED)})")
-        if len(set(header)) != len(header):
-            raise ValueError(f"{path}: repeated column names in the header {header}")
-        if ("tip_force_x" in header) != ("tip_force_y" in header):
+        data = read_table(path, set(CHANNELS) | set(INPUTS), REQUIRED)
+        if ("tip_force_x" in data) != ("tip_force_y" in data):
             raise ValueError(f"{path}: give both tip_force_x and tip_force_y, or neither")
-        data = {h: np.empty(len(rows)) for h in header}
-        for i, row in enumerate(rows):
-            if len(row) != len(header):
-                raise ValueError(f"{path}: line {i + 2} has {len(row)} fields, the header has {len(header)}")
-            for h, cell in zip(header, row, strict=True):
-                try:
-                    data[h][i] = float(cell)
-                except ValueError:
-                    raise ValueError(f"{path}: column {h!r}, line {i + 2}: not a number: {cell!r}") from None
         tip = np.column_stack([data["tip_force_x"], data["tip_force_y"]]) if "tip_force_x" in data else None
         return cls(
             name=name or str(path),
@@ -256,9 +292,4 @@ class Experiment:
         cols.update(self.measured)
         if self.tip_force is not None:
             cols.update(tip_force_x=self.tip_force[:, 0], tip_force_y=self.tip_force[:, 1])
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(list(cols))
-            w.writerows(np.column_stack(list(cols.values())).tolist())
-        return path
+        return write_table(path, cols)

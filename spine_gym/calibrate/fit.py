@@ -38,11 +38,13 @@ import numpy as np
 from scipy.optimize import least_squares
 from tqdm import tqdm
 
+from ..layout import SpineLayout
 from ..params import ModelParams, SolverOptions
 from .data import Experiment
 from .model import Evaluator
 from .parameters import FitParameter, resolve_parameters
 from .result import FitResult, parameter_rows
+from .spatial_data import SpatialExperiment
 
 __all__ = ["fit"]
 
@@ -218,9 +220,9 @@ def _check_options(seed, n_starts, cma_evals, cma_sigma, max_nfev, fd_step, iden
 
 
 def fit(
-    experiments: Experiment | Sequence[Experiment],
+    experiments: Experiment | SpatialExperiment | Sequence[Experiment | SpatialExperiment],
     parameters="thermal",
-    start: ModelParams | None = None,
+    start: ModelParams | SpineLayout | None = None,
     *,
     seed: int = 0,
     n_starts: int = 2,
@@ -239,10 +241,14 @@ def fit(
     """Fit the chosen parameters of ``start`` to the experiments.
 
     Args:
-        experiments: one or more :class:`~spine_gym.calibrate.data.Experiment`.
-        parameters: ``"thermal"``, ``"mechanical"``, ``"all"``, a list of names or a mapping
-            {name: (lower, upper)} (see :func:`~spine_gym.calibrate.parameters.resolve_parameters`).
-        start: the preset to start from and to keep for every field not fitted (default baseline).
+        experiments: one or more :class:`~spine_gym.calibrate.data.Experiment`, or (spatial
+            spine) :class:`~spine_gym.calibrate.spatial_data.SpatialExperiment`.
+        parameters: ``"thermal"``, ``"mechanical"``, ``"all"``, ``"wires"`` (spatial), a list of
+            names or a mapping {name: (lower, upper)} (see
+            :func:`~spine_gym.calibrate.parameters.resolve_parameters`).
+        start: the preset to start from and to keep for every field not fitted (default baseline);
+            a :class:`~spine_gym.SpineLayout` (its params and per-wire values) for spatial
+            experiments.
         seed: seeds CMA-ES and the random starts.
         n_starts: least-squares starts (the CMA-ES optimum, the start preset, random points).
         global_stage: run CMA-ES first.
@@ -260,10 +266,16 @@ def fit(
     Returns:
         A :class:`~spine_gym.calibrate.result.FitResult`.
     """
-    experiments = (experiments,) if isinstance(experiments, Experiment) else tuple(experiments)
-    start = start or ModelParams()
-    if not isinstance(start, ModelParams):
-        raise ValueError(f"start must be a ModelParams, got {type(start).__name__}")
+    single = isinstance(experiments, Experiment | SpatialExperiment)
+    experiments = (experiments,) if single else tuple(experiments)
+    if start is None:
+        start = (
+            SpineLayout.seed()
+            if experiments and isinstance(experiments[0], SpatialExperiment)
+            else ModelParams()
+        )
+    if not isinstance(start, ModelParams | SpineLayout):
+        raise ValueError(f"start must be a ModelParams or a SpineLayout, got {type(start).__name__}")
     _check_options(seed, n_starts, cma_evals, cma_sigma, max_nfev, fd_step, identify_fraction, loss)
     params: tuple[FitParameter, ...] = resolve_parameters(parameters, start)
     bar = tqdm(desc="calibrate", unit="sim", disable=not progress, leave=False)

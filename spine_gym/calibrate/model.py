@@ -14,23 +14,58 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..layout import SpineLayout
 from ..params import ModelParams, SolverOptions
 from ..simulate import SimulationError, SimulationResult, simulate
+from ..simulate_spatial import SpatialResult, simulate_spatial
 from ..uncertainty import apply_offsets
 from .data import CHANNELS, Experiment, noise_levels
 from .parameters import FitParameter
+from .spatial_data import SPATIAL_DEFAULT_NOISE, SpatialExperiment, spatial_channels
 
-__all__ = ["simulate_experiment", "synthetic_experiment", "Evaluator", "PENALTY"]
+__all__ = [
+    "simulate_experiment",
+    "synthetic_experiment",
+    "synthetic_spatial_experiment",
+    "Evaluator",
+    "PENALTY",
+]
 
 PENALTY = 1e3  # residual (in noise units) given to every sample of a candidate the model cannot run
 _ATTRIBUTE = {"angle": "angle_deg"}  # SimulationResult attribute per channel (others: same name)
+# SpatialResult (attribute, column) per spatial channel kind
+_SPATIAL = {"bend_1": ("tip_bending_deg", 0), "bend_2": ("tip_bending_deg", 1), "tip_x": ("tip_position", 0),
+            "tip_y": ("tip_position", 1), "tip_z": ("tip_position", 2)}  # fmt: skip
 
 
 def simulate_experiment(
-    params: ModelParams, exp: Experiment, solver: SolverOptions | None = None
-) -> SimulationResult:
-    """Run the model over the experiment's inputs, one output step per sample (zero-order hold)."""
+    params: ModelParams | SpineLayout,
+    exp: Experiment | SpatialExperiment,
+    solver: SolverOptions | None = None,
+) -> SimulationResult | SpatialResult:
+    """Run the model over the experiment's inputs, one output step per sample (zero-order hold).
+
+    A :class:`SpatialExperiment` needs a :class:`SpineLayout` with as many wires as it has voltage
+    columns; a planar :class:`Experiment` a ModelParams."""
     tip = None if exp.tip_force is None else exp.tip_force[:-1]
+    if isinstance(exp, SpatialExperiment):
+        if not isinstance(params, SpineLayout) or params.n_wires != exp.n_wires:
+            raise ValueError(
+                f"{exp.name}: a spatial experiment with {exp.n_wires} voltage columns needs a SpineLayout "
+                f"with {exp.n_wires} wires as the start, got {_describe(params)}"
+            )
+        return simulate_spatial(
+            exp.n_samples * exp.dt - exp.dt,
+            exp.voltages[:-1],
+            layout=params,
+            dt=exp.dt,
+            tip_force=tip,
+            solver=solver,
+        )
+    if not isinstance(params, ModelParams):
+        raise ValueError(
+            f"{exp.name}: a planar experiment needs a ModelParams start, got {_describe(params)}"
+        )
     return simulate(
         exp.n_samples * exp.dt - exp.dt,
         exp.voltage_right[:-1],
@@ -42,9 +77,55 @@ def simulate_experiment(
     )
 
 
-def channel(result: SimulationResult, name: str) -> np.ndarray:
+def _describe(params) -> str:
+    if isinstance(params, SpineLayout):
+        return f"a SpineLayout with {params.n_wires} wires"
+    return type(params).__name__
+
+
+def channel(result: SimulationResult | SpatialResult, name: str) -> np.ndarray:
     """The simulated trace of a measured channel."""
+    if isinstance(result, SpatialResult):
+        if name in _SPATIAL:
+            attr, col = _SPATIAL[name]
+            return getattr(result, attr)[:, col]
+        kind, j = name.rsplit("_", 1)
+        return getattr(result, kind)[:, int(j)]
     return getattr(result, _ATTRIBUTE.get(name, name))
+
+
+def synthetic_spatial_experiment(
+    layout: SpineLayout,
+    time: np.ndarray,
+    voltages,
+    *,
+    channels: Sequence[str] = ("bend_1", "bend_2"),
+    noise: dict[str, float] | None = None,
+    rng: np.random.Generator | None = None,
+    tip_force: np.ndarray | None = None,
+    name: str = "synthetic",
+) -> SpatialExperiment:
+    """A "measured" spatial experiment made by the model with ``layout`` plus Gaussian noise.
+
+    ``voltages``: a (W,) constant or an (n, W) array on ``time``; ``channels`` among
+    :func:`~spine_gym.calibrate.spatial_data.spatial_channels`; ``noise`` maps channels or kinds
+    (``bend``, ``tip``, ``temperature``, ``resistance``) to standard deviations (default
+    :data:`~spine_gym.calibrate.spatial_data.SPATIAL_DEFAULT_NOISE`); ``rng`` draws the noise (default
+    seed 0).
+    """
+    time = np.asarray(time, dtype=float)
+    n, nw = time.shape[0], layout.n_wires
+    volts = np.broadcast_to(np.asarray(voltages, dtype=float), (n, nw)).copy()
+    table = spatial_channels(nw)
+    unknown = set(channels) - set(table)
+    if unknown:
+        raise ValueError(f"channels: unknown channel(s) {sorted(unknown)}; valid: {list(table)}")
+    levels = noise_levels(name, noise or {}, channels, table, SPATIAL_DEFAULT_NOISE)
+    blank = {"bend_1": np.zeros(n), "bend_2": np.zeros(n)}
+    res = simulate_experiment(layout, SpatialExperiment(name, time, volts, blank, tip_force=tip_force))
+    rng = rng or np.random.default_rng(0)
+    measured = {c: channel(res, c) + rng.normal(0.0, levels[c], n) for c in channels}
+    return SpatialExperiment(name, time, volts, measured, tip_force=tip_force, noise=levels)
 
 
 def synthetic_experiment(
@@ -92,15 +173,25 @@ class Evaluator:
 
     def __init__(
         self,
-        experiments: Sequence[Experiment],
+        experiments: Sequence[Experiment | SpatialExperiment],
         parameters: Sequence[FitParameter],
-        start: ModelParams,
+        start: ModelParams | SpineLayout,
         solver: SolverOptions | None = None,
         n_workers: int | None = None,
         on_simulation=None,
     ):
-        if not experiments or not all(isinstance(e, Experiment) for e in experiments):
-            raise ValueError("experiments must be a non-empty sequence of Experiment objects")
+        kind = SpatialExperiment if isinstance(start, SpineLayout) else Experiment
+        if not experiments or not all(isinstance(e, kind) for e in experiments):
+            raise ValueError(
+                f"experiments must be a non-empty sequence of {kind.__name__} objects (a "
+                f"{'SpineLayout' if kind is SpatialExperiment else 'ModelParams'} start)"
+            )
+        if kind is SpatialExperiment:
+            for e in experiments:
+                if e.n_wires != start.n_wires:
+                    raise ValueError(
+                        f"{e.name}: has {e.n_wires} voltage columns, the start layout {start.n_wires} wires"
+                    )
         names = [e.name for e in experiments]
         if len(set(names)) != len(names):
             raise ValueError(f"experiment names must be unique, got {names}")
@@ -130,8 +221,9 @@ class Evaluator:
     def to_values(self, u) -> np.ndarray:
         return self.lower + np.asarray(u, dtype=float) * (self.upper - self.lower)
 
-    def params_at(self, u) -> ModelParams:
-        """The ModelParams of unit-box point ``u`` (ValueError if it leaves the model's range)."""
+    def params_at(self, u) -> ModelParams | SpineLayout:
+        """The ModelParams (or SpineLayout) of unit-box point ``u`` (ValueError if it leaves the
+        model's range)."""
         off = self.to_values(u) - self.start_values
         return apply_offsets(self.start, [p.direction for p in self.parameters], off)
 
@@ -140,7 +232,7 @@ class Evaluator:
         return sum(e.n_samples * len(e.measured) for e in self.experiments)
 
     # ------------------------------------------------------------------ evaluation
-    def _residual_block(self, params: ModelParams | None, exp: Experiment) -> tuple[np.ndarray, bool]:
+    def _residual_block(self, params, exp) -> tuple[np.ndarray, bool]:
         m = exp.n_samples * len(exp.measured)
         if params is None:
             return np.full(m, PENALTY), False

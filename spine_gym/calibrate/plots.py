@@ -12,18 +12,18 @@ from pathlib import Path
 import numpy as np
 
 from ..plotting import _figure, _save
-from .data import CHANNELS, Experiment
+from .data import Experiment, Samples
 
 __all__ = ["plot_experiment_fit", "plot_correlation"]
 
 
-def plot_experiment_fit(exp: Experiment, traces: dict, path: str | Path, dpi: int = 120) -> Path:
+def plot_experiment_fit(exp: Experiment | Samples, traces: dict, path: str | Path, dpi: int = 120) -> Path:
     """One column per measured channel: traces on top, residual (fitted − measured) below."""
     chans = list(traces)
     fig, axs = _figure(2, len(chans), 4.8 * len(chans), 5.6, sharex=True, height_ratios=[3, 1.3])
     t = exp.time - exp.time[0]
     for j, c in enumerate(chans):
-        unit = CHANNELS[c][0]
+        unit = exp.unit(c)
         tr = traces[c]
         ax, axr = axs[0, j], axs[1, j]
         ax.plot(t, tr["measured"], ".", ms=2, color="0.55", label="measured")

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..layout import SpineLayout
 from ..params import ModelParams
 from ..uncertainty import ParameterUncertainty
-from .data import CHANNELS, Experiment
+from .data import Experiment
 from .model import channel, simulate_experiment
 from .parameters import FitParameter
 from .plots import plot_correlation, plot_experiment_fit
@@ -48,14 +49,15 @@ class FitResult:
     ``covariance``, ``correlation`` and ``signal_to_roughness`` are None for an interrupted fit.
     ``signal_to_roughness``: per parameter, the residuals' change over the Jacobian step divided by
     their change over a negligible step (below 3 the parameter is flagged not identified).
-    ``residuals`` are the
+    ``params`` (and ``start``) are a ModelParams, or for a spatial fit a SpineLayout (its
+    ``params`` and per-wire values). ``residuals`` are the
     weighted residuals (model − measurement)/noise at the optimum; ``cost`` = ½ Σ residuals².
     """
 
     parameters: tuple[FitParameter, ...]
-    start: ModelParams
+    start: ModelParams | SpineLayout
     start_name: str
-    params: ModelParams
+    params: ModelParams | SpineLayout
     values: np.ndarray
     start_values: np.ndarray
     std_errors: np.ndarray | None
@@ -116,8 +118,19 @@ class FitResult:
             lower=np.array([p.lower for p in self.parameters]),
             upper=np.array([p.upper for p in self.parameters]),
             identified=self.identified.copy(),
-            params=self.params,
+            params=self.model_params,
+            wire_values=self.wire_values,
         )
+
+    @property
+    def model_params(self) -> ModelParams:
+        """The fitted ModelParams (a spatial fit's layout params)."""
+        return self.params.params if isinstance(self.params, SpineLayout) else self.params
+
+    @property
+    def wire_values(self) -> tuple | None:
+        """A spatial fit's per-wire values (one {lam_scale, T_shift, eps0} per wire), else None."""
+        return tuple(self.params.wire_values) if isinstance(self.params, SpineLayout) else None
 
     def provenance(self) -> dict:
         se = [None] * len(self.names) if self.std_errors is None else self.std_errors
@@ -139,8 +152,21 @@ class FitResult:
                 self.parameters, self.values, self.start_values, se, self.identified, snr, strict=True
             )
         ]
+        layout = (
+            {}
+            if self.wire_values is None
+            else {
+                "layout": {
+                    "n_modules": self.params.n_modules,
+                    "n_wires": self.params.n_wires,
+                    "wire_labels": self.params.wire_labels,
+                    "wire_values": list(self.wire_values),
+                }
+            }
+        )
         return {
             "source": "spine_gym.calibrate",
+            **layout,
             "spine_gym_version": __version__,
             "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "start_preset": self.start_name,
@@ -180,8 +206,9 @@ class FitResult:
         return float(self.residuals @ self.residuals) / max(m - n, 1)
 
     def to_file(self, path: str | Path) -> Path:
-        """Write the fitted preset with the fit's provenance (JSON or YAML by suffix)."""
-        return self.params.to_file(path, provenance=self.provenance())
+        """Write the fitted preset with the fit's provenance (JSON or YAML by suffix); a spatial
+        fit's per-wire values go to ``provenance["layout"]["wire_values"]``."""
+        return self.model_params.to_file(path, provenance=self.provenance())
 
     # ------------------------------------------------------------------ report
     def report(self) -> str:
@@ -228,9 +255,7 @@ class FitResult:
         ]
         for e in self.experiments:
             for c, val in self.rmse()[e.name].items():
-                lines.append(
-                    f"| {e.name} | {c} | {val:.4g} {CHANNELS[c][0]} | {e.noise[c]:.4g} {CHANNELS[c][0]} |"
-                )
+                lines.append(f"| {e.name} | {c} | {val:.4g} {e.unit(c)} | {e.noise[c]:.4g} {e.unit(c)} |")
         lines += ["", "Warnings:", ""] + ([f"- {w}" for w in self.warnings] or ["- none"])
         return "\n".join(lines) + "\n"
 
@@ -238,7 +263,7 @@ class FitResult:
         """Write :meth:`provenance` plus the fitted parameters as a JSON report."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        doc = {"params": dataclasses.asdict(self.params), **self.provenance()}
+        doc = {"params": dataclasses.asdict(self.model_params), **self.provenance()}
         path.write_text(json.dumps(doc, indent=2, default=float) + "\n")
         return path
 

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..layout import wire_key
 from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from ..physics import layout as L
 from ..physics.solver import init_state
@@ -300,7 +301,12 @@ class BaseEnvConfig:
         yield {}, self.params
         dr = self.domain_randomization
         if isinstance(dr, ParameterUncertainty):
-            js = [j for j, d in enumerate(dr.directions) if set(d) - DYNAMICS_ONLY_FIELDS]
+            # a spatial fit's per-wire directions are checked at their nominal values (the layout's)
+            js = [
+                j
+                for j, d in enumerate(dr.directions)
+                if set(d) - DYNAMICS_ONLY_FIELDS and all(wire_key(f) is None for f in d)
+            ]
             self._check_corner_count(len(js))
             for bounds in product(*((dr.lower[j], dr.upper[j]) for j in js)):
                 off = np.zeros(len(dr.names))

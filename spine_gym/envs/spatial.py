@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,9 +51,11 @@ class SpatialConfig(BaseEnvConfig):
 
     target_kinds: tuple[str, ...] = BEND_KINDS
     target_period_range: tuple[float, float] = (20.0, 60.0)
+    wire_values: Any = None
 
     def _check_task(self) -> None:
         s = object.__setattr__
+        s(self, "wire_values", self._check_wire_values())
         kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
         if not kinds or any(k not in BEND_KINDS for k in kinds):
             raise ValueError(
@@ -66,11 +69,32 @@ class SpatialConfig(BaseEnvConfig):
         )
         s(self, "_layout", self.layout_for(self.params))
 
+    def _check_wire_values(self) -> tuple | None:
+        """``wire_values`` (default: a spatial fit preset's), one mapping per wire, validated."""
+        values = self.wire_values
+        dr = self.domain_randomization
+        if values is None and isinstance(dr, ParameterUncertainty):
+            values = dr.wire_values
+        if values is None:
+            return None
+        nw = SpineLayout.chain(self.n_modules, self.params).n_wires
+        if not isinstance(values, list | tuple) or len(values) != nw:
+            raise ValueError(
+                f"wire_values must be a sequence of {nw} mappings (one per wire: lam_scale, T_shift, eps0), "
+                f"got {values!r}" + (" from the fit preset" if self.wire_values is None else "")
+            )
+        try:
+            SpineLayout.chain(self.n_modules, self.params).with_wire_values(list(values))
+        except ValueError as e:
+            raise ValueError(f"wire_values: {e}") from None
+        return tuple(dict(v) for v in values)
+
     # ------------------------------------------------------------------ layout
     def layout_for(self, params: ModelParams) -> SpineLayout:
         """The spine of an episode with parameters ``params`` (``SpineLayout.chain``; one module is
-        the seed's)."""
-        return SpineLayout.chain(self.n_modules, params)
+        the seed's) and the nominal per-wire values ``wire_values``."""
+        lay = SpineLayout.chain(self.n_modules, params)
+        return lay if self.wire_values is None else lay.with_wire_values(list(self.wire_values))
 
     def initial_status(self, params: ModelParams, payload: float) -> int:
         layout = self.layout_for(params)
@@ -125,6 +149,16 @@ class SpatialConfig(BaseEnvConfig):
         r = lam * kw[:, SL.W_L0] / p.wire_area
         return float(np.sum(kw[:, SL.W_NW] * v**2 / r) * self.control_period)
 
+    def _max_lam_scale(self) -> float:
+        """Largest per-wire resistivity scale, nominal or drawn (a fit's upper bounds)."""
+        out = max(v["lam_scale"] for v in self._layout.wire_values)
+        dr = self.domain_randomization
+        if isinstance(dr, ParameterUncertainty):
+            for name, hi in zip(dr.names, dr.upper, strict=True):
+                if name.endswith(".lam_scale"):
+                    out = max(out, float(hi))
+        return out
+
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters, plus 10 standard deviations of resistance noise."""
@@ -135,6 +169,7 @@ class SpatialConfig(BaseEnvConfig):
             for name, lo, hi in self.domain_randomization:
                 cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
         l0 = max(m.L0 for m in self._layout.modules) / self.params.L0  # wire length / the params' L0
+        l0 *= self._max_lam_scale()
         r = max(max(p.lam_A, p.lam_M) * p.L0 * l0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.noise_sigma["resistance"])
 
@@ -382,6 +417,7 @@ class SpatialBatch(TableBatch):
         kp, kw, km = lay.to_kernel()
         self.nominal_kp = kp
         self._nominal = (kw, km)
+        self._drawn_layout = None  # a layout drawn by _draw_params for the episode set next
         self.states = np.zeros((b, lay.state_size()))
         self.kps = np.tile(kp, (b, 1))
         self.kws = np.tile(kw, (b, 1, 1))
@@ -401,8 +437,21 @@ class SpatialBatch(TableBatch):
     def record_size(self) -> int:
         return self._record_size
 
+    def _draw_params(self, rng: np.random.Generator, opts: dict) -> tuple[ModelParams, np.ndarray | None]:
+        """As :meth:`TableBatch._draw_params`; a fit preset with per-wire parameters draws the whole
+        layout (params and per-wire values), which the episode set next (:meth:`_set_episode`) takes."""
+        dr = self.cfg.domain_randomization
+        self._drawn_layout = None
+        if opts.get("params") is None and isinstance(dr, ParameterUncertainty) and dr.per_wire:
+            self._drawn_layout = dr.draw_plant(rng, self.cfg.layout)
+            return self._drawn_layout.params, None
+        return super()._draw_params(rng, opts)
+
     def _set_episode(self, i: int, params: ModelParams, kp: np.ndarray | None) -> None:
-        if kp is None:
+        drawn, self._drawn_layout = self._drawn_layout, None
+        if drawn is not None:
+            kp, kw, km = drawn.to_kernel()
+        elif kp is None:
             try:
                 lay = self.cfg.layout_for(params)
             except ValueError as e:

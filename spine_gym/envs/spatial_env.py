@@ -136,6 +136,10 @@ class SmaSpine3DEnv(SmaSpineEnv):
       Default (0, 45).
     * ``target_kinds``: subset of ``("steps", "circle", "figure8")``.
     * ``target_period_range`` [s]: period of circles and figure-eights. Default (20, 60).
+    * ``wire_values``: per-wire material values, one mapping per wire with keys among
+      ``lam_scale``, ``T_shift`` [K], ``eps0`` (:class:`spine_gym.WireGroup`); default: those of a
+      spatial fit preset given as ``domain_randomization``, else none. A preset whose fit varied
+      per-wire parameters also draws them per episode (docs/calibration.md, spatial section).
     * ``render_mode``: ``None`` or ``"rgb_array"``: a 480×480 frame with two orthogonal views
       (x-z and y-z), wires coloured by temperature (blue = ambient, red = ``temperature_limit``),
       the target as a dashed arc, the tip force as an arrow.
@@ -185,6 +189,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
         observe_errors: bool = False,
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
+        wire_values: tuple | None = None,
     ):
         config = Spine3DConfig(
             v_max=v_max,
@@ -209,6 +214,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
             observe_errors=observe_errors,
             params=params,
             solver=solver,
+            wire_values=wire_values,
         )
         self._setup(render_mode, config)
 
@@ -327,6 +333,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
         observe_errors: bool = False,
         params: ModelParams | None = None,
         solver: SolverOptions | None = None,
+        wire_values: tuple | None = None,
     ):
         config = ChainConfig(
             n_modules=n_modules,
@@ -352,6 +359,7 @@ class SmaSpineChainEnv(SmaSpineEnv):
             observe_errors=observe_errors,
             params=params,
             solver=solver,
+            wire_values=wire_values,
         )
         self._setup(render_mode, config)
 

@@ -23,6 +23,11 @@ secant sensitivity of the coupled Newton solve (§5). The tail belongs to the co
 (MODEL.md §6.5), as the planar X_HNEXT and X_RCACHE: the sub-step its error control proposes next
 (0: none yet) and each wire's rates at the end of the last sub-step, keyed by that wire's (σ, T)
 and the constants they depend on, so that a continued run equals one run.
+
+Per-wire material differences (a wire batch is never uniform): ``kw`` carries each wire's
+resistivity scale, its Δu offset (a transformation-temperature shift s moves Δu by Δη·s, which
+shifts σ_A(T), σ_M(T) by s along T at unchanged slope, MODEL.md §3.1) and its pre-strain. The
+kernels evaluate each wire's rates, latent heats and Joule heating with its own constants.
 """
 
 from __future__ import annotations
@@ -38,9 +43,12 @@ from .layout import RATE_KP
     W_A,  # [m] offset a of the pore from the tube axis
     W_NW,  # [-] parallel wires in the group (float)
     W_L0,  # [m] wire length, straight module
-    W_LREF,  # [m] stress-free wire length L0/(1+ε0)
+    W_LREF,  # [m] stress-free wire length L0/(1+ε0) of this wire's pre-strain
+    W_LAMS,  # [-] resistivity scale of this wire (multiplies λ_A, λ_M of the material constants)
+    W_DU,  # [J/m^3] offset of the internal-energy jump Δu: Δη · this wire's transformation-temperature shift
+    W_EPS0,  # [-] pre-strain ε0 of this wire
     KW_SIZE,
-) = range(8)
+) = range(11)
 
 # ---------------------------------------------------------------- km: module table columns
 (
@@ -93,7 +101,8 @@ def sens_offset(n_wires, n_mod, n_seg):
     return omega_offset(n_wires, n_mod) + 2 * n_seg
 
 
-RCACHE_WIRE = 2 + 12  # floats per wire of the rate cache: the key (σ, T), then the rates and slopes
+# floats per wire of the rate cache: the key (σ, T, the wire's Δu offset), then the rates and slopes
+RCACHE_WIRE = 3 + 12
 
 
 @jit

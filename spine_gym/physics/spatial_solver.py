@@ -56,12 +56,15 @@ from .layout import (
     ERR_TEMPERATURE,
     K_ASV,
     K_AW,
+    K_DU,
     K_EPS0,
     K_EPST,
     K_KE,
+    K_LREF,
     K_RHOC,
     K_TE,
     K_TMAX,
+    KP_SIZE,
     OK,
     RATE_KP,
     S_C,
@@ -101,9 +104,12 @@ from .spatial_layout import (
     RCACHE_WIRE,
     S_TIME,
     W_A,
+    W_DU,
+    W_EPS0,
     W_EX,
     W_EY,
     W_L0,
+    W_LAMS,
     W_LREF,
     W_MOD,
     W_NW,
@@ -216,7 +222,8 @@ def wire_block(state, field, nw):
     WK_STEP,  # (2N,) Newton step on ω
     WK_STAB,  # the tuple of spatial_stability.stability_work
     WK_SAVED_S,  # (2N, 2K) S at the start of the fallbacks (restored if they fail)
-) = range(38)
+    WK_KPW,  # (W, KP_SIZE) every wire's own material constants (:func:`wire_constants`)
+) = range(39)
 
 
 @jit
@@ -261,7 +268,21 @@ def make_work(nw, nm, ns):
         np.empty(2 * ns),
         stability_work(nw, nm, ns),
         np.empty((2 * ns, 2 * nm)),
+        np.empty((nw, KP_SIZE)),
     )
+
+
+@hot
+def wire_constants(kp, kw, kpw):
+    """Every wire's own material constants into ``kpw`` (W, KP_SIZE): ``kp`` with the wire's Δu
+    offset, pre-strain and stress-free length (``kw``). Its resistivity scale enters the Joule
+    heating and the recorded resistivity directly. A wire with no offsets gets ``kp`` bit for bit."""
+    for j in range(kw.shape[0]):
+        for q in range(kp.shape[0]):
+            kpw[j, q] = kp[q]
+        kpw[j, K_DU] = kp[K_DU] + kw[j, W_DU]
+        kpw[j, K_EPS0] = kw[j, W_EPS0]
+        kpw[j, K_LREF] = kw[j, W_LREF]
 
 
 # ---------------------------------------------------------------- mechanics
@@ -822,18 +843,20 @@ def _choose_h(rem, dt, r, ks):
 
 
 @hot
-def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, jnum, h, xs):
-    """Joule and latent heat, implicit convection of every wire for the new fractions ``xs`` (§6.1 d–f).
+def _apply_heat(xp, xm, temp, sig, qj, qc, ql, kpw, jnum, h, xs):
+    """Joule and latent heat, implicit convection of every wire for the new fractions ``xs`` (§6.1 d–f),
+    each wire with its own constants ``kpw[j]`` (:func:`wire_constants`).
 
     Writes the new temperatures and energy accumulators (the state's per-wire blocks passed in).
     Returns (status, whether any fraction moved).
     """
-    rhoc = kp[K_RHOC]
-    asv = kp[K_ASV]
-    t_e = kp[K_TE]
     moved = False
     ok = True
     for j in range(xp.shape[0]):
+        kp = kpw[j]
+        rhoc = kp[K_RHOC]
+        asv = kp[K_ASV]
+        t_e = kp[K_TE]
         xp2 = xs[2 * j]
         xm2 = xs[2 * j + 1]
         jj = jnum[j] / resistivity(xp2, xm2, kp)
@@ -914,9 +937,10 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
     xp, xm, temp, sig, eps, qj, qc, ql = wb
     rt = wk[WK_RATES]
     xs = wk[WK_XS]
+    kpw = wk[WK_KPW]
     r = 0.0
     for j in range(xp.shape[0]):  # a. rates once per sub-step, b. step size
-        ppA, pAp, pmA, pAm = rates(sig[j], temp[j], kp)
+        ppA, pAp, pmA, pAm = rates(sig[j], temp[j], kpw[j])
         rt[j, 0] = ppA
         rt[j, 1] = pAp
         rt[j, 2] = pmA
@@ -925,7 +949,7 @@ def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt,
     h = _choose_h(rem, dt, r, ks)
     for j in range(xp.shape[0]):  # c. implicit Euler on the phases
         xs[2 * j], xs[2 * j + 1] = phase_step(xp[j], xm[j], h, rt[j, 0], rt[j, 1], rt[j, 2], rt[j, 3])
-    st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], h, xs)  # d.–f.
+    st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kpw, wk[WK_JNUM], h, xs)  # d.–f.
     if st != OK or not moved:
         return st, h, 0, False
     st, p = _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, False)  # g.
@@ -1038,7 +1062,7 @@ def _active_wires(x0, rt, h, act):
 @hot
 def _predict_coupled(
     omega, sens, xp, xm, temp, sig, kp, kw, km, h, x0, xs, rt, act, jnum, xa, rta, sa, a_t, b_t, lu, piv, vec,
-    jac, gs, inv, dm, dmdx,
+    jac, gs, inv, dm, dmdx, kpw,
 ):  # fmt: skip
     """Linearly implicit Euler step of every wire's fractions over h into ``xs`` = wk[WK_XS]
     (MODEL.md §6.5; cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires`
@@ -1063,7 +1087,7 @@ def _predict_coupled(
         xa[2 * a + 1] = xm[j]
         for q in range(12):
             rta[a, q] = rt[j, q]
-        a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kp)
+        a_t[a], b_t[a, 0], b_t[a, 1] = heat_terms(temp[j], sig[j], xp[j], xm[j], jnum[j], h, kpw[j])
     m = 2 * na
     lu = lu[:m, :m]
     vec = vec[:m]
@@ -1094,7 +1118,7 @@ def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
 
 
 @hot
-def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, ra, lu, piv):
+def _coupled_error(temp, sig, kpw, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, ra, lu, piv):
     """Local error estimate of the coupled step in units of the fractions (MODEL.md §6.5): the
     larger of the truncation errors and (I − hJ)⁻¹ (h F₁ − Δx), the matrix (LU factors ``lu``,
     ``piv``) that of the active wires ``act`` (the identity for the quiet ones); ``x0``, ``rt``,
@@ -1109,7 +1133,7 @@ def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, 
         i = 2 * j
         tw, vec[i], vec[i + 1] = wire_error(
             h, x0[i], x0[i + 1], xs[i], xs[i + 1], rt[j], rt1[j], back[o_t + j], temp[j],
-            back[o_s + j], sig[j], jnum[j], kp,
+            back[o_s + j], sig[j], jnum[j], kpw[j],
         )  # fmt: skip
         e = max(e, tw)
     if na == 0:  # the filter is the identity
@@ -1133,11 +1157,12 @@ def _coupled_error(temp, sig, kp, kw, h, x0, xs, rt, rt1, back, jnum, vec, act, 
 
 
 @hot
-def _end_rates(sig, temp, kp, back, rt, rt1):
+def _end_rates(sig, temp, kpw, kw, back, rt, rt1):
     """Rates and slopes at the end of a sub-step into ``rt1`` (``rt``: at its start, ``back``: the
     state's head at its start). They are a function of (σ, T) only: a wire whose (σ, T) did not
     change over the step (an unpowered slack wire) keeps its start-of-step row, and one at exactly another wire's (σ, T) (the mirror-image neutral wires of a
-    bend in one plane) copies that wire's row; the others are computed."""
+    bend in one plane) and Δu offset copies that wire's row; the others are computed with the
+    wire's own constants ``kpw[j]``."""
     nw = sig.shape[0]
     o_t = wire_offset(F_T, nw)
     o_s = wire_offset(F_SIG, nw)
@@ -1148,14 +1173,14 @@ def _end_rates(sig, temp, kp, back, rt, rt1):
             continue
         twin = -1
         for i in range(j):
-            if sig[i] == sig[j] and temp[i] == temp[j]:
+            if sig[i] == sig[j] and temp[i] == temp[j] and kw[i, W_DU] == kw[j, W_DU]:
                 twin = i
                 break
         if twin >= 0:
             for q in range(12):
                 rt1[j, q] = rt1[twin, q]
         else:
-            rates_and_slopes(sig[j], temp[j], kp, rt1[j])
+            rates_and_slopes(sig[j], temp[j], kpw[j], rt1[j])
 
 
 @hot
@@ -1182,10 +1207,10 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         if not _predict_coupled(
             omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_ACT],
             wk[WK_JNUM], wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_LU], wk[WK_PIV], wk[WK_VEC],
-            wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_DM], wk[WK_DMDX],
+            wk[WK_JAC], wk[WK_GAIN], wk[WK_INV], wk[WK_DM], wk[WK_DMDX], wk[WK_KPW],
         ):  # fmt: skip
             return ERR_NONFINITE, hh, passes, False
-        st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, kp, wk[WK_JNUM], hh, wk[WK_XS])
+        st, moved = _apply_heat(xp, xm, temp, sig, qj, qc, ql, wk[WK_KPW], wk[WK_JNUM], hh, wk[WK_XS])
         solved = False
         if st == OK and moved:
             sums = wk[WK_ACT][nw] > 0  # _predict_coupled's dσ/dx left the loop-gain sums of ω and S
@@ -1207,9 +1232,9 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
                 continue
         if st != OK:
             return st, hh, passes, solved
-        _end_rates(sig, temp, kp, back, wk[WK_RT], wk[WK_RT_NEW])
+        _end_rates(sig, temp, wk[WK_KPW], kw, back, wk[WK_RT], wk[WK_RT_NEW])
         err = _coupled_error(
-            temp, sig, kp, kw, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_RT_NEW], back, wk[WK_JNUM], wk[WK_VEC],
+            temp, sig, wk[WK_KPW], kw, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_RT_NEW], back, wk[WK_JNUM], wk[WK_VEC],
             wk[WK_ACT], wk[WK_XA], wk[WK_LU], wk[WK_PIV],
         )  # fmt: skip
         err /= tol
@@ -1225,9 +1250,10 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
 
 
 @hot
-def _load_rates(state, kp, kw, km, ns, rt):
+def _load_rates(state, kp, kw, km, ns, rt, kpw):
     """Every wire's rates and slopes at its (σ, T) into ``rt`` (W, 12): from the state's rate cache
-    where it was filled at exactly this (σ, T) and these constants, else computed."""
+    where it was filled at exactly this (σ, T) and these constants (the wire's Δu offset
+    included), else computed with the wire's constants ``kpw[j]``."""
     nw, nm = kw.shape[0], km.shape[0]
     ko = rate_key_offset(nw, nm, ns)
     co = rate_cache_offset(nw, nm, ns)
@@ -1238,11 +1264,12 @@ def _load_rates(state, kp, kw, km, ns, rt):
         same_kp = same_kp and state[ko + k] == kp[RATE_KP[k]]
     for j in range(nw):
         c = co + RCACHE_WIRE * j
-        if same_kp and state[c] == state[o_s + j] and state[c + 1] == state[o_t + j]:
+        hit = state[c] == state[o_s + j] and state[c + 1] == state[o_t + j] and state[c + 2] == kw[j, W_DU]
+        if same_kp and hit:
             for q in range(12):
-                rt[j, q] = state[c + 2 + q]
+                rt[j, q] = state[c + 3 + q]
         else:
-            rates_and_slopes(state[o_s + j], state[o_t + j], kp, rt[j])
+            rates_and_slopes(state[o_s + j], state[o_t + j], kpw[j], rt[j])
 
 
 @hot
@@ -1259,8 +1286,9 @@ def _store_rates(state, kp, kw, km, ns, rt):
         c = co + RCACHE_WIRE * j
         state[c] = state[o_s + j]
         state[c + 1] = state[o_t + j]
+        state[c + 2] = kw[j, W_DU]
         for q in range(12):
-            state[c + 2 + q] = rt[j, q]
+            state[c + 3 + q] = rt[j, q]
 
 
 @jit
@@ -1373,12 +1401,13 @@ def _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, 
         st, passes = solve_mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, check)
         if st != OK:
             return st, 0, 0, passes
+    wire_constants(kp, kw, wk[WK_KPW])
     jnum = wk[WK_JNUM]
-    for j in range(nw):
-        jnum[j] = volts[j] * volts[j] / (kw[j, W_L0] * kw[j, W_L0])
+    for j in range(nw):  # the wire's resistivity scale: j = U²/(s λ L0²)
+        jnum[j] = volts[j] * volts[j] / (kw[j, W_L0] * kw[j, W_L0]) / kw[j, W_LAMS]
     coupled = int(ks[S_SCHEME]) == SCHEME_COUPLED
     if coupled:
-        _load_rates(state, kp, kw, km, ns, wk[WK_RT])
+        _load_rates(state, kp, kw, km, ns, wk[WK_RT], wk[WK_KPW])
     # with ``out``: the recorded head of the state at the start of a sub-step and one interpolated
     start = wk[WK_START]
     mid = wk[WK_MID]
@@ -1436,11 +1465,12 @@ def init_state(state, kp, ks, kw, km, vforce):
     """
     nw, nm, ns = sizes(kw, km)
     state[:] = 0.0
-    xp0 = 0.5 * (1.0 + kp[K_EPS0] / kp[K_EPST])
-    wire_block(state, F_XP, nw)[:] = xp0
-    wire_block(state, F_XM, nw)[:] = 1.0 - xp0
+    for j in range(nw):  # each wire at its own pre-strain
+        xp0 = 0.5 * (1.0 + kw[j, W_EPS0] / kp[K_EPST])
+        wire_block(state, F_XP, nw)[j] = xp0
+        wire_block(state, F_XM, nw)[j] = 1.0 - xp0
+        wire_block(state, F_EPS, nw)[j] = kw[j, W_EPS0]
     wire_block(state, F_T, nw)[:] = kp[K_TE]
-    wire_block(state, F_EPS, nw)[:] = kp[K_EPS0]
     mw, omega, sens = views(state, nw, nm, ns)
     wk = make_work(nw, nm, ns)
     zero = np.zeros((ns, 3))
@@ -1509,7 +1539,7 @@ def _record(state, kp, kw, km, frames, chords, row, prev, reuse):
     op = wire_offset(F_XP, nw)
     om = wire_offset(F_XM, nw)
     for j in range(nw):
-        row[o + j] = resistivity(state[op + j], state[om + j], kp)
+        row[o + j] = resistivity(state[op + j], state[om + j], kp) * kw[j, W_LAMS]
 
 
 @hot
