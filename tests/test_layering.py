@@ -102,9 +102,9 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
     names = {re.split(r"[<>=\[ ;]", d, maxsplit=1)[0].lower() for d in meta["dependencies"]}
     assert names == {"numpy", "numba", "gymnasium", "matplotlib", "tqdm", "rich", "pyyaml"}
     extras = meta["optional-dependencies"]
-    assert {"rl", "design", "calibrate", "video", "rllib", "export", "test", "all"} <= set(extras)
+    assert {"rl", "design", "calibrate", "video", "rllib", "export", "datasets", "test", "all"} <= set(extras)
     assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
-    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,test]"]
+    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,datasets,test]"]
 
 
 def test_exported_policy_runner_and_c_writer_import_only_numpy_and_the_standard_library():
