@@ -21,6 +21,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -38,6 +39,17 @@ def _run(args: list[str], env: dict, timeout: float = 300) -> subprocess.Complet
     r = subprocess.run(args, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout)
     assert r.returncode == 0, f"{args} failed:\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     return r
+
+
+def _cluster_status(head: str, env: dict, timeout: float = 60.0) -> str:
+    """``ray status`` once it reports both nodes: right after ``ray start`` it can still say "No
+    cluster status" (the GCS has not yet gathered the nodes' resource reports)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        status = _run([RAY, "status", f"--address={head}"], env).stdout
+        if "worker_node" in status or time.monotonic() > deadline:
+            return status
+        time.sleep(1.0)
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +73,7 @@ def cluster_run():
              env)  # fmt: skip
         _run([RAY, "start", f"--address={head}", "--node-ip-address=127.0.0.1", "--num-cpus=1",
               '--resources={"runner_slot": 1, "worker_node": 1}', *node_ports(ports[6:12])], env)  # fmt: skip
-        status = _run([RAY, "status", f"--address={head}"], env).stdout
+        status = _cluster_status(head, env)
         out = tmp / "out"
         _run([sys.executable, "-m", "agents.rllib_ppo", "--address", head,
               "--env-runners", "2", "--envs-per-runner", "2", "--rollout-fragment-length", "32",
