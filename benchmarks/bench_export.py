@@ -1,14 +1,14 @@
 """Benchmark: microseconds per action of an exported policy's runners, next to SB3's predict, in one run.
 
 For shipped policies (default ``ppo``: 64-64 tanh; ``sac``: 128-128 ReLU; ``ppo_int``: with the
-integral-of-error memory), exported with :mod:`agents.export` into a temporary folder, on the same
+integral-of-error memory), exported with :mod:`spine_gym.agents.export` into a temporary folder, on the same
 1 000 observations of ``SmaSpine-v0`` (random actions held for 10 steps, reset seed 0), one
 observation per call (the controller's case):
 
-* ``sb3``    — :func:`agents.runtime.load_policy`'s ``predict`` (VecNormalize transform + SB3's
+* ``sb3``    — :func:`spine_gym.agents.runtime.load_policy`'s ``predict`` (VecNormalize transform + SB3's
   ``predict(deterministic=True)``; torch on 1 thread);
 * ``onnx``   — ``onnxruntime.InferenceSession.run`` of ``policy.onnx`` (1 intra-op thread);
-* ``numpy``  — :meth:`agents.numpy_policy.ExportedPolicy.act` (``step`` with a memory);
+* ``numpy``  — :meth:`spine_gym.agents.numpy_policy.ExportedPolicy.act` (``step`` with a memory);
 * ``c``      — ``policy_act`` (``policy_step`` with a memory) of the generated C, compiled with
   ``cc -std=c99 -O2`` and timed inside the C program (clock_gettime / clock).
 
@@ -46,12 +46,12 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from agents.evaluate import evaluate  # noqa: E402
-from agents.export import export_policy  # noqa: E402
-from agents.export_c import compile_driver  # noqa: E402
-from agents.numpy_policy import load_bundle  # noqa: E402
-from agents.runtime import evaluation_env_kwargs, load_policy, make_env  # noqa: E402
-from agents.scenarios import get_suite  # noqa: E402
+from spine_gym.agents.evaluate import evaluate  # noqa: E402
+from spine_gym.agents.export import export_policy  # noqa: E402
+from spine_gym.agents.export_c import compile_driver  # noqa: E402
+from spine_gym.agents.numpy_policy import load_bundle  # noqa: E402
+from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env  # noqa: E402
+from spine_gym.agents.scenarios import get_suite  # noqa: E402
 
 C_CALLS = 200_000  # calls per timed pass of the C program
 
@@ -88,9 +88,9 @@ def c_pass(exe: Path, mode: str, infile: Path, outfile: Path, repeats: int) -> t
 
 
 def bench_policy(name: str, obs: np.ndarray, repeats: int, tmp: Path) -> dict:
-    policy = load_policy(ROOT / "agents" / "policies" / name)
+    policy = load_policy(ROOT / "spine_gym" / "agents" / "policies" / name)
     bundle = tmp / name
-    export_policy(policy, bundle, source=f"agents/policies/{name}")
+    export_policy(policy, bundle, source=f"spine_gym/agents/policies/{name}")
     runner = load_bundle(bundle)
     stateful = bool(runner.memories)
     exe = compile_driver(bundle, tmp / f"{name}_c")
@@ -171,7 +171,7 @@ class OneUlpUp:
 
 def closed_loop(name: str, tmp: Path) -> list[dict]:
     """Per quick-suite episode: |metric / SB3's metric − 1| of the NumPy runner and of SB3 + 1 ulp."""
-    policy = load_policy(ROOT / "agents" / "policies" / name)
+    policy = load_policy(ROOT / "spine_gym" / "agents" / "policies" / name)
     runner = load_bundle(tmp / name)
     kw = evaluation_env_kwargs(policy.env_kwargs)
     ctrls = {"sb3": policy, "numpy": runner, "sb3_1ulp": OneUlpUp(policy)}

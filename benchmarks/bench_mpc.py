@@ -3,7 +3,7 @@
 For every env id (``--envs``: ``SmaSpine-v0``, ``SmaSpine3D-v0``, ``SmaSpineChain-v0``) the MPC of
 the registry (``MPPIController`` planar, ``SpatialMPPIController`` spatial) drives **validation
 episodes** — the env's own random targets, loads and plants at reset seeds
-``agents.runtime.VALIDATION_SEED_BASE + i`` (never the evaluation suite, whose seeds start at
+``spine_gym.agents.runtime.VALIDATION_SEED_BASE + i`` (never the evaluation suite, whose seeds start at
 900 000) — and every ``predict`` call (the whole plan: estimator update, N rollouts, weighting)
 and every ``env.step`` is timed with ``time.perf_counter``. Reported per configuration:
 
@@ -47,8 +47,8 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
-from agents.common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
-from agents.runtime import VALIDATION_SEED_BASE, build_controller, env_id_of, make_env
+from spine_gym.agents.common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
+from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, env_id_of, make_env
 from spine_gym.controllers import MPPIConfig, MPPIController, SpatialMPPIController
 from spine_gym.controllers.mpc import min_samples
 from spine_gym.controllers.mpc_spatial import drive_patterns

@@ -1,6 +1,6 @@
 """Benchmark: RLlib env-runner sampling of SmaSpine-v0, native vector env vs RLlib's default, in one run.
 
-Four PPO algorithms of :func:`agents.rllib_ppo.build_config` are built on one local Ray cluster:
+Four PPO algorithms of :func:`spine_gym.agents.rllib_ppo.build_config` are built on one local Ray cluster:
 
 * ``native`` — each env runner steps one ``SmaSpineVectorEnv`` (``gym_env_vectorize_mode=
   "vector_entry_point"``, the registration's vector entry point, numba loop serial per runner);
@@ -35,7 +35,7 @@ import numpy as np
 import ray
 
 import spine_gym
-from agents.rllib_ppo import build_config, runner_env_classes, sample_throughput
+from spine_gym.agents.rllib_ppo import build_config, runner_env_classes, sample_throughput
 
 OUT = Path(__file__).resolve().parent / "results"
 CONFIGS = [("native", 1), ("sync", 1), ("native", 2), ("sync", 2)]

@@ -31,8 +31,8 @@ import gymnasium as gym
 import numpy as np
 
 import spine_gym  # noqa: F401  (registers SmaSpine-v0)
-from agents.runtime import make_env
-from agents.scenarios import build_suite
+from spine_gym.agents.runtime import make_env
+from spine_gym.agents.scenarios import build_suite
 from spine_gym import SolverOptions
 from spine_gym.controllers import MPPIController
 

@@ -2,8 +2,8 @@
 and 1 → 2 numba threads. One command prints all three against the issue's targets.
 
 1. **Env share of PPO training** (target ≤ 10 %). The shipped PPO configuration
-   (``agents/hyperparams/ppo.yml``: 8 native envs, ``n_steps`` 256, 10 epochs of minibatch 256,
-   ``VecNormalize`` of the observations), torch on 1 thread, built as :mod:`agents.train` builds it;
+   (``spine_gym/agents/hyperparams/ppo.yml``: 8 native envs, ``n_steps`` 256, 10 epochs of minibatch 256,
+   ``VecNormalize`` of the observations), torch on 1 thread, built as :mod:`spine_gym.agents.train` builds it;
    ``PPO.learn`` for ``--rollouts`` rollouts after one untimed warm-up rollout. Timed by wrapping
    (no change to the library): the outermost ``step_wait`` that PPO calls (``VecNormalize`` →
    ``VecMonitor`` → adapter), the adapter's ``step_wait`` (:class:`spine_gym.envs.sb3.SmaSpineSB3VecEnv`),
@@ -135,12 +135,12 @@ class Patch:
 
 # ---------------------------------------------------------------- 1. PPO
 def _build_ppo(parallel: bool | None, seed: int = 0):
-    """(model, vec env) of the shipped PPO configuration, as ``agents.train`` builds them."""
+    """(model, vec env) of the shipped PPO configuration, as ``spine_gym.agents.train`` builds them."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from agents.common import ENV_ID, load_hyperparams, preprocess_hyperparams
-    from agents.envs import make_vec_env
+    from spine_gym.agents.common import ENV_ID, load_hyperparams, preprocess_hyperparams
+    from spine_gym.agents.envs import make_vec_env
 
     hp, special = preprocess_hyperparams(load_hyperparams("ppo", ENV_ID))
     kwargs = {**special["env_kwargs"], "parallel": parallel}

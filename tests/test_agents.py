@@ -1,4 +1,4 @@
-"""agents/: training CLI smoke runs, evaluation determinism, shipped policies, scenarios, metrics, tuning."""
+"""spine_gym/agents/: training CLI smoke runs, evaluation determinism, shipped policies, scenarios, metrics, tuning."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 import yaml
 
-from agents import evaluate as ev
-from agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
-from agents.metrics import Trajectory, episode_metrics, settling_times
-from agents.runtime import load_policy
-from agents.scenarios import EVAL_SEED_BASE, get_suite
-from agents.tune import TRAIN_SEED_BASE, load_tuned, tune
+from spine_gym.agents import evaluate as ev
+from spine_gym.agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
+from spine_gym.agents.metrics import Trajectory, episode_metrics, settling_times
+from spine_gym.agents.runtime import load_policy
+from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
+from spine_gym.agents.tune import TRAIN_SEED_BASE, load_tuned, tune
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -36,7 +36,7 @@ TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-episodes", "1", "-v", "0
 def test_train_ppo_smoke_run_and_resume(tmp_path):
     """A tiny PPO run writes the run folder; resuming from its checkpoint continues the step count."""
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "--seed", "3", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "--seed", "3", "-f", str(tmp_path),
         "--eval-freq", "128", "--save-freq", "128", *TINY,
         "-params", "n_steps:64", "batch_size:64", "n_epochs:1",
     )  # fmt: skip
@@ -53,7 +53,7 @@ def test_train_ppo_smoke_run_and_resume(tmp_path):
     assert list((run / "tb").rglob("events.out.tfevents.*"))  # TensorBoard logs
 
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
         "-i", str(ckpts[-1]), "--eval-freq", "0", "--save-freq", "0", *TINY,
         "-params", "n_steps:64", "batch_size:64", "n_epochs:1",
     )  # fmt: skip
@@ -68,7 +68,7 @@ def test_train_ppo_smoke_run_and_resume(tmp_path):
 
 def test_train_sac_smoke_run(tmp_path):
     run_cli(
-        "-m", "agents.train", "--algo", "sac", "-n", "200", "--n-envs", "2", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "sac", "-n", "200", "--n-envs", "2", "-f", str(tmp_path),
         "--eval-freq", "0", "--save-freq", "0", *TINY,
         "-params", "learning_starts:50", "batch_size:32", "gradient_steps:1", "train_freq:1",
     )  # fmt: skip
@@ -81,7 +81,7 @@ def test_train_sac_smoke_run(tmp_path):
 
 def test_train_cli_rejects_bad_flags(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-m", "agents.train", "--algo", "dqn", "-f", str(tmp_path)],
+        [sys.executable, "-m", "spine_gym.agents.train", "--algo", "dqn", "-f", str(tmp_path)],
         cwd=ROOT,
         env=ENV,
         capture_output=True,
@@ -178,7 +178,7 @@ def test_evaluation_is_deterministic():
 
 def test_evaluate_cli_writes_tables_csv_and_plots(tmp_path):
     proc = run_cli(
-        "-m", "agents.evaluate", "--suite", "quick", "--baselines", "step", "pid", "--models",
+        "-m", "spine_gym.agents.evaluate", "--suite", "quick", "--baselines", "step", "pid", "--models",
         "--scenarios", "step_cross", "sine_fast_dist", "-o", str(tmp_path), "--plain",
     )  # fmt: skip
     assert "scenario group: nominal" in proc.stdout and "scenario group: disturbed" in proc.stdout
@@ -200,7 +200,7 @@ def test_policies_are_shipped_small_and_documented():
         size = sum(f.stat().st_size for f in folder.iterdir())
         assert size < 2_000_000, f"{name}: {size} bytes"
         meta = json.loads((folder / "meta.json").read_text())
-        assert meta["command"].startswith("python -m agents.train") and (folder / "vecnormalize.pkl").exists()
+        assert meta["command"].startswith("python -m spine_gym.agents.train") and (folder / "vecnormalize.pkl").exists()
     assert (POLICIES_DIR / "COMMANDS.md").exists()
 
 
@@ -256,8 +256,8 @@ def test_tuned_file_matches_the_controllers():
 # --------------------------------------------------------------------------- residual learning
 def test_residual_env_with_zero_correction_is_the_tuned_pid():
     """A residual of 0 applies exactly the baseline's actions; the policy sees them appended."""
-    from agents.envs import make_vec_env
-    from agents.residual import ResidualVecEnv, base_spec, combine
+    from spine_gym.agents.envs import make_vec_env
+    from spine_gym.agents.residual import ResidualVecEnv, base_spec, combine
 
     kw = {"episode_duration": 2.0}
     env = ev.make_env(kw)
@@ -284,8 +284,8 @@ def test_residual_env_with_zero_correction_is_the_tuned_pid():
 
 
 def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_nothing():
-    from agents.scenarios import EVAL_SEED_BASE
-    from agents.select import VALIDATION_SEED_BASE, validation_scores
+    from spine_gym.agents.scenarios import EVAL_SEED_BASE
+    from spine_gym.agents.selection import VALIDATION_SEED_BASE, validation_scores
 
     assert TRAIN_SEED_BASE + 10_000 <= VALIDATION_SEED_BASE < EVAL_SEED_BASE
     kw = {"episode_duration": 10.0}
@@ -304,7 +304,7 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
 
 
 def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
-    from agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
+    from spine_gym.agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
     from spine_gym.envs import default_randomization
 
     hard = get_suite("full", groups=["hard"])
@@ -327,8 +327,8 @@ def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
 
 
 def test_registry_is_the_one_place_controllers_are_chosen():
-    from agents import registry
-    from agents.runtime import build_controller
+    from spine_gym.agents import registry
+    from spine_gym.agents.runtime import build_controller
     from spine_gym.controllers import MPPIController
 
     env = ev.make_env()
@@ -367,7 +367,7 @@ def test_relative_rows_are_ratios_to_the_reference_in_the_same_group():
 def test_a_policy_is_evaluated_without_the_kwargs_of_its_training_distribution():
     """The shipped ppo_lag was trained on randomised plants and heavier loads with a 3-s preview;
     the suite's nominal scenarios must run it on the nominal plant, with its own preview."""
-    from agents.runtime import TASK_KWARGS, evaluation_env_kwargs
+    from spine_gym.agents.runtime import TASK_KWARGS, evaluation_env_kwargs
 
     train_kw = {"domain_randomization": True, "payload_range": (0.0, 0.09), "target_preview": 3.0,
                 "energy_weight": 0.6, "episode_duration": 10.0}  # fmt: skip

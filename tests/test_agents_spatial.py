@@ -1,4 +1,4 @@
-"""agents/ on the spatial envs: train/evaluate/tune CLIs on the new ids with tiny budgets,
+"""spine_gym/agents/ on the spatial envs: train/evaluate/tune CLIs on the new ids with tiny budgets,
 their scenario suites and registries, and the shipped SmaSpine3D-v0 policy."""
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import evaluate as ev
-from agents import registry
-from agents.common import CHAIN_ENV_ID, POLICIES_DIR, SPATIAL_ENV_ID
-from agents.runtime import build_controller, load_policy, make_env, run_episode
-from agents.scenarios import EVAL_SEED_BASE, get_suite
-from agents.tune import TRAIN_SEED_BASE, tune
+from spine_gym.agents import evaluate as ev
+from spine_gym.agents import registry
+from spine_gym.agents.common import CHAIN_ENV_ID, POLICIES_DIR, SPATIAL_ENV_ID
+from spine_gym.agents.runtime import build_controller, load_policy, make_env, run_episode
+from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
+from spine_gym.agents.tune import TRAIN_SEED_BASE, tune
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -41,7 +41,7 @@ TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-freq", "0", "--save-freq
 )
 def test_train_smoke_on_the_spatial_ids(tmp_path, env_id, extra):
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "--env", env_id, "-n", "256", "--n-envs", "2",
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "--env", env_id, "-n", "256", "--n-envs", "2",
         "-f", str(tmp_path), *TINY, "-params", "n_steps:64", "batch_size:64", "n_epochs:1", *extra,
     )  # fmt: skip
     run = tmp_path / "ppo" / f"{env_id}_1"
@@ -60,7 +60,7 @@ def test_train_smoke_on_the_spatial_ids(tmp_path, env_id, extra):
 )
 def test_evaluate_cli_on_the_spatial_ids(tmp_path, env_id, scenario, unit):
     proc = run_cli(
-        "-m", "agents.evaluate", "--env", env_id, "--suite", "quick", "--scenarios", scenario, "--models",
+        "-m", "spine_gym.agents.evaluate", "--env", env_id, "--suite", "quick", "--scenarios", scenario, "--models",
         "-o", str(tmp_path), "--plain",
     )  # fmt: skip
     assert f"RMSE [{unit}]" in proc.stdout
@@ -128,7 +128,7 @@ def test_a_3d_policy_is_shipped_small_and_documented():
         assert sum(f.stat().st_size for f in folder.iterdir()) < 2_000_000
         meta = json.loads((folder / "meta.json").read_text())
         assert (
-            meta["command"].startswith("python -m agents.train") and "--env SmaSpine3D-v0" in meta["command"]
+            meta["command"].startswith("python -m spine_gym.agents.train") and "--env SmaSpine3D-v0" in meta["command"]
         )
     assert SHIPPED_3D[0] in (POLICIES_DIR / "COMMANDS.md").read_text()
 

@@ -1,4 +1,4 @@
-"""agents.benchmark: the table's statistics against rliable and hand-checked values, time to the PID's
+"""spine_gym.agents.benchmark: the table's statistics against rliable and hand-checked values, time to the PID's
 level, resuming, bad arguments, and the --quick pipeline end to end."""
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ import pytest
 from rliable import library as rly
 from rliable import metrics as rly_metrics
 
-from agents import benchmark as bm
-from agents import benchmark_stats as stats
-from agents.common import ALGOS, ENV_IDS, load_hyperparams
-from agents.runtime import load_policy, validation_metrics
-from agents.train import _action_noise, resolve_config
+from spine_gym.agents import benchmark as bm
+from spine_gym.agents import benchmark_stats as stats
+from spine_gym.agents.common import ALGOS, ENV_IDS, load_hyperparams
+from spine_gym.agents.runtime import load_policy, validation_metrics
+from spine_gym.agents.train import _action_noise, resolve_config
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -242,7 +242,7 @@ QUICK_TIMEOUT_S = 120  # CI budget of --quick on 2 cores
 
 def test_quick_runs_every_path_end_to_end_and_resumes(tmp_path):
     out = tmp_path / "bench"
-    cmd = [sys.executable, "-m", "agents.benchmark", "--quick", "--out", str(out)]
+    cmd = [sys.executable, "-m", "spine_gym.agents.benchmark", "--quick", "--out", str(out)]
     t0 = time.perf_counter()
     first = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=QUICK_TIMEOUT_S)
     assert first.returncode == 0, first.stderr[-3000:]

@@ -1,4 +1,4 @@
-"""``python -m agents.benchmark --address``: the runs farmed out as Ray tasks give the same results as
+"""``python -m spine_gym.agents.benchmark --address``: the runs farmed out as Ray tasks give the same results as
 the same runs trained locally, and resume like them.
 
 One plan (PPO and SAC on one env id, ``--quick`` sizes: 512 steps, evaluations at 0, 256 and 512
@@ -43,7 +43,7 @@ def _run(args: list[str], env: dict, timeout: float = 300) -> subprocess.Complet
 
 
 def _benchmark(out: Path, env: dict, *extra: str) -> str:
-    return _run([sys.executable, "-m", "agents.benchmark", *PLAN, "--out", str(out), *extra], env).stdout
+    return _run([sys.executable, "-m", "spine_gym.agents.benchmark", *PLAN, "--out", str(out), *extra], env).stdout
 
 
 def _curve(out: Path, algo: str) -> list[dict]:

@@ -1,4 +1,4 @@
-"""agents.datasets: Minari datasets of a controller's episodes round-trip, carry their metadata,
+"""spine_gym.agents.datasets: Minari datasets of a controller's episodes round-trip, carry their metadata,
 refuse to overwrite and reject bad arguments before writing anything."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import minari
 import numpy as np
 import pytest
 
-from agents.datasets import DATASET_SEED_BASE, dataset_id, load_metadata, main, transitions
-from agents.runtime import VALIDATION_SEED_BASE, build_controller, make_env
+from spine_gym.agents.datasets import DATASET_SEED_BASE, dataset_id, load_metadata, main, transitions
+from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, make_env
 
 ENV_KWARGS = {"episode_duration": 5.0}
 IDS = ("SmaSpine-v1", "SmaSpine3D-v1")
@@ -31,7 +31,7 @@ def datasets(data_path, monkeypatch):
 
 
 def rerun(env_id: str, seed: int):
-    """The PID's episode on a fresh env, stepped here (not through agents.runtime.run_episode)."""
+    """The PID's episode on a fresh env, stepped here (not through spine_gym.agents.runtime.run_episode)."""
     env = make_env(ENV_KWARGS, env_id=env_id)
     ctrl = build_controller("pid", env)
     ctrl.reset()

@@ -1,6 +1,6 @@
-"""agents/distill.py: the regression fit, one tiny DAgger iteration (cheap PID expert) end to end
+"""spine_gym/agents/distill.py: the regression fit, one tiny DAgger iteration (cheap PID expert) end to end
 (saved folder loads through load_policy, reproduces the student's actions, fine-tunes with
-agents.train -i), and argument checks."""
+spine_gym.agents.train -i), and argument checks."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import pytest
 import torch
 from stable_baselines3 import PPO
 
-from agents import distill as dg
-from agents.runtime import VALIDATION_SEED_BASE, load_policy, make_env, run_episode
-from agents.train import train
+from spine_gym.agents import distill as dg
+from spine_gym.agents.runtime import VALIDATION_SEED_BASE, load_policy, make_env, run_episode
+from spine_gym.agents.train import train
 
 
 def _labelled_set(model, n=512, seed=0):
@@ -71,7 +71,7 @@ def test_tiny_dagger_saves_a_loadable_finetunable_student(tmp_path):
     assert tap.last.shape == (1, 16)  # the network saw obs ++ 2 frames of (angle, action)
     env.close()
 
-    # agents.train -i resumes it (same observation space as the training stack)
+    # spine_gym.agents.train -i resumes it (same observation space as the training stack)
     run = train(
         ["--algo", "ppo", "-n", "64", "--n-envs", "1", "-f", str(tmp_path / "ft"),
          "-i", str(out / "model.zip"),

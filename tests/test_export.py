@@ -1,8 +1,8 @@
-"""agents.export: the ONNX graph, the NumPy runner and the generated C agree with SB3's predict.
+"""spine_gym.agents.export: the ONNX graph, the NumPy runner and the generated C agree with SB3's predict.
 
 Models are built untrained (random weights, output layers scaled up so that the action clip and
 the tanh squash are exercised) with non-trivial ``VecNormalize`` statistics and a tight
-``clip_obs``, saved as run folders and loaded back through :func:`agents.runtime.load_policy`,
+``clip_obs``, saved as run folders and loaded back through :func:`spine_gym.agents.runtime.load_policy`,
 as the CLI does. The reference is SB3's ``predict(deterministic=True)`` on
 ``VecNormalize.normalize_obs`` of 1 000 observations recorded from ``SmaSpine-v0``.
 """
@@ -22,17 +22,17 @@ import torch
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from agents.evaluate import evaluate
-from agents.export import UnsupportedPolicyError, export_policy, main
-from agents.export_c import compile_driver
-from agents.history import HistoryObsVecEnv, HistorySpec
-from agents.integral import IntegralObsVecEnv, IntegralSpec, integral_step
-from agents.numpy_policy import load_bundle
-from agents.runtime import evaluation_env_kwargs, load_policy, make_env
-from agents.scenarios import get_suite
+from spine_gym.agents.evaluate import evaluate
+from spine_gym.agents.export import UnsupportedPolicyError, export_policy, main
+from spine_gym.agents.export_c import compile_driver
+from spine_gym.agents.history import HistoryObsVecEnv, HistorySpec
+from spine_gym.agents.integral import IntegralObsVecEnv, IntegralSpec, integral_step
+from spine_gym.agents.numpy_policy import load_bundle
+from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env
+from spine_gym.agents.scenarios import get_suite
 
 ROOT = Path(__file__).resolve().parents[1]
-POLICIES = ROOT / "agents" / "policies"
+POLICIES = ROOT / "spine_gym" / "agents" / "policies"
 TOL = 1e-5
 CLIP_OBS = 3.0
 ALGOS = {"ppo": PPO, "sac": SAC, "td3": TD3}
@@ -120,12 +120,13 @@ def sb3_reference(folder: Path, net_input: np.ndarray) -> np.ndarray:
 def numpy_runner_without_torch(
     bundle: Path, net_input: np.ndarray, tmp: Path, mode: str = "act"
 ) -> np.ndarray:
-    """The NumPy runner in a fresh interpreter where importing torch fails."""
+    """The bundle's own copy of the NumPy runner in a fresh interpreter where importing torch fails."""
     np.save(tmp / "in.npy", net_input)
     script = (
         "import sys; sys.modules['torch'] = None\n"
+        f"sys.path.insert(0, {str(bundle)!r})\n"
         "import numpy as np\n"
-        "from agents.numpy_policy import load_bundle\n"
+        "from numpy_policy import load_bundle\n"
         f"p = load_bundle({str(bundle)!r}); x = np.load({str(tmp / 'in.npy')!r})\n"
         f"a = p.act(x) if {mode!r} == 'act' else np.array([p.step(o) for o in x])\n"
         f"np.save({str(tmp / 'out.npy')!r}, a)\n"

@@ -1,5 +1,5 @@
-"""agents.history: the frame-history observation against a NumPy reference, in training and after
-loading; agents.train's budget_scale."""
+"""spine_gym.agents.history: the frame-history observation against a NumPy reference, in training and after
+loading; spine_gym.agents.train's budget_scale."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from agents.envs import make_vec_env
-from agents.history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec, history_features, history_step
-from agents.integral import IntegralObsPolicy
-from agents.runtime import load_policy, make_env, run_episode
-from agents.train import energy_budget
+from spine_gym.agents.envs import make_vec_env
+from spine_gym.agents.history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec, history_features, history_step
+from spine_gym.agents.integral import IntegralObsPolicy
+from spine_gym.agents.runtime import load_policy, make_env, run_episode
+from spine_gym.agents.train import energy_budget
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods
@@ -114,7 +114,7 @@ def test_trained_history_policy_round_trips_through_load_policy(tmp_path):
     """A tiny integral + history run: it loads as IntegralObsPolicy(HistoryObsPolicy(...)), the
     model seeing [obs, integral, history] as in training."""
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
         "--eval-freq", "0", "--save-freq", "0", *TINY,
         "-params", "n_steps:64", "batch_size:64", "n_epochs:1", "obs_integral:5.0", "obs_history:2",
     )  # fmt: skip
@@ -137,8 +137,8 @@ def test_budget_scale_multiplies_the_budget_and_is_validated():
 
 def test_the_shipped_budget_policy_loads_plain_with_its_preview():
     """ppo_bud (the new default physics_dt): no integral, no history, the 3-s preview."""
-    from agents.common import POLICIES_DIR
-    from agents.runtime import SavedPolicy, evaluation_env_kwargs
+    from spine_gym.agents.common import POLICIES_DIR
+    from spine_gym.agents.runtime import SavedPolicy, evaluation_env_kwargs
 
     pol = load_policy(POLICIES_DIR / "ppo_bud")
     assert type(pol) is SavedPolicy and pol.model.observation_space.shape == (10,)

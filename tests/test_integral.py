@@ -1,4 +1,4 @@
-"""agents.integral: the integral-of-error observation against a NumPy reference, in training and after loading."""
+"""spine_gym.agents.integral: the integral-of-error observation against a NumPy reference, in training and after loading."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from agents.envs import make_vec_env
-from agents.integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec, integral_step, parse_tau
-from agents.lagrangian import EnergyBudgetVecEnv
-from agents.residual import ResidualPolicy
-from agents.runtime import load_policy, make_env, run_episode
+from spine_gym.agents.envs import make_vec_env
+from spine_gym.agents.integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec, integral_step, parse_tau
+from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
+from spine_gym.agents.residual import ResidualPolicy
+from spine_gym.agents.runtime import load_policy, make_env, run_episode
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods
@@ -136,7 +136,7 @@ def test_trained_integral_policy_round_trips_through_load_policy(tmp_path):
     """A tiny residual + integral + budget run: the folder and its checkpoint load as
     ResidualPolicy(IntegralObsPolicy(...)); the model sees [obs, PID action, integral] as in training."""
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", "128", "--n-envs", "2", "-f", str(tmp_path),
         "--eval-freq", "0", "--save-freq", "128", *TINY,
         "-params", "n_steps:64", "batch_size:64", "n_epochs:1", "obs_integral:5.0", "obs_integral_limit:50",
         "residual:pid", "energy_budget:100", "budget_window:4",
@@ -174,8 +174,8 @@ def test_budget_window_zero_takes_only_the_episodes_since_the_last_dual_step():
 
 
 def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_preview():
-    from agents.common import POLICIES_DIR
-    from agents.runtime import evaluation_env_kwargs
+    from spine_gym.agents.common import POLICIES_DIR
+    from spine_gym.agents.runtime import evaluation_env_kwargs
 
     pol = load_policy(POLICIES_DIR / "ppo_int")
     assert isinstance(pol, IntegralObsPolicy) and pol.spec.tau == 10.0 and pol.spec.size == 1
@@ -184,9 +184,9 @@ def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_prev
 
 
 def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weight_saves_energy(tmp_path):
-    """agents.ceiling on one 3-s validation episode: the PID row is the reference (ratios 1), and
+    """spine_gym.agents.ceiling on one 3-s validation episode: the PID row is the reference (ratios 1), and
     the oracle's cost Σ e² + w_energy E spends less energy when w_energy is 1000× larger."""
-    from agents.ceiling import ceiling_rows, plot
+    from spine_gym.agents.ceiling import ceiling_rows, plot
 
     rows = ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
     assert [r["controller"] for r in rows] == ["pid", "mpc_oracle w_energy=0.01", "mpc_oracle w_energy=10"]
@@ -199,7 +199,7 @@ def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weigh
 def test_ceiling_rows_sweep_the_causal_oracle_with_its_own_preview(monkeypatch):
     """--oracle mpc_oracle_causal --target-preview 3: the rows name the causal planner, which is
     built on a 3-s-preview env; the PID reference keeps the env's 1-s preview."""
-    import agents.ceiling as ceiling
+    import spine_gym.agents.ceiling as ceiling
 
     built = []
     real = ceiling.energy_weighted_oracle

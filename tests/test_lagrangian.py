@@ -1,4 +1,4 @@
-"""agents.lagrangian: the energy-budget reward, the dual step, and a training run that uses them."""
+"""spine_gym.agents.lagrangian: the energy-budget reward, the dual step, and a training run that uses them."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from agents.envs import make_vec_env
-from agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
-from agents.runtime import build_controller, make_env, validation_scores
-from agents.train import energy_budget
+from spine_gym.agents.envs import make_vec_env
+from spine_gym.agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
+from spine_gym.agents.runtime import build_controller, make_env, validation_scores
+from spine_gym.agents.train import energy_budget
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}
@@ -76,7 +76,7 @@ def test_pid_budget_is_the_pids_validation_energy_and_a_training_run_records_it(
     budget = energy_budget("pid", {"episode_duration": 3.0}, 2)
     assert budget > 0.0
     run_cli(
-        "-m", "agents.train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "-f", str(tmp_path),
+        "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "-f", str(tmp_path),
         "--eval-freq", "0", "--save-freq", "0", *TINY,
         "-params", "n_steps:64", "batch_size:64", "n_epochs:1", "energy_budget:pid", "budget_episodes:2",
         "residual:pid", "residual_scale:0.5",

@@ -41,7 +41,7 @@ def test_simulate_pulls_in_no_torch_sb3_or_matplotlib():
 HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard")
 
 
-AGENTS = pathlib.Path(__file__).resolve().parents[1] / "agents"
+AGENTS = pathlib.Path(__file__).resolve().parents[1] / "spine_gym" / "agents"
 CLIS = {"evaluate", "tune", "train", "select", "benchmark"}
 
 
@@ -55,8 +55,8 @@ def _agents_imports(tree):
             if isinstance(child, ast.ImportFrom) and child.level > 0:
                 mods = [child.module] if child.module else [a.name for a in child.names]
                 out.append((child, {m.split(".")[0] for m in mods}, inner))
-            elif isinstance(child, ast.ImportFrom) and (child.module or "").startswith("agents"):
-                out.append((child, {child.module.split(".")[1] if "." in child.module else ""}, inner))
+            elif isinstance(child, ast.ImportFrom) and (child.module or "").startswith("spine_gym.agents"):
+                out.append((child, {child.module.split(".")[2] if child.module.count(".") >= 2 else ""}, inner))
             visit(child, inner)
 
     visit(tree, False)
@@ -75,7 +75,7 @@ def test_agents_modules_import_each_other_only_at_module_level_and_runtime_impor
 
 def test_the_agents_registry_pulls_in_no_rl_stack():
     code = (
-        "import sys, spine_gym.controllers, agents.registry;"
+        "import sys, spine_gym.controllers, spine_gym.agents.registry;"
         f"bad = [m for m in {HEAVY!r} if m in sys.modules];"
         "print(bad); sys.exit(1 if bad else 0)"
     )
@@ -108,9 +108,9 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
 
 
 def test_exported_policy_runner_and_c_writer_import_only_numpy_and_the_standard_library():
-    """agents/numpy_policy.py runs an exported bundle where torch, SB3 and spine_gym are absent;
-    agents/export_c.py writes the C from the bundle's arrays alone."""
-    agents = PHYSICS.parents[1] / "agents"
+    """spine_gym/agents/numpy_policy.py runs an exported bundle where torch, SB3 and spine_gym are absent;
+    spine_gym/agents/export_c.py writes the C from the bundle's arrays alone."""
+    agents = PHYSICS.parents[1] / "spine_gym" / "agents"
     stdlib = set(sys.stdlib_module_names) | {"__future__"}
     for name in ("numpy_policy.py", "export_c.py"):
         tree = ast.parse((agents / name).read_text())

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
-from agents.runtime import load_tuned
-from agents.runtime import VALIDATION_SEED_BASE
-from agents.scenarios import HARD_LIKE_KWARGS
+from spine_gym.agents.runtime import load_tuned
+from spine_gym.agents.runtime import VALIDATION_SEED_BASE
+from spine_gym.agents.scenarios import HARD_LIKE_KWARGS
 from spine_gym.controllers import (
     DisturbanceConfig,
     MPPIConfig,
@@ -267,7 +267,7 @@ def test_mpc_estimated_needs_no_env_and_oracle_needs_one():
 
 @pytest.mark.parametrize("name", ["mpc_oracle", "mpc_oracle_causal", "mpc_estimated"])
 def test_mpc_runs_behind_predict_in_the_evaluation_path(name):
-    from agents.runtime import build_controller, make_env, run_episode
+    from spine_gym.agents.runtime import build_controller, make_env, run_episode
 
     probe = make_env()
     ctrl = build_controller(name, probe)  # built for the default 60-s env ...
@@ -504,7 +504,7 @@ def test_mpc_mode_errors_name_every_allowed_mode_and_causal_needs_the_env():
 
 
 def test_energy_weighted_oracle_builds_either_privileged_entry_and_rejects_others():
-    from agents.runtime import ORACLE_NAMES, energy_weighted_oracle
+    from spine_gym.agents.runtime import ORACLE_NAMES, energy_weighted_oracle
 
     env = _env()
     assert ORACLE_NAMES == ("mpc_oracle", "mpc_oracle_causal")

@@ -1,7 +1,7 @@
 """RL Zoo on ``SmaSpine-v0`` with the README's commands: ``rl_zoo3.train`` with
-``--gym-packages spine_gym --conf-file agents/hyperparams/ppo.yml`` trains a few hundred steps,
+``--gym-packages spine_gym --conf-file spine_gym/agents/hyperparams/ppo.yml`` trains a few hundred steps,
 ``rl_zoo3.enjoy`` replays the saved model with its ``VecNormalize`` statistics, and
-``agents.evaluate``'s loader reads the RL Zoo run folder with those statistics.
+``spine_gym.agents.evaluate``'s loader reads the RL Zoo run folder with those statistics.
 
 rl_zoo3 (and ``requests``, which its ``enjoy`` imports without declaring it) come with the ``rl``
 extra; CI fails if this file is skipped.
@@ -23,7 +23,7 @@ import yaml
 pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (it comes with the rl extra)")
 pytest.importorskip("requests", reason="requests is not installed (rl_zoo3.enjoy needs it; rl extra)")
 
-from agents.runtime import load_policy  # noqa: E402
+from spine_gym.agents.runtime import load_policy  # noqa: E402
 from spine_gym.envs import ENV_ID  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +48,7 @@ def run(tmp_path_factory):
     logs = tmp_path_factory.mktemp("zoo")
     # 2 envs x 64 steps per update, 256 steps: two PPO updates
     _zoo(
-        "train", "--conf-file", "agents/hyperparams/ppo.yml", "-n", "256",
+        "train", "--conf-file", "spine_gym/agents/hyperparams/ppo.yml", "-n", "256",
         "--hyperparams", "n_envs:2", "n_steps:64", "batch_size:64", "n_epochs:1",
         "-f", str(logs), "--seed", "0", "--eval-freq", "-1",
     )  # fmt: skip
@@ -59,7 +59,7 @@ def test_train_uses_the_project_hyperparameters(run):
     _, folder = run
     assert (folder / f"{ENV_ID}.zip").exists() and (folder / ENV_ID / "vecnormalize.pkl").exists()
     config = dict(yaml.load((folder / ENV_ID / "config.yml").read_text(), Loader=yaml.UnsafeLoader))
-    ours = yaml.safe_load((ROOT / "agents" / "hyperparams" / "ppo.yml").read_text())[ENV_ID]
+    ours = yaml.safe_load((ROOT / "spine_gym" / "agents" / "hyperparams" / "ppo.yml").read_text())[ENV_ID]
     for key in ("gamma", "gae_lambda", "learning_rate", "normalize", "policy_kwargs"):
         assert config[key] == ours[key], key
     assert config["n_envs"] == 2 and config["n_steps"] == 64  # the command-line overrides

@@ -1,6 +1,6 @@
-"""Bounded smoke of the RLlib example (``python -m agents.rllib_ppo``): PPO with two env runners on a
+"""Bounded smoke of the RLlib example (``python -m spine_gym.agents.rllib_ppo``): PPO with two env runners on a
 local Ray cluster, each stepping the native ``SmaSpineVectorEnv``; a checkpoint, a restore that
-continues the run, and a score of the checkpoint by ``agents.evaluate``.
+continues the run, and a score of the checkpoint by ``spine_gym.agents.evaluate``.
 
 Runs where ``ray[rllib]`` is installed (``.ci/run`` builds ``.venv-rllib`` with RLlib's pinned
 gymnasium and fails if these tests are skipped there); skipped in the main venv.
@@ -20,8 +20,8 @@ import pytest
 
 pytest.importorskip("ray.rllib", reason="ray[rllib] is not installed (it runs in .venv-rllib, see .ci/run)")
 
-from agents.rllib_ppo import FrozenObsNorm, RLlibPolicy, build_config, observation_stats  # noqa: E402
-from agents.scenarios import get_suite  # noqa: E402
+from spine_gym.agents.rllib_ppo import FrozenObsNorm, RLlibPolicy, build_config, observation_stats  # noqa: E402
+from spine_gym.agents.scenarios import get_suite  # noqa: E402
 from spine_gym.envs import OBS_NAMES  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,7 +32,7 @@ BATCH = 2 * 2 * 32  # env steps per iteration
 
 def _run(*args):
     r = subprocess.run(
-        [sys.executable, "-m", "agents.rllib_ppo", *args],
+        [sys.executable, "-m", "spine_gym.agents.rllib_ppo", *args],
         cwd=ROOT,
         capture_output=True,
         text=True,

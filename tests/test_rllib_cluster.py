@@ -1,7 +1,7 @@
 """The multi-node set-up of ``docs/scale_out.md`` §3, run for real as two Ray nodes on this machine:
 token authentication, a head (``ray start --head``) and a worker node (``ray start --address``), one
 CPU and one ``runner_slot`` each (the worker also its own ``worker_node`` resource), and
-``python -m agents.rllib_ppo --address ...`` training a few iterations with one env runner on each
+``python -m spine_gym.agents.rllib_ppo --address ...`` training a few iterations with one env runner on each
 node (each runner needs a ``runner_slot``). The driver's ``result.json`` must show a runner, and env
 steps sampled, on both nodes.
 
@@ -75,7 +75,7 @@ def cluster_run():
               '--resources={"runner_slot": 1, "worker_node": 1}', *node_ports(ports[6:12])], env)  # fmt: skip
         status = _cluster_status(head, env)
         out = tmp / "out"
-        _run([sys.executable, "-m", "agents.rllib_ppo", "--address", head,
+        _run([sys.executable, "-m", "spine_gym.agents.rllib_ppo", "--address", head,
               "--env-runners", "2", "--envs-per-runner", "2", "--rollout-fragment-length", "32",
               "--num-epochs", "1", "--iterations", str(ITERATIONS), "--no-eval",
               "--runner-resources", '{"runner_slot": 1}', "--out", str(out)], env, timeout=600)  # fmt: skip

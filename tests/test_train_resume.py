@@ -1,4 +1,4 @@
-"""``agents.train --resume`` after a ``kill -9``: the run goes on from its newest checkpoint with the
+"""``spine_gym.agents.train --resume`` after a ``kill -9``: the run goes on from its newest checkpoint with the
 ``VecNormalize`` statistics, the step counter (and the learning-rate schedule on it) and, for an
 energy-budgeted run, the Lagrange multiplier of that checkpoint.
 
@@ -25,14 +25,14 @@ import numpy as np
 import pytest
 import torch
 
-from agents.checkpoints import checkpoint_steps, latest_checkpoint
+from spine_gym.agents.checkpoints import checkpoint_steps, latest_checkpoint
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 N = 2048  # env steps of the run: 1024 vector steps of 2 envs, 64 rollouts of 16 steps
 N_ENVS = 2
 RUN = [
-    "-m", "agents.train", "--algo", "ppo", "-n", str(N), "--n-envs", str(N_ENVS), "--seed", "5",
+    "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", str(N), "--n-envs", str(N_ENVS), "--seed", "5",
     "--eval-freq", "0", "--save-freq", "64", "--no-tensorboard", "-v", "0",
     "--env-kwargs", "episode_duration:2.0",
     "-params", "n_steps:16", "batch_size:32", "n_epochs:2", "learning_rate:lin_0.001",
@@ -114,12 +114,12 @@ def test_resume_after_kill_continues_the_run(tmp_path, budgeted):
     ckpt_k = latest_checkpoint(k)
     step = checkpoint_steps(ckpt_k)
 
-    _cli(["-m", "agents.train", "--resume", str(k)])  # K from its newest checkpoint
+    _cli(["-m", "spine_gym.agents.train", "--resume", str(k)])  # K from its newest checkpoint
     meta_k = json.loads((k / "meta.json").read_text())
     assert meta_k["resumes"][-1]["checkpoint"] == str(ckpt_k)
     ckpt_u = u / "checkpoints" / ckpt_k.name
     assert _same_tensors(ckpt_k, ckpt_u)  # the killed run was U up to its checkpoint
-    _cli(["-m", "agents.train", "--resume", str(ckpt_u)])  # U again from the same checkpoint (overwrites U)
+    _cli(["-m", "spine_gym.agents.train", "--resume", str(ckpt_u)])  # U again from the same checkpoint (overwrites U)
     meta_u = json.loads((u / "meta.json").read_text())
 
     # the weights after the resume: the same from either checkpoint, and trained on from it
@@ -149,7 +149,7 @@ def test_resume_after_kill_continues_the_run(tmp_path, budgeted):
 
 def test_resume_rejects_what_is_not_a_run(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-m", "agents.train", "--resume", str(tmp_path)],
+        [sys.executable, "-m", "spine_gym.agents.train", "--resume", str(tmp_path)],
         cwd=ROOT,
         env=ENV,
         capture_output=True,

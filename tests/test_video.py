@@ -1,4 +1,4 @@
-"""Episode videos (agents.video, ``agents.evaluate --video``): the MP4 decodes to one frame per
+"""Episode videos (spine_gym.agents.video, ``spine_gym.agents.evaluate --video``): the MP4 decodes to one frame per
 reset and step, and its frames are the env's rgb_array frames."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from agents import evaluate as ev
-from agents import video
+from spine_gym.agents import evaluate as ev
+from spine_gym.agents import video
 
 
 def decode(path):

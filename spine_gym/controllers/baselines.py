@@ -1,6 +1,6 @@
 """Classical controllers for ``SmaSpine-v0``: step voltage, bang-bang and PID (no torch needed).
 
-Three ways of driving the two antagonistic SMA wires that the learned policies of ``agents/`` are
+Three ways of driving the two antagonistic SMA wires that the learned policies of ``spine_gym/agents/`` are
 compared against:
 
 * :class:`StepVoltageController` — the paper's open-loop drive (MODEL.md §9): a constant voltage

@@ -44,7 +44,7 @@ The sampling, the weighting and the warm start are :class:`MPPIBase`, shared wit
 sequence per wire, for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``).
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
-SB3's ``predict`` and runs in ``agents.evaluate`` like any baseline. It plans for one env
+SB3's ``predict`` and runs in ``spine_gym.agents.evaluate`` like any baseline. It plans for one env
 (observation batches of one row).
 """
 
@@ -283,7 +283,7 @@ class MPPIBase(BaseController):
         self.estimator = None  # the subclass's state estimator (estimated mode)
 
     def bind(self, env) -> None:
-        """Plan on ``env`` (the privileged modes read its state each step; ``agents.runtime.run_episode``
+        """Plan on ``env`` (the privileged modes read its state each step; ``spine_gym.agents.runtime.run_episode``
         binds each episode's env); ValueError if its configuration is of another type or differs
         in a field of :attr:`plan_fields`."""
         env = getattr(env, "unwrapped", env)

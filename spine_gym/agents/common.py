@@ -1,0 +1,170 @@
+"""Shared pieces of the training and evaluation CLIs.
+
+* Hyperparameter files in RL Zoo's format (``spine_gym/agents/hyperparams/{algo}.yml`` keyed by env id):
+  :func:`load_hyperparams` (with ``lin_<x>`` schedules, ``normalize`` as bool or dict string and
+  ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them).
+* ``--env-kwargs``/``--hyperparams`` ``key:value`` parsing (:class:`StoreDict`).
+
+Loading saved policies, building controllers and running episodes live in :mod:`spine_gym.agents.runtime`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from spine_gym.envs import ENV_SPECS
+
+HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
+POLICIES_DIR = Path(__file__).parent / "policies"
+ENV_ID = "SmaSpine-v0"
+SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
+CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
+ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, -v1 and the -v1 tiers of the three families
+ALGOS = ("ppo", "sac", "td3", "tqc")  # tqc: sb3-contrib
+OFF_POLICY = ("sac", "td3", "tqc")  # the algorithms with a replay buffer
+
+# keys of a hyperparameter entry that are not constructor arguments of the algorithm
+SPECIAL_KEYS = (
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "normalize",
+    "env_kwargs",
+    "vec_env",
+    "residual",
+    "residual_scale",
+    "energy_budget",
+    "lagrangian_init",
+    "lagrangian_lr",
+    "budget_episodes",
+    "budget_window",
+    "budget_scale",
+    "obs_integral",
+    "obs_integral_limit",
+    "obs_history",
+    "noise_type",
+    "noise_std",
+)
+
+
+def algo_class(algo: str) -> type:
+    """The Stable-Baselines3 (``tqc``: sb3-contrib) class of ``algo``.
+
+    Imported here rather than at module level: this module is also the hyperparameter parser of
+    tools that never build a model, and SB3 pulls in torch.
+    """
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
+    if algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC
+    import stable_baselines3
+
+    return getattr(stable_baselines3, algo.upper())
+
+
+def parse_value(text: str) -> Any:
+    """A ``key:value`` value: a Python literal if it parses as one, else the string itself."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+class StoreDict(argparse.Action):
+    """argparse action that turns ``key1:value1 key2:value2`` into a dict (RL Zoo's syntax)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        out = {}
+        for item in values:
+            if ":" not in item:
+                raise argparse.ArgumentError(self, f"expected key:value, got {item!r}")
+            key, value = item.split(":", 1)
+            out[key] = parse_value(value)
+        setattr(namespace, self.dest, out)
+
+
+def linear_schedule(initial: float):
+    """``progress_remaining -> progress_remaining * initial`` (SB3 schedules run from 1 to 0)."""
+    initial = float(initial)
+
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    schedule.initial = initial  # for logging
+    return schedule
+
+
+def _eval_policy_kwargs(text: str) -> dict:
+    """Evaluate a ``dict(...)`` string with only ``dict`` and ``torch.nn`` in scope."""
+    import torch.nn as nn
+
+    value = eval(text, {"__builtins__": {}}, {"dict": dict, "nn": nn, "list": list})  # noqa: S307 - own file
+    if not isinstance(value, dict):
+        raise ValueError(f"policy_kwargs must evaluate to a dict, got {type(value).__name__}")
+    return value
+
+
+def load_hyperparams(algo: str, env_id: str = ENV_ID, path: Path | None = None) -> dict:
+    """The raw hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (a dict copy)."""
+    if algo not in ALGOS:
+        raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
+    path = Path(path) if path else HYPERPARAMS_DIR / f"{algo}.yml"
+    with open(path) as f:
+        table = yaml.safe_load(f)
+    if env_id not in table:
+        raise ValueError(f"no hyperparameters for env {env_id!r} in {path}; entries: {sorted(table)}")
+    return dict(table[env_id])
+
+
+def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
+    """Split a hyperparameter entry into (algorithm kwargs, special settings).
+
+    Turns ``lin_<x>`` strings into linear schedules, ``policy_kwargs`` strings into dicts and
+    ``normalize`` (bool or dict string) into ``VecNormalize`` kwargs (``None``: no normalisation).
+    """
+    hp = dict(hp)
+    special = {k: hp.pop(k) for k in SPECIAL_KEYS if k in hp}
+    for key in ("learning_rate", "clip_range"):
+        v = hp.get(key)
+        if isinstance(v, str) and v.startswith("lin_"):
+            hp[key] = linear_schedule(float(v[4:]))
+    if isinstance(hp.get("policy_kwargs"), str):
+        hp["policy_kwargs"] = _eval_policy_kwargs(hp["policy_kwargs"])
+    for key in ("train_freq",):
+        if isinstance(hp.get(key), list):
+            hp[key] = tuple(hp[key])
+    norm = special.get("normalize", False)
+    if isinstance(norm, str):
+        norm = ast.literal_eval(norm)
+    if norm is True:
+        norm = {}
+    special["normalize"] = norm if isinstance(norm, dict) else None
+    special.setdefault("policy", "MlpPolicy")
+    special.setdefault("env_kwargs", {})
+    special.setdefault("residual", None)
+    special.setdefault("residual_scale", 1.0)
+    special.setdefault("energy_budget", None)  # "pid" or a number [J]: Lagrangian energy budget
+    special.setdefault("lagrangian_init", 0.5)
+    special.setdefault("lagrangian_lr", 0.5)
+    special.setdefault("budget_episodes", 16)
+    special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
+    special.setdefault("budget_scale", 1.0)  # the budget is this fraction of energy_budget's joules
+    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.integral
+    special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
+    special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.history)
+    special.setdefault("noise_type", None)  # "normal" or "ornstein-uhlenbeck": TD3's action noise
+    special.setdefault("noise_std", 0.1)  # its standard deviation, in units of the action range [-1, 1]
+    if special["residual"] in (None, "none", "None", False):
+        special["residual"] = None
+    if special["obs_integral"] in (None, "none", "None", False):
+        special["obs_integral"] = None
+    if special["obs_history"] in (None, "none", "None", False, 0):
+        special["obs_history"] = None
+    return hp, special

@@ -1,0 +1,155 @@
+"""Reproducible tuning of the bang-bang and PID baselines on training scenarios only.
+
+Example::
+
+    python -m spine_gym.agents.tune --trials 60 --episodes 8 --seed 0      # writes hyperparams/baselines.yml
+    python -m spine_gym.agents.tune --env SmaSpine3D-v0 --controllers pid  # hyperparams/baselines_SmaSpine3D-v0.yml
+
+The objective is the mean tracking RMSE [deg; mm for the chain's tip position] over ``--episodes``
+episodes of the env (``--env``, default ``SmaSpine-v0``)
+drawn by the env's own samplers (random targets and loads) with reset seeds
+``TRAIN_SEED_BASE + i`` — the same distribution the RL agents train on, and disjoint from the
+evaluation suite's seeds (:data:`spine_gym.agents.scenarios.EVAL_SEED_BASE`). Optuna's TPE sampler is
+seeded, every trial sees the same episodes and the rollouts are deterministic, so the same
+command gives the same gains. Both controllers cut a wire whose temperature reaches the env's
+limit minus :data:`GUARD_MARGIN_K` (as in the evaluation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from spine_gym.envs import base_id
+
+from .common import ENV_ID, ENV_IDS, StoreDict
+from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
+from .runtime import build_controller, run_episode
+from .runtime import make_env as default_make_env
+
+__all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
+
+TRAIN_SEED_BASE = 1_000  # reset seeds of the tuning episodes: TRAIN_SEED_BASE + i (i < 10_000)
+
+
+def objective_value(env, ctrl, seeds: list[int]) -> float:
+    """Mean RMSE [deg] of ``ctrl`` over the training episodes ``seeds``."""
+    rmse = []
+    for s in seeds:
+        tr = run_episode(env, ctrl, seed=s)
+        rmse.append(np.sqrt(np.mean(tr.error**2)))
+    return float(np.mean(rmse))
+
+
+def tune(
+    kind: str,
+    *,
+    n_trials: int = 60,
+    n_episodes: int = 8,
+    seed: int = 0,
+    env_kwargs: dict | None = None,
+    make_env=None,
+    verbose: bool = True,
+    env_id: str = ENV_ID,
+) -> dict:
+    """Tune one baseline (``"pid"`` or ``"bang_bang"``) with seeded TPE; returns the record.
+
+    Args:
+        kind: which controller.
+        n_trials: Optuna trials, >= 1.
+        n_episodes: training episodes per trial, in [1, 10000].
+        seed: sampler seed (the episodes are always ``TRAIN_SEED_BASE + i``).
+        env_kwargs: env kwargs (default: the env's defaults).
+        make_env: env factory ``(env_kwargs) -> env`` (default :func:`spine_gym.agents.runtime.make_env` of ``env_id``).
+        verbose: print progress.
+        env_id: the env whose registry entry is tuned (``SmaSpine-v0`` or a spatial id).
+
+    Returns:
+        ``{"params": best settings, "train_rmse_deg": value, "n_trials", "n_episodes", "seed", ...}``.
+    """
+    import optuna
+
+    if kind not in tunable_for(env_id):
+        raise ValueError(f"kind must be one of {sorted(tunable_for(env_id))}, got {kind!r}")
+    if not 1 <= n_episodes <= 10_000:
+        raise ValueError(f"n_episodes must be in [1, 10000], got {n_episodes}")
+    if n_trials < 1:
+        raise ValueError(f"n_trials must be >= 1, got {n_trials}")
+    env = make_env(env_kwargs or {}) if make_env else default_make_env(env_kwargs or {}, env_id=env_id)
+    spec = get_spec(kind, env_id)
+    v_max = float(env.v_max)
+    seeds = [TRAIN_SEED_BASE + i for i in range(n_episodes)]
+
+    def objective(trial):
+        # built as runtime.build_controller builds it for the evaluation (same guard, same env)
+        ctrl = build_controller(kind, env, tuned={kind: spec.search_space(trial, v_max)})
+        return objective_value(env, ctrl, seeds)
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed))
+    # the hand-set start point is always tried
+    study.enqueue_trial(DEFAULT_TUNED_BY_ENV[base_id(env_id)][kind])
+    t0 = time.perf_counter()
+    for i in range(n_trials):
+        study.optimize(objective, n_trials=1)
+        if verbose and (i % 10 == 9 or i == n_trials - 1):
+            print(
+                f"  {kind}: {i + 1}/{n_trials} trials, best train RMSE {study.best_value:.3f} deg", flush=True
+            )
+    env.close()
+    return {
+        "params": {k: round(float(v), 6) for k, v in study.best_params.items()},
+        "train_rmse_deg": round(float(study.best_value), 4),
+        "n_trials": n_trials,
+        "n_episodes": n_episodes,
+        "episode_seeds": f"{seeds[0]}..{seeds[-1]}",
+        "sampler_seed": seed,
+        "env_id": env_id,
+        "env_kwargs": dict(env_kwargs or {}),
+        "wall_time_s": round(time.perf_counter() - t0, 1),
+    }
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.tune", description=__doc__.split("\n")[0])
+    p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
+    p.add_argument(
+        "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
+    )
+    p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
+    p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
+    p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
+    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, help="env kwargs key:value")
+    p.add_argument("-o", "--out", default=None, help="output YAML (default: the env's tuned file)")
+    args = p.parse_args(argv)
+    if args.controllers is None:
+        args.controllers = list(tunable_for(args.env))
+    bad = set(args.controllers) - set(tunable_for(args.env))
+    if bad:
+        p.error(f"--controllers {sorted(bad)}: choose from {list(tunable_for(args.env))} for {args.env}")
+    args.out = args.out or str(tuned_file(args.env))
+    command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
+    out = Path(args.out)
+    record = yaml.safe_load(out.read_text()) if out.exists() else {}
+    for kind in args.controllers:
+        rec = tune(
+            kind, n_trials=args.trials, n_episodes=args.episodes, seed=args.seed, env_id=args.env,
+            env_kwargs=args.env_kwargs,
+        )  # fmt: skip
+        rec["command"] = command
+        record[kind] = rec
+        print(f"{kind}: {rec['params']} (train RMSE {rec['train_rmse_deg']} deg)")
+    header = (
+        "# Tuned baseline settings, written by spine_gym/agents/tune.py (see its docstring); do not edit by hand.\n"
+    )
+    out.write_text(header + yaml.safe_dump(record, sort_keys=False))
+    return record
+
+
+if __name__ == "__main__":
+    main()
