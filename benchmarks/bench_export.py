@@ -47,7 +47,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from spine_gym.agents.evaluate import evaluate  # noqa: E402
-from spine_gym.agents.export import export_policy  # noqa: E402
+from spine_gym.agents.export import OneUlpUp, export_policy  # noqa: E402
 from spine_gym.agents.export_c import compile_driver  # noqa: E402
 from spine_gym.agents.numpy_policy import load_bundle  # noqa: E402
 from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env  # noqa: E402
@@ -153,20 +153,6 @@ def _network_inputs(runner, obs: np.ndarray) -> list[np.ndarray]:
             x = np.concatenate([x, m.features(mem)], axis=1).astype(np.float32)
         out.append(x)
     return out
-
-
-class OneUlpUp:
-    """A controller that passes observations moved up by one float32 ulp to ``policy``."""
-
-    def __init__(self, policy):
-        self.policy = policy
-
-    def reset(self):
-        self.policy.reset()
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        moved = np.nextafter(np.asarray(observation, np.float32), np.float32(np.inf))
-        return self.policy.predict(moved, state, episode_start, deterministic)
 
 
 def closed_loop(name: str, tmp: Path) -> list[dict]:

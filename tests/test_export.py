@@ -23,7 +23,7 @@ from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from spine_gym.agents.evaluate import evaluate
-from spine_gym.agents.export import UnsupportedPolicyError, export_policy, main
+from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
 from spine_gym.agents.export_c import compile_driver
 from spine_gym.agents.history import HistoryObsVecEnv, HistorySpec
 from spine_gym.agents.integral import IntegralObsVecEnv, IntegralSpec, integral_step
@@ -201,9 +201,10 @@ def _episode_rows(policy, runner, scenarios):
 
 def test_episodes_of_the_exported_shipped_ppo_reproduce_its_metrics(observations, tmp_path):
     """The quick suite (6 episodes) driven by the NumPy runner: the same RMSE and energy as the SB3
-    policy to 1e-5 relative. Not to the last digit: the runners' float32 sums differ from torch's
-    by ~1e-7, and the closed loop amplifies that (a 1-ulp change of the observation moves the SB3
-    policy's own metrics as much; docs/export.md)."""
+    policy, to 1e-5 relative or to twice what the SB3 policy itself moves when its observations
+    move by one float32 ulp, whichever is larger. Not to the last digit: the runners' float32 sums
+    differ from torch's by ~1e-7 (an order that depends on the CPU's vector units), and the closed
+    loop amplifies that as much as it amplifies the one-ulp move (docs/export.md)."""
     policy = load_policy(POLICIES / "ppo")
     export_policy(policy, tmp_path / "ppo")
     bundle = tmp_path / "ppo"
@@ -214,12 +215,17 @@ def test_episodes_of_the_exported_shipped_ppo_reproduce_its_metrics(observations
         c_runner(bundle, observations, tmp_path),
     ):
         assert np.max(np.abs(got - ref)) < TOL
-    rows, _ = _episode_rows(policy, load_bundle(bundle), get_suite("quick"))
-    assert len(rows) == 12
-    for a, b in zip(rows[:6], rows[6:], strict=True):
-        assert (a["controller"], b["controller"], a["scenario"]) == ("sb3", "exported", b["scenario"])
-        assert b["rmse_deg"] == pytest.approx(a["rmse_deg"], rel=1e-5)
-        assert b["energy_J"] == pytest.approx(a["energy_J"], rel=1e-5)
+    ctrls = {"sb3": policy, "exported": load_bundle(bundle), "sb3_1ulp": OneUlpUp(policy)}
+    kw = evaluation_env_kwargs(policy.env_kwargs)
+    rows, _ = evaluate(ctrls, get_suite("quick"), {k: kw for k in ctrls})
+    by = {(r["controller"], r["scenario"]): r for r in rows}
+    scenarios = sorted({r["scenario"] for r in rows})
+    assert len(rows) == 18 and len(scenarios) == 6
+    for sc in scenarios:
+        for m in ("rmse_deg", "energy_J"):
+            sb3, exported, moved = (by[(k, sc)][m] for k in ("sb3", "exported", "sb3_1ulp"))
+            tol = max(1e-5, 2.0 * abs(moved / sb3 - 1.0))
+            assert abs(exported / sb3 - 1.0) <= tol, (sc, m, exported, sb3, moved)
 
 
 class _Recorder:

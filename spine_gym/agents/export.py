@@ -329,6 +329,22 @@ def export_policy(policy, out: str | Path, source: str = "") -> dict[str, Path]:
     return paths
 
 
+class OneUlpUp:
+    """A controller that passes observations moved up by one float32 ulp to ``policy``: the yardstick
+    of a closed loop's own sensitivity to rounding, against which an exported policy's episode
+    metrics are compared (an export cannot be held to more than the loop itself gives)."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def reset(self):
+        self.policy.reset()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        moved = np.nextafter(np.asarray(observation, np.float32), np.float32(np.inf))
+        return self.policy.predict(moved, state, episode_start, deterministic)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m spine_gym.agents.export", description=__doc__.split("\n")[0])
     p.add_argument(
