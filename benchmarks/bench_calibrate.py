@@ -1,6 +1,6 @@
 """Benchmark: wall time of a calibration fit, serial vs parallel candidate simulation.
 
-The fit of issue 13's benchmark: 2 synthetic experiments × 60 s (sampled at 0.1 s; angle and both
+The benchmark fit: 2 synthetic experiments × 60 s (sampled at 0.1 s; angle and both
 wire temperatures measured, 0.5° / 1 K noise) made by a perturbed model (convection ×1.2, tube
 modulus ×0.85, transformation temperatures +5 K), 4 fitted parameters (alpha, E_t, T_shift,
 lam_A) from the MODEL.md §7 baseline, default fit settings (CMA-ES + 2 least-squares starts).

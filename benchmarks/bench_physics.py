@@ -16,7 +16,7 @@ Measured in one process, interleaved round-robin so that machine load hits every
 * ``dense_h*``  — the default with another ``dense_h_max`` (0.1 s, 0.02 s, inf: only tol_x limits
   the sub-steps across outputs): the accuracy/speed trade-off of the cap;
 * ``frozen``    — ``SolverOptions(scheme="frozen")``: the default before the coupled step, MODEL.md
-  §6.1 as written (rates frozen over a sub-step, r·h <= c = 0.01): the "before" of issue 11;
+  §6.1 as written (rates frozen over a sub-step, r·h <= c = 0.01): the slow reference scheme;
 * ``illinois``  — ``SolverOptions(method="illinois")`` (bracketed regula falsi);
 * ``bisect``    — ``SolverOptions(method="bisect")``, the seed's algorithm (MODEL.md §5.2);
 * ``reference`` — :data:`spine_gym.params.FINE_REFERENCE`: frozen rates, fixed 0.1-ms sub-steps (§6.2).
@@ -37,7 +37,7 @@ each with the default (coupled, MODEL.md §6.5, dense output) step, stepped to e
 * ``chain``    — :meth:`SpineLayout.chain` (two four-wire modules, 8 wires), wire 0 of the lower and
   wire 1 of the upper module at the drive scaled to their wire length (3.2 V × 0.5): a 3-D bend.
 
-Each is printed beside issue 11's target (≤ 2× and ≤ 4× the planar default), split into the
+Each is printed beside its target (≤ 2× and ≤ 4× the planar default), split into the
 sub-step count ratio × the cost-per-sub-step ratio, with its error against the spatial fine-step
 reference on the same layout (FINE_REFERENCE, run once, not timed): the maximum over the run of
 |tip bending vector − reference| [deg].

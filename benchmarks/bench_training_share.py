@@ -1,5 +1,5 @@
 """Benchmark: the environment's share of PPO training, the env layer's cost over the bare kernel,
-and 1 → 2 numba threads. One command prints all three against the issue's targets.
+and 1 → 2 numba threads. One command prints all three against their targets.
 
 1. **Env share of PPO training** (target ≤ 10 %). The shipped PPO configuration
    (``spine_gym/agents/hyperparams/ppo.yml``: 8 native envs, ``n_steps`` 256, 10 epochs of minibatch 256,
@@ -481,7 +481,7 @@ def plot(res: dict, path: Path) -> None:
     ax3.grid(True, which="both", alpha=0.3)
     la = res["machine"]["load_average_start"][0]
     fig.suptitle(
-        f"issue 11 env targets ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)"
+        f"env targets ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)"
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -1,5 +1,5 @@
 """SHA-256 digests of seeded rollouts of every env id: run on two commits to show a change of the
-env layer changed no number (issue 11's step buffers: the 12 digests below were equal before and
+env layer changed no number (the 12 digests below must be equal before and
 after).
 
 For each id: the single env (with resets), the vector env in ``NEXT_STEP`` and ``SAME_STEP`` mode

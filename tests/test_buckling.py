@@ -185,7 +185,7 @@ def test_just_below_and_above_the_critical_load_with_and_without_a_nudge(wires):
 
 
 def test_far_past_buckling_is_reported_not_held_straight():
-    # the reproduction: 50 N used to come back straight and OK
+    # 50 N down on a straight spine must not come back straight and OK
     with pytest.raises(SimulationError, match="buckling") as exc:
         simulate(2.0, 0.0, 0.0, tip_force=(0.0, -50.0))
     assert exc.value.status == L.ERR_BUCKLING and exc.value.time == 0.0

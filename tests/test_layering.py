@@ -84,7 +84,7 @@ def test_the_agents_registry_pulls_in_no_rl_stack():
 
 
 def test_the_envs_controllers_and_simulate_import_no_rl_or_design_stack():
-    """Issue 12: ``pip install spine_gym`` (no extras) is enough for the simulator and the envs."""
+    """``pip install spine_gym`` (no extras) is enough for the simulator and the envs."""
     code = (
         "import sys, numpy as np, gymnasium as gym, spine_gym, spine_gym.envs, spine_gym.controllers;"
         "env = gym.make('SmaSpine-v0'); env.reset(seed=0); env.step(np.zeros(2));"
@@ -102,9 +102,9 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
     names = {re.split(r"[<>=\[ ;]", d, maxsplit=1)[0].lower() for d in meta["dependencies"]}
     assert names == {"numpy", "numba", "gymnasium", "matplotlib", "tqdm", "rich", "pyyaml"}
     extras = meta["optional-dependencies"]
-    assert {"rl", "design", "calibrate", "video", "rllib", "export", "datasets", "test", "all"} <= set(extras)
+    assert {"rl", "design", "calibrate", "video", "rllib", "export", "datasets", "test", "docs", "all"} <= set(extras)
     assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
-    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,datasets,test]"]
+    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,datasets,test,docs]"]
 
 
 def test_exported_policy_runner_and_c_writer_import_only_numpy_and_the_standard_library():

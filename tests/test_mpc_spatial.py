@@ -1,4 +1,4 @@
-"""MPPI on the spatial envs (issue 10 on ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``): the batched
+"""MPPI on the spatial envs (``SmaSpine3D-v0`` and ``SmaSpineChain-v0``): the batched
 spatial rollout kernel, the per-wire phase-fraction estimator and the controller."""
 
 import gymnasium as gym

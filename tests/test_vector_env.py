@@ -314,7 +314,7 @@ def test_same_step_with_all_envs_done_has_the_sync_vector_env_keys():
 
 
 def test_reset_seed_is_recorded_as_gymnasium_vector_envs_do():
-    """Issue 12: ``np_random_seed`` is the int seed of the reset (as CartPole's native vector env);
+    """``np_random_seed`` is the int seed of the reset (as CartPole's native vector env);
     per sub-env seeds and generators via get_attr equal SyncVectorEnv's."""
     native = gym.make_vec("SmaSpine-v0", num_envs=3)
     cartpole = gym.make_vec("CartPole-v1", num_envs=3, vectorization_mode="vector_entry_point")

@@ -14,7 +14,7 @@ than the tuned PID* is only found by trial. Here the energy term becomes a Lagra
 with Ē the mean energy of the episodes finished in the last rollouts: the last ``window`` of them,
 or (``window = 0``) only those finished since the previous dual step. A long window lags: from a
 random initial policy the mean stayed ~1.75 × the budget for ~20 rollouts while λ climbed to its
-cap (a run of this session), and then needs as long to come down; ``window = 0`` reacts at once. The budget is the tuned PID's
+cap (as measured in a budgeted run), and then needs as long to come down; ``window = 0`` reacts at once. The budget is the tuned PID's
 mean episode energy on the training distribution (validation reset seeds, never the evaluation
 suite): :func:`spine_gym.agents.runtime.validation_scores`.
 

@@ -140,7 +140,7 @@ def _disturbance(k: int, duration: float) -> tuple[float, tuple[tuple[float, flo
     return payload, tuple(pulses)
 
 
-HARD_PAYLOAD_KG = (0.05, 0.09)  # [kg]; the issue asked for up to 0.15 kg, which buckles the tube (see below)
+HARD_PAYLOAD_KG = (0.05, 0.09)  # [kg]; 0.15 kg would buckle the tube (see below)
 HARD_PUSH_N = (0.3, 1.0)  # [N] magnitude of each tip push
 HARD_TILT_DEG = 20.0  # [deg] largest tilt of a push from the horizontal (up or down)
 HARD_PUSHES = 3
