@@ -20,12 +20,14 @@ blocks' env steps per wall second, and the process's CPU time per env step (all 
 OpenMP workers show up here). Then a **trace**: the default env at N = ``--trace`` (64) runs on
 without a break for four ``--segment`` (3 s) segments, quiet, busy, quiet, busy (load that starts
 and stops mid-run): its rate and the share of its steps on the parallel kernel per segment.
-Writes ``benchmarks/results/contention<tag>.json`` and ``.png``.
+Writes ``benchmarks/results/contention<tag>.json`` and ``.png``; the committed results are tagged
+``_quiet`` (an idle machine), ``_busy`` (one other CPU-bound job running throughout) and
+``_busy_spin`` (the same with the second command).
 
-    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py [--sizes 8 64 256] [--repeats 7]
-    GOMP_SPINCOUNT=300000 PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py --tag _spin
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py [--sizes 8 64 256] [--repeats 7] [--tag _busy]
+    GOMP_SPINCOUNT=300000 PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py --tag _busy_spin
 
-The env starts numba's threads with sleeping OpenMP workers (:func:`spine_gym.physics._jit.
+The env starts numba's threads with sleeping OpenMP workers (:func:`spine_gym.envs._kernel_choice.
 launch_threads`) unless ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set; the second command keeps
 libgomp's default (idle workers spin up to 300 000 rounds after each parallel loop, as in a process
 where libgomp was loaded before the env started numba's threads) and so shows the online kernel
