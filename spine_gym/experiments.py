@@ -13,8 +13,9 @@ experiment errors of 3.57° (hysteresis) and 4.94° (alternate drive), which are
 
 Command line::
 
-    python -m spine_gym.experiments [--out DIR] [--quick] [--method newton|illinois|bisect]
-                                    [--strict] [--no-progress]
+    python -m spine_gym.experiments [-o/--out DIR] [--quick] [--method newton|illinois|bisect]
+                                    [--strict] [--progress/--no-progress]
+    spine-gym reproduce ...         # the same command
 
 It shows progress (tqdm, on stderr), prints the comparison tables (markdown) and writes to ``DIR``
 (default ``runs/experiments``): ``reproduction.md`` (the tables), ``reproduction.json`` (every
@@ -43,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from .capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
+from .cli_conventions import Parser, add_out, add_progress
 from .params import ModelParams, SolverOptions
 from .simulate import SimulationResult, simulate
 
@@ -641,17 +643,22 @@ def _reference_metrics(case: str) -> dict[str, float]:
 
 
 # ------------------------------------------------------------------------------------- CLI
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m spine_gym.experiments``: run, print the tables, write files; exit code 0.
+EXAMPLES = (
+    "spine-gym reproduce                           # every experiment, tables and plots in runs/experiments",
+    "spine-gym reproduce --quick -o /tmp/repro --no-progress",
+    "spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off",
+)
 
-    With ``--strict`` the exit code is 1 when any row is outside its tolerance.
-    """
-    ap = argparse.ArgumentParser(
-        prog="python -m spine_gym.experiments",
+
+def build_parser(prog: str = "python -m spine_gym.experiments") -> argparse.ArgumentParser:
+    """The command line of :func:`main` (``spine-gym reproduce``)."""
+    ap = Parser(
+        prog=prog,
         description="Reproduce the seed paper's experiments (MODEL.md §10.2-§10.4) and compare with "
         "the reference solution values of MODEL.md §10.",
+        examples=EXAMPLES,
     )
-    ap.add_argument("--out", default="runs/experiments", help="output folder (default: %(default)s)")
+    add_out(ap, default="runs/experiments")
     ap.add_argument(
         "--quick",
         action="store_true",
@@ -664,15 +671,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="composite solver (default: %(default)s; 'bisect' is the seed's algorithm)",
     )
     ap.add_argument("--no-plots", action="store_true", help="write tables and CSVs only")
-    ap.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_progress(ap)
     ap.add_argument("--strict", action="store_true", help="exit with 1 if any row is outside tolerance")
+    return ap
+
+
+def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.experiments") -> int:
+    """``python -m spine_gym.experiments`` (``spine-gym reproduce``): run, print the tables, write
+    files; exit code 0.
+
+    With ``--strict`` the exit code is 1 when any row is outside its tolerance; a usage error exits
+    with 2 (one line on stderr) before any work.
+    """
+    ap = build_parser(prog)
     args = ap.parse_args(argv)
     try:
         rep = reproduce(
             args.out,
             quick=args.quick,
             solver=SolverOptions(method=args.method),
-            progress=not args.no_progress,
+            progress=args.progress,
             plots=not args.no_plots,
         )
     except ValueError as e:

@@ -107,7 +107,7 @@ def test_overwrite_replaces_the_dataset(data_path, monkeypatch):
 @pytest.mark.parametrize(
     ("argv", "word"),
     [
-        (["--env", "SmaSpine-v9", "--controller", "pid", "--episodes", "1"], "env_id"),
+        (["--env", "SmaSpine-v9", "--controller", "pid", "--episodes", "1"], "env id"),
         (["--env", "SmaSpine-v1", "--controller", "pid", "--episodes", "0"], "episodes"),
         (["--env", "SmaSpine-v1", "--controller", "pid", "--episodes", "1", "--seed-base", "5"], "seed_base"),
         (
@@ -127,7 +127,7 @@ def test_overwrite_replaces_the_dataset(data_path, monkeypatch):
         (["--env", "SmaSpine-v1", "--controller", "no/such/folder", "--episodes", "1"], "does not exist"),
         (
             ["--env", "SmaSpine-v1", "--controller", "pid", "--episodes", "1", "--env-kwargs", "bogus:1"],
-            "env_kwargs",
+            "env-kwargs",
         ),
         (["--env", "SmaSpine-v1", "SmaSpine-v1", "--controller", "pid", "--episodes", "1"], "twice"),
         (["--env", "SmaSpine-v1", "--controller", "pid", "--episodes", "x"], "invalid int"),

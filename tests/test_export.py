@@ -303,7 +303,7 @@ def test_unsupported_policies_are_refused_before_writing(observations, tmp_path,
         export_policy(load_policy(POLICIES / "ppo_3d"), out)
     assert not out.exists()
     assert main([str(POLICIES / "ppo_3d"), "-o", str(out)]) == 2
-    assert "error: exporting a residual policy is not supported" in capsys.readouterr().out
+    assert "error: exporting a residual policy is not supported" in capsys.readouterr().err
     venv = _vec_env()
     elu = PPO(
         "MlpPolicy",

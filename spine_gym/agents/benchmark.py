@@ -1,6 +1,6 @@
 """Benchmark RL algorithms on the spine envs at fixed step budgets, against the tuned PID and the MPC.
 
-Example::
+Example (``spine-gym benchmark`` is the same command)::
 
     python -m spine_gym.agents.benchmark --workers 2                 # every algorithm on the default env ids
     python -m spine_gym.agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
@@ -74,10 +74,20 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.utils import set_random_seed
 from tqdm import tqdm
 
+from spine_gym.cli_conventions import (
+    ENV_IDS,
+    Parser,
+    add_env_kwargs,
+    add_out,
+    add_progress,
+    add_workers,
+    check_env_kwargs,
+)
+from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
 
 from . import benchmark_stats as stats
-from .common import ALGOS, StoreDict
+from .common import ALGOS
 from .evaluate import write_csv
 from .registry import registry_for
 from .runtime import (
@@ -505,22 +515,26 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 
 
 # --------------------------------------------------------------------------- CLI
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit status 2)."""
+EXAMPLES = (
+    "spine-gym benchmark --workers 2                  # every algorithm on the default env ids",
+    "spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI",
+    "spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000",
+    "spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster",
+)
 
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message}\n")
 
-
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="python -m spine_gym.agents.benchmark", description=__doc__.split("\n")[0])
+def build_parser(prog: str = "python -m spine_gym.agents.benchmark") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
     p.add_argument(
         "--envs",
+        "--env",
         nargs="+",
+        type=env_id_type,
+        choices=ENV_IDS,
         default=None,
         metavar="ID",
-        help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two)",
+        help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two); any of: {', '.join(ENV_IDS)}",
     )
     p.add_argument(
         "--n-seeds",
@@ -558,24 +572,23 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="validation episodes of the MPC references, the first of the PID's (default 5)",
     )
-    p.add_argument(
-        "--env-kwargs",
-        nargs="+",
-        action=StoreDict,
-        default=None,
-        help="env kwargs key:value of training and validation (--quick: episode_duration:3.0)",
-    )
+    add_env_kwargs(
+        p,
+        help="env kwargs key=value (key:value also accepted) of training and validation "
+        "(default: none; --quick: episode_duration=3.0)",
+    )  # fmt: skip
     p.add_argument(
         "--bootstrap-reps", type=int, default=None, help="bootstrap resamples per CI (default 2000)"
     )
-    p.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
+    add_workers(p, help="runs in parallel processes")
     p.add_argument(
         "--address",
         default=None,
         help="farm the runs out to a Ray cluster, one per task: 'auto', HOST:PORT, ray://HOST:PORT, or "
         "'local' (a Ray instance started here with --workers CPUs); needs Ray",
     )
-    p.add_argument("-o", "--out", default="results/benchmark", help="output folder (default: %(default)s)")
+    add_out(p, default="results/benchmark")
+    add_progress(p)
     p.add_argument("--quick", action="store_true", help="toy sizes: every code path in under 2 minutes")
     p.add_argument(
         "--report-only",
@@ -690,6 +703,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
         missing = [r for r in references if r not in table]
         if missing:
             raise ValueError(f"unknown reference(s) {missing} for {env_id}; choose from {sorted(table)}")
+        check_env_kwargs(env_id, task_kwargs)
         try:
             probe = make_env(task_kwargs, env_id=env_id)
         except TypeError as e:
@@ -732,10 +746,11 @@ def check_finished(specs: list[RunSpec], out: Path) -> None:
                 )
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    """Run the CLI; returns the summary rows of the table."""
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> list[dict]:
+    """Run the CLI; returns the summary rows of the table. Usage errors exit with status 2 before any
+    folder is made."""
     t_start = time.perf_counter()
-    parser = build_parser()
+    parser = build_parser(prog)
     args = parser.parse_args(argv)
     out = Path(args.out)
     try:
@@ -763,7 +778,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     print(f"{len(plan.specs)} runs, {len(plan.specs) - len(pending)} finished before (skipped), "
           f"{len(pending)} to run {where}", flush=True)  # fmt: skip
     failed = []
-    with tqdm(total=len(pending), desc="runs", unit="run", disable=not pending) as bar:
+    with tqdm(total=len(pending), desc="runs", unit="run", disable=not (pending and args.progress)) as bar:
         for spec, record, error in execute(pending, out, args.workers, args.address if pending else None):
             bar.update(1)
             if record is None:

@@ -3,20 +3,20 @@
 * Hyperparameter files in RL Zoo's format (``spine_gym/agents/hyperparams/{algo}.yml`` keyed by env id):
   :func:`load_hyperparams` (with ``lin_<x>`` schedules, ``normalize`` as bool or dict string and
   ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them).
-* ``--env-kwargs``/``--hyperparams`` ``key:value`` parsing (:class:`StoreDict`).
+* ``--env-kwargs``/``--hyperparams`` ``key=value`` (or RL Zoo's ``key:value``) parsing (:class:`StoreDict`,
+  :class:`spine_gym.cli_conventions.KeyValues`).
 
 Loading saved policies, building controllers and running episodes live in :mod:`spine_gym.agents.runtime`.
 """
 
 from __future__ import annotations
 
-import argparse
 import ast
 from pathlib import Path
-from typing import Any
 
 import yaml
 
+from spine_gym.cli_conventions import KeyValues, parse_value  # noqa: F401 - parse_value re-exported
 from spine_gym.envs import ENV_SPECS
 
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
@@ -69,25 +69,8 @@ def algo_class(algo: str) -> type:
     return getattr(stable_baselines3, algo.upper())
 
 
-def parse_value(text: str) -> Any:
-    """A ``key:value`` value: a Python literal if it parses as one, else the string itself."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text
-
-
-class StoreDict(argparse.Action):
-    """argparse action that turns ``key1:value1 key2:value2`` into a dict (RL Zoo's syntax)."""
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        out = {}
-        for item in values:
-            if ":" not in item:
-                raise argparse.ArgumentError(self, f"expected key:value, got {item!r}")
-            key, value = item.split(":", 1)
-            out[key] = parse_value(value)
-        setattr(namespace, self.dest, out)
+#: the ``key=value``/``key:value`` argparse action (its older name)
+StoreDict = KeyValues
 
 
 def linear_schedule(initial: float):

@@ -1,6 +1,6 @@
 """Demonstration datasets in Minari's format: a controller's episodes on a spine_gym env.
 
-Example::
+Example (``spine-gym datasets`` is the same command)::
 
     python -m spine_gym.agents.datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20
     python -m spine_gym.agents.datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 \\
@@ -45,9 +45,18 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
+from spine_gym.cli_conventions import (
+    ENV_IDS,
+    Parser,
+    add_env,
+    add_env_kwargs,
+    add_out,
+    add_progress,
+    check_env_kwargs,
+    first_line,
+)
 from spine_gym.envs import ENV_SPECS, tier_of
 
-from .common import StoreDict
 from .metrics import episode_metrics
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 from .runtime import (
@@ -310,58 +319,67 @@ def datasets_path(path: str | Path | None):
             os.environ["MINARI_DATASETS_PATH"] = old
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, exit 2 (argparse's code)
-        self.exit(2, f"{self.prog}: error: {message}\n")
+EXAMPLES = (
+    "spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20",
+    "spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0",
+    "spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari",
+)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="python -m spine_gym.agents.datasets", description=__doc__.split("\n")[0])
-    p.add_argument("--env", nargs="+", required=True, help="env id(s): one dataset each")
+def build_parser(prog: str = "python -m spine_gym.agents.datasets") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    add_env(p, nargs="+", required=True, help="env id(s), one dataset each; any of: " + ", ".join(ENV_IDS))
     p.add_argument(
         "--controller", required=True, help="registry name (pid, mpc_oracle, ...) or policy folder"
     )
     p.add_argument(
         "--episodes", type=int, required=True, help=f"episodes per dataset (1..{MAX_DATASET_EPISODES})"
     )
-    p.add_argument("--env-kwargs", nargs="*", action=StoreDict, default={}, help="env kwargs key:value")
+    add_env_kwargs(p, nargs="*")
     p.add_argument(
         "--seed-base", type=int, default=DATASET_SEED_BASE, help="first reset seed (default: %(default)s)"
     )
     p.add_argument("--version", type=int, default=0, help="the dataset id's version (default: %(default)s)")
-    p.add_argument(
-        "--data-path", default=None, help="data directory (default: MINARI_DATASETS_PATH or ~/.minari)"
-    )
+    add_out(
+        p, "--data-path", dest="data_path",
+        help="Minari data directory (default: MINARI_DATASETS_PATH, else ~/.minari/datasets)",
+    )  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace an existing dataset of the same id")
     p.add_argument("--no-infos", action="store_true", help="do not record the env's info dicts")
+    add_progress(p)
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.datasets") -> int:
+    """Run the CLI; exit status 0, or 2 (one line on stderr) on a bad argument, before anything is
+    recorded or written."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(prog)
     try:
-        args = build_parser().parse_args(argv)
+        args = parser.parse_args(argv)
     except SystemExit as e:  # argparse's exit (2 on a bad argument, 0 after --help)
         return int(e.code or 0)
     command = "python -m spine_gym.agents.datasets " + " ".join(shlex.quote(a) for a in argv)
     if args.data_path is not None and Path(args.data_path).exists() and not Path(args.data_path).is_dir():
-        print(f"error: --data-path {args.data_path} is not a directory", file=sys.stderr)
+        print(f"{parser.prog}: error: --out/--data-path {args.data_path} is not a directory", file=sys.stderr)
         return 2
     if len(set(args.env)) != len(args.env):
-        print(f"error: --env names an id twice: {args.env}", file=sys.stderr)
+        print(f"{parser.prog}: error: --env names an id twice: {args.env}", file=sys.stderr)
         return 2
     with datasets_path(args.data_path):
         try:
+            for e in args.env:
+                check_env_kwargs(e, args.env_kwargs)
             plans = [
                 plan(e, args.controller, args.episodes, env_kwargs=args.env_kwargs,
                      seed_base=args.seed_base, version=args.version, overwrite=args.overwrite)
                 for e in args.env
             ]  # fmt: skip
         except ValueError as e:
-            print(f"error: {e}", file=sys.stderr)
+            print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)
             return 2
         for p in plans:
-            ds = record(p, record_infos=not args.no_infos, command=command)
+            ds = record(p, record_infos=not args.no_infos, progress=args.progress, command=command)
             meta = load_metadata(ds)
             print(
                 f"{p.dataset_id}: {ds.total_episodes} episodes, {ds.total_steps} steps, "

@@ -1,6 +1,6 @@
 """Export a trained SB3 policy so that it runs without Python's torch: ONNX, NumPy and C.
 
-Example::
+Example (``spine-gym export`` is the same command)::
 
     python -m spine_gym.agents.export spine_gym/agents/policies/ppo -o exported/ppo
 
@@ -41,6 +41,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +54,7 @@ from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
 import spine_gym
+from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
 
 from .common import ENV_ID
 from .export_c import write_c
@@ -345,21 +347,31 @@ class OneUlpUp:
         return self.policy.predict(moved, state, episode_start, deterministic)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.export", description=__doc__.split("\n")[0])
+EXAMPLES = (
+    "spine-gym export spine_gym/agents/policies/ppo -o exported/ppo",
+    "spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best",
+)
+
+
+def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument(
         "policy", help="a policy folder (model.zip + vecnormalize.pkl + meta.json) or a model .zip"
     )
-    p.add_argument("-o", "--out", required=True, help="output folder (created)")
+    add_out(p, required=True, help="output folder (created)")
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.export") -> int:
+    """Run the CLI; exit status 0, or 2 (one line on stderr) for a missing or unsupported policy,
+    before anything is written."""
+    parser = build_parser(prog)
+    args = parser.parse_args(argv)
     try:
+        check_file(args.policy, "policy")
         paths = export_policy(load_policy(args.policy), args.out, source=args.policy)
-    except UnsupportedPolicyError as e:
-        print(f"error: {e}")
+    except ValueError as e:  # UnsupportedPolicyError is one
+        print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)
         return 2
     for kind, path in paths.items():
         print(f"{kind:5s} {path}")

@@ -1,11 +1,15 @@
 """Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...).
 
-RL-Zoo-style CLI.
+RL-Zoo-style CLI (``spine-gym train``; the conventions of :mod:`spine_gym.cli_conventions`).
 
 Example::
 
+    spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
     python -m spine_gym.agents.train --algo ppo -n 300000 --seed 1 --n-envs 8 -f logs \\
         --env-kwargs episode_duration:60.0
+
+Every argument is checked before the run folder is made (the env id, the env kwargs by building one
+env, the hyperparameter keys, the files to read): a bad one is a one-line usage error, exit status 2.
 
 Hyperparameters come from ``spine_gym/agents/hyperparams/{algo}.yml`` (entry keyed by the env id, RL Zoo's
 format: ``n_envs``, ``n_timesteps``, ``policy``, ``normalize``, ``policy_kwargs`` as a
@@ -67,6 +71,7 @@ settings go into ``meta.json``, so :func:`spine_gym.agents.runtime.load_policy` 
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import shlex
@@ -83,6 +88,19 @@ from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckA
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
+from spine_gym.cli_conventions import (
+    Parser,
+    add_env,
+    add_env_kwargs,
+    add_out,
+    add_progress,
+    add_workers,
+    check_env_kwargs,
+    check_file,
+    check_keys,
+    first_line,
+)
+
 from .checkpoints import (
     RunCheckpointCallback,
     checkpoint_steps,
@@ -96,6 +114,7 @@ from .common import (
     ALGOS,
     ENV_ID,
     OFF_POLICY,
+    SPECIAL_KEYS,
     StoreDict,
     algo_class,
     load_hyperparams,
@@ -116,19 +135,28 @@ from .runtime import (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.train", description=__doc__.split("\n")[0])
+EXAMPLES = (
+    "spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0",
+    "spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256",
+    "spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint",
+    "python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f",
+)
+
+
+def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
-    p.add_argument("--env", default=ENV_ID, help="environment id (default: %(default)s)")
+    add_env(p, default=ENV_ID)
     p.add_argument(
         "-n", "--n-timesteps", type=int, default=-1, help="training steps (default: from the YAML)"
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (env sampling, network init)")
     p.add_argument("--n-envs", type=int, default=-1, help="parallel sub-envs (default: from the YAML)")
-    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, help="env kwargs key:value")
+    add_env_kwargs(p)
     p.add_argument(
-        "-params", "--hyperparams", nargs="+", action=StoreDict, default={}, help="override key:value"
-    )
+        "-params", "--hyperparams", nargs="+", action=StoreDict, default={}, metavar="KEY=VALUE",
+        help="override hyperparameters of the YAML entry, key=value (key:value also accepted)",
+    )  # fmt: skip
     p.add_argument(
         "-conf",
         "--conf-file",
@@ -136,7 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="hyperparameter YAML (default: spine_gym/agents/hyperparams/<algo>.yml)",
     )
-    p.add_argument("-f", "--log-folder", type=str, default="logs", help="log folder (default: %(default)s)")
+    add_out(
+        p, "-f", "--log-folder", dest="log_folder", default="logs",
+        help="output folder: runs go to <out>/<algo>/<env id>_<k>/ (-f/--log-folder: RL Zoo's name)",
+    )  # fmt: skip
     p.add_argument(
         "-i",
         "--trained-agent",
@@ -159,11 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--vec-env", choices=("native", "dummy"), default="native", help="vector env implementation"
     )
-    p.add_argument("-P", "--progress", action="store_true", help="show a progress bar")
+    add_progress(p, "-P", default=False)
     p.add_argument("--no-tensorboard", action="store_true", help="do not write TensorBoard logs")
-    p.add_argument(
-        "--torch-threads", type=int, default=1, help="torch intra-op threads (default: %(default)s)"
-    )
+    add_workers(p, "--torch-threads", dest="torch_threads", help="torch intra-op threads")
     p.add_argument("--device", default="cpu", help="torch device (default: %(default)s)")
     p.add_argument("-v", "--verbose", type=int, default=1, help="verbosity 0/1/2")
     return p
@@ -204,34 +233,79 @@ def _resume_target(path: Path) -> tuple[Path, Path]:
     if path.is_dir():
         run, ckpt = path, latest_checkpoint(path)
         if ckpt is None:
-            raise SystemExit(f"--resume: no checkpoint in {path / 'checkpoints'} to resume from")
+            raise ValueError(f"--resume: no checkpoint in {path / 'checkpoints'} to resume from")
     elif checkpoint_steps(path) is not None and path.parent.name == "checkpoints" and path.exists():
         run, ckpt = path.parent.parent, path
     else:
-        raise SystemExit(
+        raise ValueError(
             f"--resume must be a run folder or its checkpoints/rl_model_<n>_steps.zip, got {path}"
         )
     if not (run / "command.txt").exists() or not (run / "meta.json").exists():
-        raise SystemExit(f"--resume: {run} is not a run folder of spine_gym.agents.train (no command.txt / meta.json)")
+        raise ValueError(f"--resume: {run} is not a run folder of spine_gym.agents.train (no command.txt / meta.json)")
     return run, ckpt
 
 
-def _parse(argv: list[str] | None):
-    """(arguments, argv, resume target or None). With ``--resume`` the run's first command line
-    comes first and this one's flags after it, so they override."""
-    parser = build_parser()
+def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train"):
+    """(arguments, argv, resume target or None, run config). With ``--resume`` the run's first command
+    line comes first and this one's flags after it, so they override. Every argument is checked here,
+    before a run folder exists: a bad one is a one-line usage error (exit status 2)."""
+    parser = build_parser(prog)
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     resume = None
-    if args.resume:
-        if args.trained_agent:
-            parser.error("--resume continues a run from its own checkpoint: drop -i")
-        resume = _resume_target(Path(args.resume))
-        first = shlex.split((resume[0] / "command.txt").read_text().splitlines()[0])
-        args = parser.parse_args([*first[3:], *argv])  # first[:3]: python -m spine_gym.agents.train
-    if args.algo is None:
-        parser.error("--algo is required (or --resume RUN)")
-    return args, argv, resume
+    try:
+        if args.resume:
+            if args.trained_agent:
+                raise ValueError("--resume continues a run from its own checkpoint: drop -i")
+            resume = _resume_target(Path(args.resume))
+            first = shlex.split((resume[0] / "command.txt").read_text().splitlines()[0])
+            args = parser.parse_args([*first[3:], *argv])  # first[:3]: python -m spine_gym.agents.train
+        if args.algo is None:
+            raise ValueError("--algo is required (or --resume RUN)")
+        cfg = _checked_config(args, str(resume[1]) if resume else args.trained_agent)
+    except ValueError as e:
+        parser.error(str(e))
+    return args, argv, resume, cfg
+
+
+_SET_BY_FLAGS = ("env", "seed", "device", "verbose", "tensorboard_log")  # arguments of the algorithm
+
+
+def hyperparameter_keys(algo: str) -> set[str]:
+    """The keys a hyperparameter entry of ``algo`` may hold: the arguments of the algorithm's class
+    (but those that :func:`build_model` sets from flags) and :data:`~spine_gym.agents.common.SPECIAL_KEYS`."""
+    own = set(inspect.signature(algo_class(algo)).parameters) - set(_SET_BY_FLAGS)
+    return {k for k in own if not k.startswith("_")} | set(SPECIAL_KEYS)
+
+
+def _checked_config(args, checkpoint: str) -> RunConfig:
+    """The run's configuration, with every argument checked (ValueError, one line): step counts,
+    the files to read (``checkpoint``: the model to start from), the hyperparameter keys and
+    values, and the env kwargs (one env is built)."""
+    for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
+        if v == 0 or v < -1:
+            raise ValueError(f"{name} must be a positive integer, got {v}")
+    if args.trained_agent:
+        check_file(args.trained_agent, "-i/--trained-agent")
+    if args.conf_file:
+        check_file(args.conf_file, "-conf/--conf-file")
+    check_keys(args.hyperparams, hyperparameter_keys(args.algo), "-params/--hyperparams")
+    try:
+        cfg = resolve_config(
+            args.algo,
+            args.env,
+            n_envs=args.n_envs,
+            n_timesteps=args.n_timesteps,
+            hyperparams=args.hyperparams,
+            env_kwargs=args.env_kwargs,
+            conf_file=args.conf_file,
+        )
+    except (ValueError, TypeError, SyntaxError, NameError) as e:
+        raise ValueError(f"hyperparameters of {args.algo} on {args.env}: {first_line(e)}") from None
+    check_env_kwargs(args.env, cfg.env_kwargs)
+    if checkpoint and cfg.special["normalize"] is not None:
+        _checkpoint_vecnormalize(Path(checkpoint))
+    return cfg
 
 
 @dataclass
@@ -544,25 +618,13 @@ def _eval_callback(args, run: Path, eval_env, normalized: bool, n_envs: int, res
     return evaluation
 
 
-def train(argv: list[str] | None = None) -> Path:
-    """Run the CLI with ``argv`` (default ``sys.argv[1:]``); returns the run folder."""
-    args, argv, resume = _parse(argv)
+def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> Path:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``; ``prog``: the name in its messages);
+    returns the run folder."""
+    args, argv, resume, cfg = _parse(argv, prog)
     ckpt = str(resume[1]) if resume else args.trained_agent  # the model to load, if any
     os.environ.setdefault("OMP_NUM_THREADS", str(args.torch_threads))
     torch.set_num_threads(max(1, args.torch_threads))
-
-    for name, v in (("--n-envs", args.n_envs), ("-n", args.n_timesteps)):
-        if v == 0 or v < -1:
-            raise SystemExit(f"{name} must be a positive integer, got {v}")
-    cfg = resolve_config(
-        args.algo,
-        args.env,
-        n_envs=args.n_envs,
-        n_timesteps=args.n_timesteps,
-        hyperparams=args.hyperparams,
-        env_kwargs=args.env_kwargs,
-        conf_file=args.conf_file,
-    )
     set_random_seed(args.seed)
     run, meta = _start_run(args, argv, cfg, resume)
     envs = build_envs(
@@ -659,19 +721,21 @@ def energy_budget(
 def _checkpoint_vecnormalize(ckpt: Path) -> Path:
     """``VecNormalize`` statistics saved with a checkpoint (or a run folder's final ones)."""
     if not ckpt.exists():
-        raise SystemExit(f"checkpoint {ckpt} does not exist")
+        raise ValueError(f"checkpoint {ckpt} does not exist")
     candidates = vecnormalize_candidates(ckpt)
     for c in candidates:
         if c.exists():
             return c
-    raise SystemExit(
+    raise ValueError(
         f"no VecNormalize statistics found beside {ckpt} (looked for {[str(c) for c in candidates]})"
     )
 
 
-def main() -> None:
-    train()
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> int:
+    """The command line (``spine-gym train``); exit status 0 (usage errors exit with 2)."""
+    train(argv, prog)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

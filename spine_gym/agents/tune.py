@@ -1,9 +1,13 @@
 """Reproducible tuning of the bang-bang and PID baselines on training scenarios only.
 
-Example::
+Example (``spine-gym tune`` is the same command)::
 
-    python -m spine_gym.agents.tune --trials 60 --episodes 8 --seed 0      # writes hyperparams/baselines.yml
-    python -m spine_gym.agents.tune --env SmaSpine3D-v0 --controllers pid  # hyperparams/baselines_SmaSpine3D-v0.yml
+    python -m spine_gym.agents.tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
+    python -m spine_gym.agents.tune --env SmaSpine3D-v0 --controllers pid  # results/tune/baselines_SmaSpine3D-v0.yml
+    python -m spine_gym.agents.tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite  # the shipped gains
+
+An existing output file is refused unless ``--overwrite`` (which replaces the tuned controllers'
+entries and keeps the others).
 
 The objective is the mean tracking RMSE [deg; mm for the chain's tip position] over ``--episodes``
 episodes of the env (``--env``, default ``SmaSpine-v0``)
@@ -25,9 +29,18 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from spine_gym.cli_conventions import (
+    Parser,
+    add_env,
+    add_env_kwargs,
+    add_out,
+    add_progress,
+    check_env_kwargs,
+    check_keys,
+)
 from spine_gym.envs import base_id
 
-from .common import ENV_ID, ENV_IDS, StoreDict
+from .common import ENV_ID
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
@@ -115,31 +128,69 @@ def tune(
     }
 
 
-def main(argv: list[str] | None = None) -> dict:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.tune", description=__doc__.split("\n")[0])
-    p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
+EXAMPLES = (
+    "spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml",
+    "spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml",
+    "spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains",
+)
+DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
+
+
+def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    add_env(p, default=ENV_ID)
     p.add_argument(
         "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
     )
     p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
     p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
     p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
-    p.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, help="env kwargs key:value")
-    p.add_argument("-o", "--out", default=None, help="output YAML (default: the env's tuned file)")
-    args = p.parse_args(argv)
-    if args.controllers is None:
-        args.controllers = list(tunable_for(args.env))
-    bad = set(args.controllers) - set(tunable_for(args.env))
-    if bad:
-        p.error(f"--controllers {sorted(bad)}: choose from {list(tunable_for(args.env))} for {args.env}")
-    args.out = args.out or str(tuned_file(args.env))
+    add_env_kwargs(p)
+    add_out(
+        p, metavar="FILE",
+        help=f"output YAML (default: {DEFAULT_OUT}/<name of the env's shipped file>, e.g. {DEFAULT_OUT}/baselines.yml)",
+    )  # fmt: skip
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="update an existing --out (the tuned controllers' entries are replaced, the others kept)",
+    )
+    add_progress(p)
+    return p
+
+
+def _check(args) -> Path:
+    """The output file, every argument checked (ValueError, one line) before any tuning."""
+    tunable = list(tunable_for(args.env))
+    args.controllers = tunable if args.controllers is None else args.controllers
+    check_keys(args.controllers, tunable, "--controllers", what=f"tuned controller of {args.env}")
+    if args.trials < 1:
+        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if not 1 <= args.episodes <= 10_000:
+        raise ValueError(f"--episodes must be in [1, 10000], got {args.episodes}")
+    out = Path(args.out) if args.out else DEFAULT_OUT / tuned_file(args.env).name
+    if out.is_dir():
+        raise ValueError(f"--out {out} is a folder; give a file name (.yml)")
+    if out.exists() and not args.overwrite:
+        raise ValueError(f"--out {out} exists; pass --overwrite to update it or give another --out")
+    check_env_kwargs(args.env, args.env_kwargs)
+    return out
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> dict:
+    """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
+    parser = build_parser(prog)
+    args = parser.parse_args(argv)
+    try:
+        out = _check(args)
+    except ValueError as e:
+        parser.error(str(e))
     command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
-    out = Path(args.out)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:
         rec = tune(
             kind, n_trials=args.trials, n_episodes=args.episodes, seed=args.seed, env_id=args.env,
-            env_kwargs=args.env_kwargs,
+            env_kwargs=args.env_kwargs, verbose=args.progress,
         )  # fmt: skip
         rec["command"] = command
         record[kind] = rec
@@ -147,7 +198,9 @@ def main(argv: list[str] | None = None) -> dict:
     header = (
         "# Tuned baseline settings, written by spine_gym/agents/tune.py (see its docstring); do not edit by hand.\n"
     )
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(header + yaml.safe_dump(record, sort_keys=False))
+    print(f"wrote {out}")
     return record
 
 

@@ -1,6 +1,6 @@
 """Command line: fit ModelParams to measured CSV experiments and write preset, report and plots.
 
-Example::
+Example (``spine-gym calibrate`` is the same command)::
 
     python -m spine_gym.calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A \\
         --start alternative --noise angle=0.5,temperature=1 --out results/calibration --seed 0
@@ -20,6 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
@@ -97,9 +98,17 @@ def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ..
     return resolve_parameters(params, start)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
-        prog="python -m spine_gym.calibrate",
+EXAMPLES = (
+    "spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration",
+    "spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2",
+    "spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires --no-progress",
+)
+
+
+def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.ArgumentParser:
+    ap = Parser(
+        prog=prog,
+        examples=EXAMPLES,
         description="Fit spine_gym ModelParams to measured experiments (CSV: time, voltage_right, "
         "voltage_left, angle [+ temperature_*, resistance_*, tip_force_x/y]; or spatial: time, "
         "voltage_0.., bend_1, bend_2 and/or tip_x/y/z [+ temperature_<j>, resistance_<j>, tip_force_x/y/z]).",
@@ -125,24 +134,27 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--layout", default="seed", help="spatial CSVs: the layout, 'seed' (four-wire module) or 'chain:<n>'"
     )
-    ap.add_argument("--out", default="results/calibration", help="output folder")
+    add_out(ap, default="results/calibration")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--n-starts", type=int, default=2)
     ap.add_argument("--cma-evals", type=int, default=None, help="CMA-ES budget in candidates")
     ap.add_argument("--no-global", action="store_true", help="skip the CMA-ES global stage")
     ap.add_argument("--max-nfev", type=int, default=30, help="evaluations per least-squares start")
     ap.add_argument("--loss", default="linear", help="least_squares loss (linear, soft_l1, huber, ...)")
-    ap.add_argument(
-        "--workers", type=int, default=None, help="threads simulating candidates (default: all cores)"
-    )
+    add_workers(ap, default=None, help="threads simulating candidates (default: all cores)")
     ap.add_argument("--format", choices=("json", "yaml"), default="json", help="format of the preset file")
-    ap.add_argument("--no-progress", action="store_true")
+    add_progress(ap)
     return ap
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.calibrate") -> int:
+    """Run the CLI; exit status 0 (130 if interrupted), or 2 (one line on stderr) on a bad argument,
+    before the fit starts."""
+    parser = build_parser(prog)
+    args = parser.parse_args(argv)
     try:
+        for path in args.csv:
+            check_file(path, "csv")
         start, start_name = _start(args.start)
         noise = _noise(args.noise)
         experiments, start = _experiments(args.csv, noise, args.layout, start)
@@ -158,11 +170,11 @@ def main(argv: list[str] | None = None) -> int:
             max_nfev=args.max_nfev,
             loss=args.loss,
             n_workers=args.workers,
-            progress=not args.no_progress,
+            progress=args.progress,
             start_name=start_name,
         )
     except (ValueError, FileNotFoundError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)
         return 2
     out = Path(args.out)
     preset = res.to_file(out / f"fit.{args.format}")

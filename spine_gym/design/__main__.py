@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
+from ..cli_conventions import Parser, add_out, add_progress, add_workers
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -110,12 +111,10 @@ def _add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--solver", action="append", metavar="KEY=VALUE", help="SolverOptions overrides, e.g. method=bisect"
     )
-    p.add_argument(
-        "--n-workers", type=int, default=1, help="parallel worker processes (-1 = all cores), default 1"
-    )
+    add_workers(p, "--n-workers", dest="n_workers", help="parallel worker processes (-1 = all cores)")
     p.add_argument("--mp-context", choices=("spawn", "forkserver"), default="spawn")
-    p.add_argument("--out", type=Path, default=None, help="output folder (default runs/design/...)")
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_out(p, type=Path, help="output folder (default: runs/design/<sweep-time> or runs/design/opt-<study>)")
+    add_progress(p)
 
 
 def _fmt(v) -> str:
@@ -167,7 +166,7 @@ def _cmd_sweep(args, parser) -> int:
             n_workers=args.n_workers,
             backend=args.backend,
             mp_context=args.mp_context,
-            progress=not args.no_progress,
+            progress=args.progress,
         )
     except ValueError as e:
         parser.error(str(e))
@@ -233,7 +232,7 @@ def _cmd_optimize(args, parser) -> int:
             max_total_trials=args.max_total_trials,
             timeout=args.timeout,
             mp_context=args.mp_context,
-            progress=not args.no_progress,
+            progress=args.progress,
         )
     except ValueError as e:
         parser.error(str(e))
@@ -279,22 +278,41 @@ def _cmd_best(args, parser) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m spine_gym.design",
+EXAMPLES = {
+    "params": ("spine-gym design params --preset alternative",),
+    "sweep": (
+        "spine-gym design sweep --param a=6e-3:14e-3:9 --param n_w=1,2,3 --workers 2 -o runs/design/grid",
+        "spine-gym design sweep --param n_modules=1,2,3 --param a=6e-3:12e-3:4   # chained layouts",
+    ),
+    "optimize": (
+        'spine-gym design optimize --space a=6e-3:14e-3 --space n_w=1,2,3 --maximize stable_angle '
+        '--constraint "ability>=0.15" --n-trials 60 --workers 2 -o runs/design/opt',
+    ),
+    "best": ("spine-gym design best --storage runs/design/opt/study.journal --study-name spine-design",),
+}
+
+
+def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentParser:
+    parser = Parser(
+        prog=prog,
         description="Design studies of the SMA spine: capacity sweeps, constrained optimisation "
         "(Optuna), scale-out on a shared study. Guide: docs/design.md",
+        examples=[e for group in EXAMPLES.values() for e in group],
     )
-    sub = parser.add_subparsers(dest="cmd", required=True)
+    sub = parser.add_subparsers(dest="cmd", required=True, metavar="{params,sweep,optimize,best}")
 
-    p = sub.add_parser("params", help="list the design parameters, their base values and ranges")
-    p.add_argument("--preset", choices=sorted(PRESETS), default="baseline")
+    p = sub.add_parser(
+        "params", help="list the design parameters, their base values and ranges",
+        description="The design parameters, their base values and allowed ranges.", examples=EXAMPLES["params"],
+    )  # fmt: skip
+    p.add_argument("--preset", choices=sorted(PRESETS), default="baseline", help="base parameter set")
 
     p = sub.add_parser(
         "sweep",
         help="capacity metrics over a grid (CSV + PNG)",
         description="Grid sweep. --param NAME=lo:hi:n | lo:hi:n:log | v1,v2,... "
         "(repeat for more axes; the last axis varies fastest).",
+        examples=EXAMPLES["sweep"],
     )
     p.add_argument(
         "--param",
@@ -323,6 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
         aliases=["optimise"],
         help="constrained optimisation with Optuna",
         description="Search NAME=lo:hi | lo:hi:log | v1,v2,... (categorical).",
+        examples=EXAMPLES["optimize"],
     )
     p.add_argument(
         "--space",
@@ -359,15 +378,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--timeout", type=float, default=None, help="per-worker time limit [s]")
     _add_common(p)
 
-    p = sub.add_parser("best", help="print the best design of a stored study")
+    p = sub.add_parser(
+        "best", help="print the best design of a stored study",
+        description="The best design of a stored study.", examples=EXAMPLES["best"],
+    )  # fmt: skip
     p.add_argument("--storage", required=True)
     p.add_argument("--study-name", default="spine-design")
     p.add_argument("--json", action="store_true", help="also print the full summary as JSON")
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.design") -> int:
+    """Run the CLI; exit status 0, or 2 (one line on stderr) on a bad argument, before any work."""
+    parser = build_parser(prog)
     args = parser.parse_args(argv)
     sub = parser._subparsers._group_actions[0].choices[args.cmd]  # for errors in the right usage
     if args.cmd == "params":

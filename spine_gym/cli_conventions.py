@@ -1,0 +1,213 @@
+"""The conventions every command line of spine_gym shares (``spine-gym <command>`` and the
+``python -m`` modules behind it).
+
+* :class:`Parser` — argparse with one-line usage errors (exit status 2, before any side effect),
+  the defaults shown in ``--help`` and an ``examples:`` epilog;
+* :func:`add_env` — ``--env`` with the registered spine ids as choices, a misspelt id answered with
+  "did you mean ...";
+* :class:`KeyValues` — ``--env-kwargs``/``--hyperparams`` pairs as ``key=value`` or RL Zoo's
+  ``key:value`` (values are Python literals where they parse as one);
+* :func:`add_out`, :func:`add_progress`, :func:`add_workers` — ``-o/--out``,
+  ``--progress/--no-progress`` and ``--workers``;
+* :func:`check_env_kwargs`, :func:`check_keys`, :func:`check_file` — the checks a command runs on
+  its arguments before it creates a folder or starts work (``ValueError`` with a one-line message,
+  which the command passes to ``parser.error``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import difflib
+import inspect
+import textwrap
+import warnings
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+from gymnasium.envs.registration import load_env_creator
+
+from spine_gym.envs import ENV_SPECS  # registers the spine envs
+
+__all__ = [
+    "ENV_IDS",
+    "HelpFormatter",
+    "Parser",
+    "KeyValues",
+    "parse_value",
+    "did_you_mean",
+    "env_id",
+    "add_env",
+    "add_env_kwargs",
+    "add_out",
+    "add_progress",
+    "add_workers",
+    "check_env_kwargs",
+    "check_keys",
+    "check_file",
+    "first_line",
+]
+
+#: every registered spine env id (the ``--env`` choices)
+ENV_IDS: tuple[str, ...] = tuple(i for i in gym.envs.registry if "Spine" in i) or tuple(ENV_SPECS)
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Each option's default after its help (unless the help names it already or there is none to
+    show); the description and the examples epilog are printed as written."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text.lower() or action.default in (None, False, "", [], {}, argparse.SUPPRESS):
+            return text
+        return super()._get_help_string(action)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (``<prog>: error: <message>`` on stderr, exit status 2),
+    :class:`HelpFormatter` and ``examples`` as the epilog."""
+
+    def __init__(self, *args, examples: Sequence[str] = (), **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        if "\n" not in kwargs.get("description", "\n"):
+            kwargs["description"] = textwrap.fill(kwargs["description"], 100)
+        if examples:
+            kwargs["epilog"] = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {first_line(message)}\n")
+
+
+def first_line(message: object) -> str:
+    """The first non-empty line of ``message`` (an exception's text can run over several)."""
+    lines = [s.strip() for s in str(message).splitlines() if s.strip()]
+    return lines[0] if lines else ""
+
+
+def parse_value(text: str) -> Any:
+    """A ``key=value`` value: a Python literal if it parses as one, else the string itself."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+def split_pair(item: str) -> tuple[str, str]:
+    """``key=value`` or ``key:value`` split at the first ``=`` or ``:`` (keys hold neither)."""
+    cuts = [i for i in (item.find("="), item.find(":")) if i > 0]
+    if not cuts:
+        raise ValueError(f"expected key=value (or key:value), got {item!r}")
+    return item[: min(cuts)], item[min(cuts) + 1 :]
+
+
+class KeyValues(argparse.Action):
+    """argparse action that turns ``k1=v1 k2:v2`` into ``{"k1": v1, "k2": v2}`` (both separators,
+    the second is RL Zoo's)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        out = {}
+        for item in values:
+            try:
+                key, value = split_pair(item)
+            except ValueError as e:
+                raise argparse.ArgumentError(self, str(e)) from None
+            out[key] = parse_value(value)
+        setattr(namespace, self.dest, out)
+
+
+def did_you_mean(word: str, options: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``options`` to ``word`` (case-blind), else ``""``."""
+    by_lower = {o.lower(): o for o in options}
+    close = difflib.get_close_matches(word.lower(), list(by_lower), n=1, cutoff=0.6)
+    return f" (did you mean {by_lower[close[0]]!r}?)" if close else ""
+
+
+def env_id(text: str) -> str:
+    """argparse ``type`` of ``--env``: a registered spine env id."""
+    if text in ENV_IDS:
+        return text
+    raise argparse.ArgumentTypeError(
+        f"unknown env id {text!r}{did_you_mean(text, ENV_IDS)}; choose from {', '.join(ENV_IDS)}"
+    )
+
+
+def add_env(p: argparse.ArgumentParser, *flags: str, default: Any = None, **kwargs) -> argparse.Action:
+    """``--env`` (and ``flags``) with the registered spine env ids as choices."""
+    kwargs.setdefault("help", "environment id, one of: " + ", ".join(ENV_IDS))
+    return p.add_argument(
+        "--env", *flags, type=env_id, choices=ENV_IDS, metavar="ID", default=default, **kwargs
+    )
+
+
+def add_env_kwargs(p: argparse.ArgumentParser, nargs: str = "+", default: Any = None, **kwargs):
+    """``--env-kwargs k=v ...`` (``k:v`` also accepted): keyword arguments of the env."""
+    kwargs.setdefault("help", "env keyword arguments key=value (key:value also accepted)")
+    return p.add_argument(
+        "--env-kwargs", nargs=nargs, action=KeyValues, default={} if default is None else default,
+        metavar="KEY=VALUE", **kwargs,
+    )  # fmt: skip
+
+
+def add_out(p: argparse.ArgumentParser, *aliases: str, default: Any = None, **kwargs) -> argparse.Action:
+    """``-o/--out`` (and ``aliases``): the output folder."""
+    kwargs.setdefault("help", "output folder")
+    kwargs.setdefault("metavar", "DIR")
+    return p.add_argument("-o", "--out", *aliases, default=default, **kwargs)
+
+
+def add_progress(p: argparse.ArgumentParser, *aliases: str, default: bool = True) -> argparse.Action:
+    """``--progress/--no-progress`` (and ``aliases`` for ``--progress``)."""
+    return p.add_argument(
+        *aliases, "--progress", action=argparse.BooleanOptionalAction, default=default,
+        help=f"show progress (default: {'on' if default else 'off'})",
+    )  # fmt: skip
+
+
+def add_workers(p: argparse.ArgumentParser, *aliases: str, default: Any = 1, **kwargs) -> argparse.Action:
+    """``--workers`` (and ``aliases``): how many processes or threads share the work."""
+    kwargs.setdefault("help", "parallel workers")
+    kwargs.setdefault("metavar", "N")
+    return p.add_argument("--workers", *aliases, type=int, default=default, **kwargs)
+
+
+def env_parameters(env: str) -> tuple[str, ...] | None:
+    """The keyword arguments the class of ``env`` takes (None: it takes any)."""
+    params = inspect.signature(load_env_creator(gym.spec(env).entry_point)).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return None
+    return tuple(params)
+
+
+def check_env_kwargs(env: str, env_kwargs: dict, flag: str = "--env-kwargs") -> None:
+    """ValueError (one line) unless ``env`` takes ``env_kwargs``: the names are checked against its
+    class, then one env is built (and closed) so that the values are checked too."""
+    accepted = env_parameters(env)
+    for key in env_kwargs:
+        if accepted is not None and key not in accepted:
+            raise ValueError(f"{flag}: {env} takes no argument {key!r}{did_you_mean(key, accepted)}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # gymnasium's note that a -v0 id has a newer version
+        try:
+            made = gym.make(env, **env_kwargs)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{flag}: not accepted by {env}: {first_line(e)}") from None
+    made.close()
+
+
+def check_keys(keys: Iterable[str], allowed: Iterable[str], flag: str, what: str = "key") -> None:
+    """ValueError (one line) naming the first of ``keys`` that is not ``allowed`` (``what``: the
+    word for a key in the message)."""
+    allowed = sorted(allowed)
+    for key in keys:
+        if key not in allowed:
+            hint = did_you_mean(key, allowed)
+            raise ValueError(f"{flag}: unknown {what} {key!r}{hint}; allowed: {', '.join(allowed)}")
+
+
+def check_file(path: str | Path, flag: str) -> None:
+    """ValueError (one line) unless ``path`` exists."""
+    if not Path(path).exists():
+        raise ValueError(f"{flag}: {path} does not exist")
