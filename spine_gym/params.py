@@ -369,7 +369,7 @@ class SolverOptions:
             output steps with ``dense_output``). ``scheme="frozen", step_c=inf,
             h_max=1e-4`` is the fixed-step reference of §6.2 (:data:`FINE_REFERENCE`).
         tol_moment: composite-solve tolerance on the wire moment [N m].
-        tol_theta: shape-iteration tolerance on max |ΔΔθ_n| [rad].
+        tol_theta: shape-iteration tolerance on max ``|ΔΔθ_n|`` [rad].
         max_shape_iter: cap on passes of one shape solve.
         max_root_iter: cap on outer iterations of the composite solve.
         max_substeps: cap on sub-steps per output step.

@@ -291,7 +291,7 @@ class TipForceEvent:
 
     @property
     def magnitude(self) -> float:
-        """|force| [N]."""
+        """``|force|`` [N]."""
         return math.hypot(*self.force)
 
     @property

@@ -113,7 +113,7 @@ class BendTarget:
         kinds: Iterable[str] = BEND_KINDS,
         period_range: tuple[float, float] = (20.0, 60.0),
     ) -> BendTarget:
-        """Draw a target whose magnitude |b*| stays in ``magnitude_range`` [deg].
+        """Draw a target whose magnitude ``|b*|`` stays in ``magnitude_range`` [deg].
 
         One of ``kinds`` uniformly, then:
 
@@ -122,7 +122,7 @@ class BendTarget:
           :meth:`TargetProfile.sample`);
         * ``"circle"``: amplitude ~ U(magnitude_range), period ~ U(period_range) with a random
           sense of rotation, phase ~ U(0, 2π);
-        * ``"figure8"``: amplitude ~ U(magnitude_range) (so |b*| <= amplitude), period ~
+        * ``"figure8"``: amplitude ~ U(magnitude_range) (so ``|b*| <= amplitude``), period ~
           U(period_range), phase ~ U(0, 2π), long axis ~ U(0°, 180°).
         """
         duration = _finite("duration", duration)
@@ -168,7 +168,7 @@ class BendTarget:
         return out
 
     def max_magnitude(self) -> float:
-        """An upper bound of |b*(t)| over all times [deg] (largest setpoint + amplitude)."""
+        """An upper bound of ``|b*(t)|`` over all times [deg] (largest setpoint + amplitude)."""
         return max(math.hypot(a, b) for a, b in self.values) + self.amplitude
 
 

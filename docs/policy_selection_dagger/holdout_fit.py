@@ -1,6 +1,6 @@
 """One-off check quoted in docs/agents.md (distillation): how well the student predicts the oracle on held-out episodes.
 
-Usage: PYTHONPATH=. python docs/s4dag/holdout_fit.py runs/dagA/data.npz 50 200
+Usage: PYTHONPATH=. python docs/policy_selection_dagger/holdout_fit.py runs/dagA/data.npz 50 200
 (a DAgger data.npz of spine_gym.agents.distill with 30-s episodes = 300 rows each; 1/5 of the episodes held out;
 one fresh student per epoch count, obs_history 5).
 """
