@@ -16,6 +16,9 @@ Functions:
   Figs 15–16), with reference values overlaid.
 * :func:`plot_timings` — bar chart of timings (log scale), optionally with a panel of errors
   against time.
+* :func:`plot_episodes` (figure: :func:`episode_figure`) — evaluation episodes side by side:
+  tracked quantity and target, wire voltages and temperatures against time, the temperature limit
+  labelled and the disturbance windows (:func:`disturbance_windows`: tip pushes, payload) shaded.
 """
 
 from __future__ import annotations
@@ -27,7 +30,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["plot_angle", "plot_wire_states", "plot_capacity", "plot_timings", "DEFAULT_DPI"]
+__all__ = [
+    "plot_angle",
+    "plot_wire_states",
+    "plot_capacity",
+    "plot_timings",
+    "plot_episodes",
+    "episode_figure",
+    "disturbance_windows",
+    "DEFAULT_DPI",
+]
 
 DEFAULT_DPI = 120  # [dots per inch] of the written PNG files
 
@@ -371,3 +383,154 @@ def plot_timings(
         bx.grid(alpha=0.3)
         bx.legend(fontsize=7, loc="best")
     return _save(fig, path, dpi)
+
+
+# --------------------------------------------------------------------------- evaluation episodes
+PUSH_STYLE = dict(color="tab:orange", alpha=0.2, lw=0)  # shading of a tip push
+PAYLOAD_STYLE = dict(color="tab:brown", alpha=0.45, lw=0, ymin=0.0, ymax=0.05)  # band at the bottom
+LIMIT_STYLE = dict(color="tab:red", ls=":", lw=1.2)  # the temperature-limit line
+PUSH_LABEL = "tip push acting"
+PAYLOAD_LABEL = "payload attached (mass in the title)"
+
+
+def disturbance_windows(loads, duration: float) -> list[tuple[float, float, str, str]]:
+    """The time spans of an episode's disturbances, from its load schedule.
+
+    Args:
+        loads: a :class:`~spine_gym.envs.task.LoadSchedule` (or None: no disturbance): tip-force
+            events with ``start``/``end`` [s] and ``force`` [N], ``payload`` [kg].
+        duration: episode duration [s]; open-ended events are cut there.
+
+    Returns:
+        ``(start [s], end [s], kind, text)`` per window: kind ``"push"`` (text: the force's
+        magnitude in N) or ``"payload"`` (the whole episode; text: the mass in g).
+    """
+    if loads is None:
+        return []
+    out = []
+    for e in loads.tip_force_events:
+        if e.start < duration:
+            out.append((e.start, min(e.end, duration), "push", f"{math.hypot(*e.force):.2g} N"))
+    if loads.payload > 0.0:
+        out.append((0.0, duration, "payload", f"{1000.0 * loads.payload:.0f} g"))
+    return out
+
+
+def _shade_windows(ax, windows, *, text: bool) -> None:
+    """Shade each window on ``ax`` (label: kind, for the legend); ``text``: print push forces."""
+    for t0, t1, kind, txt in windows:
+        if kind == "push":
+            ax.axvspan(t0, t1, label=PUSH_LABEL, **PUSH_STYLE)
+            if text:
+                ax.text(0.5 * (t0 + t1), 0.98, txt, transform=ax.get_xaxis_transform(),
+                        ha="center", va="top", fontsize=6, color="tab:orange")  # fmt: skip
+        else:
+            ax.axvspan(t0, t1, label=PAYLOAD_LABEL, **PAYLOAD_STYLE)
+
+
+def _wire_names(n: int) -> list[str]:
+    """right/left (planar), w0 … w3 (one module) or m1 w0 … (module 1 = bottom) for ``n`` wires."""
+    if n == 2:
+        return ["right", "left"]
+    if n == 4:
+        return [f"w{j}" for j in range(4)]
+    return [f"m{j // 4 + 1} w{j % 4}" for j in range(n)]
+
+
+# tracked components → (axis label, component names)
+_TRACKED = {
+    1: ("bending angle [deg]", ("",)),
+    2: ("tip bending vector [deg]", ("b₁ ", "b₂ ")),
+    3: ("tip position [mm]", ("x ", "y ", "z ")),
+}
+
+
+def _tracking_panel(ax, traj) -> list:
+    """Target (dashed) and tracked (solid) components against time; returns their lines."""
+    n = len(traj.time)
+    tracked, target = traj.angle_deg.reshape(n, -1), traj.target_deg.reshape(n, -1)
+    d = tracked.shape[1]
+    names = _TRACKED.get(d, ("", tuple(f"{c} " for c in range(d))))[1]
+    lines = []
+    for c in range(d):
+        lines += ax.plot(traj.time, target[:, c], "--", color=f"C{c}", lw=1, label=f"{names[c]}target")
+        lines += ax.plot(traj.time, tracked[:, c], color=f"C{c}", lw=1.3, label=f"{names[c]}tracked")
+    return lines
+
+
+def _wire_panels(ax_v, ax_t, traj, temperature_limit: float) -> None:
+    for w, lab in enumerate(_wire_names(traj.voltage.shape[1])):
+        ax_v.plot(traj.time, traj.voltage[:, w], lw=1, color=f"C{w % 10}", label=lab)
+        ax_t.plot(traj.time, traj.temperature[:, w], lw=1, color=f"C{w % 10}", label=lab)
+    ax_t.axhline(temperature_limit, label=f"temperature limit {temperature_limit:.0f} K", **LIMIT_STYLE)
+    ax_t.set_xlabel("time [s]")
+
+
+def _unique_handles(axes) -> tuple[list, list[str]]:
+    """Legend handles of several axes, one per label (first seen)."""
+    seen: dict[str, Any] = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(lab, h)
+    return list(seen.values()), list(seen)
+
+
+def episode_figure(episodes: Sequence[tuple[str, Any, Any]], temperature_limit: float, *, title: str = ""):
+    """The figure of :func:`plot_episodes` (Agg canvas), for callers that add to it or inspect it.
+
+    Args:
+        episodes: ``(name, trajectory, loads)`` per column: a
+            :class:`~spine_gym.agents.metrics.Trajectory` and its load schedule (or None).
+        temperature_limit: the env's wire temperature limit [K], drawn as a labelled line.
+        title: figure title.
+
+    Returns:
+        A matplotlib Figure: rows tracking / voltage [V] / temperature [K], one column per episode;
+        each axes carries its disturbance windows as labelled patches; the tracking legend sits
+        in the first column, the wire and disturbance legends below the figure.
+    """
+    if not episodes:
+        raise ValueError("episodes must hold at least one (name, trajectory, loads) entry")
+    n = len(episodes)
+    fig, axes = _figure(3, n, max(3.4 * n, 6.0), 7.6, sharex="col")
+    for j, (name, traj, loads) in enumerate(episodes):
+        windows = disturbance_windows(loads, float(traj.time[-1]))
+        payload = [txt for *_, kind, txt in windows if kind == "payload"]
+        axes[0, j].set_title(name + (f" (payload {payload[0]})" if payload else ""), fontsize=9)
+        lines = _tracking_panel(axes[0, j], traj)
+        _wire_panels(axes[1, j], axes[2, j], traj, temperature_limit)
+        for row in range(3):
+            _shade_windows(axes[row, j], windows, text=row == 0)
+            axes[row, j].grid(alpha=0.3)
+    label, _ = _TRACKED.get(len(lines) // 2, ("tracked quantity", ()))
+    for row, ylabel in enumerate((label, "wire voltage [V]", "wire temperature [K]")):
+        axes[row, 0].set_ylabel(ylabel)
+    axes[0, n - 1].legend(handles=lines, fontsize=6, ncol=max(len(lines) // 2, 1), loc="best")
+    handles, labels = _unique_handles(axes[1:].ravel())
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6), fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def plot_episodes(
+    episodes: Sequence[tuple[str, Any, Any]],
+    path: str | Path,
+    *,
+    temperature_limit: float,
+    title: str = "",
+    dpi: int = 80,
+) -> Path:
+    """Evaluation episodes side by side (see :func:`episode_figure`), written as one PNG.
+
+    Args:
+        episodes: ``(name, trajectory, loads)`` per column.
+        path: the PNG file to write.
+        temperature_limit: wire temperature limit [K].
+        title: figure title.
+        dpi: resolution of the PNG.
+
+    Returns:
+        The path written.
+    """
+    return _save(episode_figure(episodes, temperature_limit, title=title), path, dpi)

@@ -1,6 +1,6 @@
 """Evaluate baselines and saved policies on the fixed scenario suite of :mod:`spine_gym.agents.scenarios`.
 
-Example (the README's main command)::
+Example (the README's main command; ``spine-gym evaluate`` is the same command)::
 
     python -m spine_gym.agents.evaluate            # shipped PPO/SAC policies + step, bang-bang, PID
     python -m spine_gym.agents.evaluate --env SmaSpine3D-v0      # the spatial spine's suite and policies
@@ -32,11 +32,24 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
+import torch
 from tqdm import tqdm
 
+from spine_gym.cli_conventions import (
+    Parser,
+    add_env,
+    add_env_kwargs,
+    add_out,
+    add_progress,
+    check_env_kwargs,
+    check_file,
+    check_keys,
+    did_you_mean,
+)
 from spine_gym.envs import base_id
+from spine_gym.plotting import plot_episodes
 
-from .common import CHAIN_ENV_ID, ENV_ID, ENV_IDS, POLICIES_DIR
+from .common import CHAIN_ENV_ID, ENV_ID, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
@@ -50,7 +63,7 @@ from .runtime import (
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
 
-#: unit of the tracking error per env (the metric columns are named *_deg after the planar angle)
+#: unit of the tracking error per env (the metric columns are named ``*_deg`` after the planar angle)
 ERROR_UNIT = {CHAIN_ENV_ID: "mm"}
 
 MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
@@ -219,48 +232,27 @@ def write_trajectories(out: Path, trajs: dict[tuple[str, str], Trajectory]) -> N
 def plot_controller(
     path: Path, controller: str, group: str, scenarios: list[Scenario], trajs, temperature_limit: float
 ) -> None:
-    """Angle/target, voltages and temperatures vs time for each scenario of a group (one PNG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = len(scenarios)
-    fig, axes = plt.subplots(3, n, figsize=(3.2 * n, 7.0), sharex="col", squeeze=False)
-    for j, sc in enumerate(scenarios):
-        tr = trajs[(controller, sc.name)]
-        ax = axes[0, j]
-        tracked, target = tr.angle_deg.reshape(len(tr.time), -1), tr.target_deg.reshape(len(tr.time), -1)
-        for c in range(tracked.shape[1]):
-            ax.plot(tr.time, target[:, c], "--", color=f"C{c}", lw=1, label="target" if c == 0 else None)
-            ax.plot(tr.time, tracked[:, c], color=f"C{c}", lw=1.3, label="tracked" if c == 0 else None)
-        ax.set_title(sc.name, fontsize=9)
-        labels = (
-            ["right", "left"]
-            if tr.voltage.shape[1] == 2
-            else [f"wire {w}" for w in range(tr.voltage.shape[1])]
-        )
-        for w, lab in enumerate(labels):
-            axes[1, j].plot(tr.time, tr.voltage[:, w], lw=1, label=lab)
-            axes[2, j].plot(tr.time, tr.temperature[:, w], lw=1, label=lab)
-        axes[2, j].axhline(temperature_limit, color="k", ls=":", lw=0.8)
-        axes[2, j].set_xlabel("time [s]")
-    axes[0, 0].set_ylabel("angle [deg]" if tracked.shape[1] == 1 else "components of the task")
-    axes[1, 0].set_ylabel("voltage [V]")
-    axes[2, 0].set_ylabel("temperature [K]")
-    axes[0, 0].legend(fontsize=7)
-    axes[1, 0].legend(fontsize=7)
-    fig.suptitle(f"{controller} — {group}")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    """Angle/target, voltages and temperatures vs time for each scenario of a group (one PNG), with
+    the scenario's tip pushes and payload shaded and the temperature limit labelled."""
+    episodes = [
+        (sc.name, trajs[(controller, sc.name)], sc.reset_options()["loads"]) for sc in scenarios
+    ]
+    plot_episodes(episodes, path, temperature_limit=temperature_limit, title=f"{controller} — {group}")
 
 
 # --------------------------------------------------------------------------- CLI
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.evaluate", description=__doc__.split("\n")[0])
-    p.add_argument("--env", default=ENV_ID, choices=ENV_IDS, help="environment id (default: %(default)s)")
+EXAMPLES = (
+    "spine-gym evaluate                                   # shipped policies + step, bang-bang, PID",
+    "spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d",
+    "spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1",
+    "spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress",
+)
+
+
+def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.ArgumentParser:
+    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    add_env(p, default=ENV_ID)
+    add_env_kwargs(p, help="env keyword arguments key=value of every controller's envs (over a policy's own)")
     p.add_argument(
         "--baselines",
         nargs="*",
@@ -287,7 +279,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--groups", nargs="*", default=None, help="only these scenario groups")
     p.add_argument("--scenarios", nargs="*", default=None, help="only these scenario names")
-    p.add_argument("-o", "--out", default="results/eval", help="output folder (default: %(default)s)")
+    add_out(p, default="results/eval")
+    add_progress(p)
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
     p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
@@ -317,49 +310,71 @@ def shipped_policies(env_id: str = ENV_ID) -> dict[str, Path]:
     }
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    """Run the CLI; returns the summary rows."""
-    args = build_parser().parse_args(argv)
-    t_start = time.perf_counter()
+def _models(items: list[str] | None, env_id: str) -> dict[str, Path]:
+    """``--models`` as {name: path} (None: the shipped policies of ``env_id``); ValueError if a path
+    does not exist."""
+    if items is None:
+        return shipped_policies(env_id)
+    models = {}
+    for item in items:
+        name, sep, path = item.partition("=")
+        if not sep:
+            name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
+        check_file(path, f"--models {name}")
+        models[name] = Path(path)
+    return models
+
+
+def _plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
+    """(scenarios, baselines, models) of the arguments, every one checked (ValueError, one line)
+    before anything is built or written."""
     scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios, env_id=args.env)
     chosen = list(baselines_for(args.env)) if args.baselines is None else args.baselines
     baselines = list(dict.fromkeys(chosen + (list(MPC_CONTROLLERS) if args.mpc else [])))
-    table = registry_for(args.env)
-    unknown = set(baselines) - set(table)
-    if unknown:
-        raise SystemExit(f"unknown controller(s) {sorted(unknown)} for {args.env}; choose from {list(table)}")
+    check_keys(baselines, registry_for(args.env), "--baselines", what=f"controller of {args.env}")
+    models = _models(args.models, args.env)
+    if not baselines and not models:
+        raise ValueError("nothing to evaluate: no baselines and no models")
+    names = [*baselines, *models]
+    if args.relative_to and args.relative_to not in names:
+        raise ValueError(f"--relative-to {args.relative_to!r} is not one of {names}{did_you_mean(args.relative_to, names)}")
+    check_env_kwargs(args.env, args.env_kwargs)
     if args.video:
         require_ffmpeg()  # before the evaluation, not after it
-    if args.models is None:
-        models = shipped_policies(args.env)
-    else:
-        models = {}
-        for item in args.models:
-            name, sep, path = item.partition("=")
-            if not sep:
-                name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
-            models[name] = Path(path)
+    return scenarios, baselines, models
+
+
+def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[dict, dict, float]:
+    """(controllers, their env kwargs, the env's temperature limit [K])."""
     controllers: dict[str, object] = {}
     env_kwargs: dict[str, dict] = {}
-    probe = make_env(env_id=args.env)
+    probe = make_env(args.env_kwargs, env_id=args.env)
     limit = env_temperature_limit(probe)
     for b in baselines:
         controllers[b] = build_controller(b, probe)
+        env_kwargs[b] = dict(args.env_kwargs)
     if models:
-        import torch
-
         torch.set_num_threads(1)
-        for name, path in models.items():
-            pol = load_policy(path, name=name)
-            controllers[name] = pol
-            env_kwargs[name] = evaluation_env_kwargs(pol.env_kwargs)
+    for name, path in models.items():
+        pol = load_policy(path, name=name)
+        controllers[name] = pol
+        env_kwargs[name] = {**evaluation_env_kwargs(pol.env_kwargs), **args.env_kwargs}
     probe.close()
-    if not controllers:
-        raise SystemExit("nothing to evaluate: no baselines and no models")
-    if args.relative_to and args.relative_to not in controllers:
-        raise SystemExit(f"--relative-to {args.relative_to!r} is not one of {list(controllers)}")
+    return controllers, env_kwargs, limit
+
+
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.evaluate") -> list[dict]:
+    """Run the CLI; returns the summary rows. Usage errors exit with status 2 before any work."""
+    parser = build_parser(prog)
+    args = parser.parse_args(argv)
+    t_start = time.perf_counter()
+    try:
+        scenarios, baselines, models = _plan(args)
+    except (ValueError, RuntimeError) as e:
+        parser.error(str(e))
+    controllers, env_kwargs, limit = _controllers(args, baselines, models)
     print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
-    rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=True)
+    rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=args.progress)
     summary = summarize(rows)
     print()
     unit = ERROR_UNIT.get(base_id(args.env), "deg")

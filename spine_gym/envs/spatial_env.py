@@ -140,9 +140,11 @@ class SmaSpine3DEnv(SmaSpineEnv):
       ``lam_scale``, ``T_shift`` [K], ``eps0`` (:class:`spine_gym.WireGroup`); default: those of a
       spatial fit preset given as ``domain_randomization``, else none. A preset whose fit varied
       per-wire parameters also draws them per episode (docs/calibration.md, spatial section).
-    * ``render_mode``: ``None`` or ``"rgb_array"``: a 480×480 frame with two orthogonal views
-      (x-z and y-z), wires coloured by temperature (blue = ambient, red = ``temperature_limit``),
-      the target as a dashed arc, the tip force as an arrow.
+    * ``render_mode``: ``None`` or ``"rgb_array"``: a 480×480 frame with a perspective view of
+      the spine (each wire in its own colour map, pale at ambient, dark at ``temperature_limit``),
+      a top view of the tip with its recent path and the target, a legend (target, tip path, tip
+      force arrow, temperature limit) and bars of the wire temperatures [K] with their voltages
+      [V] (:class:`spine_gym.envs.render.SpatialRenderer`).
 
     Bad arguments raise ``ValueError`` naming the argument and its allowed range.
 

@@ -180,7 +180,8 @@ class SmaSpineEnv(gym.Env):
       ``solver``: :class:`spine_gym.SolverOptions`.
     * ``render_mode``: ``None`` or ``"rgb_array"`` (480×480 frame: the bent spine, wires coloured
       by temperature from blue (ambient) to red (``temperature_limit`` and above), target as a
-      dashed arc, force on the top disk as an arrow).
+      dashed arc, force on the top disk as an arrow, and a legend of these with the temperature
+      limit).
 
     Bad arguments raise ``ValueError`` naming the argument and its allowed range.
 

@@ -471,7 +471,7 @@ class SmaSpineVectorEnv(VectorEnv):
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
             self._renderer = make_renderer(self.config)
-        return tuple(self._renderer.draw(self._core.state_summary(i)) for i in range(self.num_envs))
+        return tuple(self._renderer.draw(self._core.state_summary(i), slot=i) for i in range(self.num_envs))
 
     def close_extras(self, **kwargs):
         """Release the renderer's figure."""
