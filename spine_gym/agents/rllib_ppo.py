@@ -175,7 +175,7 @@ def build_config(
         seed: RLlib's seed (runner k resets its vector env with ``seed + k``; None: random) and
             the seed of the normalisation rollout (0 when None).
         env_config: ``SmaSpine-v0`` keyword arguments; the native env defaults to
-            ``parallel=False`` (one core per runner process is the better split on a shared machine).
+            ``parallel=False`` (one core per runner process is the better split when other processes share the cores).
         num_epochs: override of ppo.yml's ``n_epochs`` (e.g. 1 for a smoke run).
         runner_resources: custom Ray resources each env runner needs besides its CPU (e.g.
             ``{"runner_slot": 1}`` with ``ray start --resources '{"runner_slot": 1}'`` on the nodes
