@@ -28,10 +28,10 @@ from spine_gym.experiments import (
     hysteresis_voltages,
 )
 from spine_gym.layout import Module, SpineLayout, WireGroup, seed_module
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_layout as SL
-from spine_gym.physics import spatial_solver as ss
-from spine_gym.physics import spatial_tube as tube3
+from spine_gym.physics import columns as L
+from spine_gym.physics.spatial import columns as SL
+from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial import tube as tube3
 from spine_gym.physics.stability import solve_in_place
 from spine_gym.simulate_spatial import SpatialResult
 

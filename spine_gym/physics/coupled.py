@@ -1,6 +1,6 @@
 """Per-wire pieces of the coupled (linearly implicit) phase step, shared by both cores (MODEL.md §6.5).
 
-The planar core (:mod:`.solver`, two wires) and the spatial core (:mod:`.spatial_solver`, any
+The planar core (:mod:`.planar.solver`, two wires) and the spatial core (:mod:`.spatial.solver`, any
 number of wires) build the same step from these: the kinetics F of §3.5, the quiet-step test, the
 matrix of the linearly implicit Euler step of all wires' fractions (coupled through the composite
 equilibrium's dσ/dx), the heating rate of §3.9 for the error estimate and the step-size factor of
@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from ._jit import hot
-from .layout import K_ASV, K_RHOC, K_TE
+from .columns import K_ASV, K_RHOC, K_TE
 from .sma import latent_heats, resistivity
 
 X_ACTIVE = 1e-6  # a phase with fraction above this takes part in the step-size rule (§6.1 b)

@@ -1,9 +1,9 @@
 """Sub-steps across output steps whose inputs are held, with dense output (MODEL.md §6.5).
 
-The time loops of both cores (:func:`.batch.run`, :func:`.spatial_solver.run`) hand every run of
+The time loops of both cores (:func:`.planar.batch.run`, :func:`.spatial.solver.run`) hand every run of
 consecutive output steps with equal inputs (voltages and loads: the zero-order hold of
-``simulate``) to one call of the core's span advance (:func:`.solver.advance_held`,
-:func:`.spatial_solver.advance_held_in`), so the error-controlled sub-steps are not cut at every
+``simulate``) to one call of the core's span advance (:func:`.planar.solver.advance_held`,
+:func:`.spatial.solver.advance_held_in`), so the error-controlled sub-steps are not cut at every
 output point. An output that falls inside an accepted sub-step is recorded from the state linearly
 interpolated between the sub-step's ends; one at a sub-step's end is that state itself. This
 module holds the rule both drivers share: which output steps form a span (:func:`held_steps`),
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import hot, jit
-from .layout import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
+from .columns import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
 
 OUTPUT_TOL = 1e-9  # an output within this fraction of dt after a sub-step's end counts as at the end
 

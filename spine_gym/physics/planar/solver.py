@@ -23,21 +23,8 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .coupled import (
-    T_PER_FRACTION,
-    accept_or_retry,
-    copy_rows,
-    first_try,
-    heat_terms,
-    heating_rate,
-    kinetics,
-    linear_system,
-    quiet,
-    step_rate,
-)
-from .dense import interpolate, output_fraction
-from .layout import (
+from .._jit import hot, jit
+from ..columns import (
     ERR_BUCKLING,
     ERR_NONFINITE,
     ERR_ROOT,
@@ -74,6 +61,32 @@ from .layout import (
     S_TOLTH,
     S_TOLX,
     SCHEME_COUPLED,
+)
+from ..coupled import (
+    T_PER_FRACTION,
+    accept_or_retry,
+    copy_rows,
+    first_try,
+    heat_terms,
+    heating_rate,
+    kinetics,
+    linear_system,
+    quiet,
+    step_rate,
+)
+from ..dense import interpolate, output_fraction
+from ..sma import (
+    clip_fractions,
+    compliance,
+    latent_heats,
+    phase_step,
+    rates,
+    rates_and_slopes,
+    resistivity,
+    stress,
+)
+from ..stability import lu_factor, lu_solve, solve_in_place, unstable_modes
+from .columns import (
     X_EL,
     X_ER,
     X_HEAD,
@@ -97,17 +110,6 @@ from .layout import (
     X_TR,
 )
 from .record import record
-from .sma import (
-    clip_fractions,
-    compliance,
-    latent_heats,
-    phase_step,
-    rates,
-    rates_and_slopes,
-    resistivity,
-    stress,
-)
-from .stability import lu_factor, lu_solve, solve_in_place, unstable_modes
 from .tube import (
     chord_slope,
     load_ratio,
@@ -923,7 +925,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     """Advance one spine by one output step ``dt`` with voltages and loads held (MODEL.md §6.1).
 
     Args:
-        state: model state (see :mod:`layout`), updated in place.
+        state: model state (see :mod:`.columns`), updated in place.
         kp, ks: constants and solver options.
         v_r, v_l: voltage on each wire of the right / left side [V].
         vforce: (N, 2) external forces at the vertices P_0 … P_{N−1} [N], global x/y.

@@ -1,6 +1,6 @@
 """Loops over many spines, compiled serial and parallel from one body (MODEL.md §6, STYLE.md).
 
-The per-spine physics is :func:`spine_gym.physics.solver.advance`; nothing here repeats an
+The per-spine physics is :func:`spine_gym.physics.planar.solver.advance`; nothing here repeats an
 equation. ``run`` records one spine's trajectory (used by :func:`spine_gym.simulate`);
 ``advance_many`` steps a batch of spines by one control period (used by the vector environment and
 the design sweeps), in parallel across cores with ``prange`` (the spines dealt out to the threads one
@@ -12,10 +12,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ._deal import counter, take
-from ._jit import jit, pjit
-from .dense import held_steps, span_options, spans_outputs
-from .layout import OK
+from .._deal import counter, take
+from .._jit import jit, pjit
+from ..columns import OK
+from ..dense import held_steps, span_options, spans_outputs
 from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
 from .solver import advance, advance_held
 

@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
-from .stability import dunkerley_weight
+from .._jit import hot, jit
+from ..columns import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
+from ..stability import dunkerley_weight
 
 SERIES_MAX = 0.3  # [rad] below this |angle| the sines and cosines of small angles are Taylor series
 # Taylor coefficients (as multiplications: a division costs several times more, on the hot loop)
