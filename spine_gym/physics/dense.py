@@ -10,7 +10,8 @@ module holds the rule both drivers share: which output steps form a span (:func:
 where an output falls in a sub-step (:func:`output_fraction`) and the interpolation
 (:func:`interpolate`) and the sub-step cap of a span (:func:`span_options`: ``SolverOptions.dense_h_max``,
 never below the output step). ``SolverOptions.dense_output`` switches it off (one call per output
-step); a span of one output step is exactly that call.
+step); a span of one output step is exactly that call. :func:`last_h` is where both cores end a
+sub-step before the end of its output step (or span).
 
 Linear interpolation is consistent with the scheme: within a sub-step the discrete heat balance
 and the energy accumulators (§6.1 d–f) are linear in the elapsed fraction of the step, so the
@@ -92,3 +93,11 @@ def interpolate(start, end, theta, out):
     (a wire at rest, Joule heat after switch-off) stays exactly what it was."""
     for i in range(out.shape[0]):
         out[i] = start[i] + theta * (end[i] - start[i])
+
+
+@hot
+def last_h(rem, dt, h):
+    """Clip a proposed sub-step to what is left of the output step, without leaving a sliver."""
+    if h > rem or rem - h < 1e-9 * dt:
+        return rem
+    return h

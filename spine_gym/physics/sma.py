@@ -12,6 +12,7 @@ from ._jit import hot
 from .columns import K_DETA, K_DSIG, K_DU, K_EA, K_EM, K_EPST, K_INVTAU, K_KE, K_LAMA, K_LAMM, K_LAMP, K_VLKB
 
 EXP_CLAMP = 700.0  # MODEL.md §6.3.1: exp(-min(λΔG, 700)); never exp of a huge argument
+SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 SLOPE_DT = 1e-3  # [K] temperature step of the finite difference ∂ΔG/∂T in rates_and_slopes
 
 

@@ -67,6 +67,7 @@ from ..columns import (
     SCHEME_COUPLED,
 )
 from ..coupled import (
+    SECANT_MIN_DM,
     T_PER_FRACTION,
     accept_or_retry,
     copy_rows,
@@ -78,8 +79,7 @@ from ..coupled import (
     quiet,
     step_rate,
 )
-from ..dense import held_steps, interpolate, output_fraction, span_options, spans_outputs
-from ..planar.solver import SECANT_MIN_DM, _last_h
+from ..dense import held_steps, interpolate, last_h, output_fraction, span_options, spans_outputs
 from ..sma import (
     clip_fractions,
     compliance,
@@ -1204,7 +1204,7 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         back[i] = state[i]
     passes = 0
     while True:
-        hh = _last_h(rem, dt, h)
+        hh = last_h(rem, dt, h)
         if not _predict_coupled(
             omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_ACT],
             wk[WK_JNUM], wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_LU], wk[WK_PIV], wk[WK_VEC],

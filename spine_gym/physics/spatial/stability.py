@@ -41,10 +41,8 @@ import numpy as np
 
 from .._jit import hot, jit
 from ..columns import K_AW, K_EI, K_EPST, K_G
-from ..planar.solver import BUCKLING_SCREEN, SLACK_TOL
-from ..planar.tube import chord_slope
-from ..sma import compliance
-from ..stability import dunkerley_weight, unstable_modes
+from ..sma import SLACK_TOL, compliance
+from ..stability import BUCKLING_SCREEN, chord_slope, dunkerley_weight, unstable_modes
 from .columns import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_LREF, W_MOD, W_NW
 from .tube import chord_sums, rot_coeffs, shape_pass, wire_length
 
@@ -135,7 +133,8 @@ def tube_jacobian(omega, mw, vforce, kp, km, jac, rows, frames, chords):
 def length_gradient(w1, w2, ls, a, ex, ey):
     """Exact ∂ℓ/∂ω of one segment's share ℓ = f(Δθ) (ls − a e·ω) of a wire length (SPATIAL.md §4).
 
-    ∂ℓ/∂ω = (f'/Δθ) (ls − a e·ω) ω − f a e, f = 2 sin(Δθ/2)/Δθ, f' = :func:`planar.tube.chord_slope` / ls.
+    ∂ℓ/∂ω = (f'/Δθ) (ls − a e·ω) ω − f a e, f = 2 sin(Δθ/2)/Δθ,
+    f' = :func:`spine_gym.physics.stability.chord_slope` / ls.
     """
     th2 = w1 * w1 + w2 * w2
     th = math.sqrt(th2)
