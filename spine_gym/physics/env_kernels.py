@@ -1,19 +1,23 @@
 """One control period for many spines: the jitted step shared by the single and the vector env.
 
-Nothing here adds an equation: each spine is advanced with :func:`planar.solver.advance` (the model's own
-adaptive sub-steps inside every physics step ``dt``) and measured with :func:`planar.record.record`, exactly
-as :func:`spine_gym.simulate` does. What the environments need on top is bookkeeping: a backup so
-that a spine whose step fails is handed back at its last valid state (the env then terminates
-with a status, never with NaN), and a ``resolve`` flag per spine (solve the mechanics again only
-when the loads changed since the last solve, as ``planar.batch.run`` does).
+Nothing here adds an equation: each spine is advanced with :func:`planar.solver.advance` (the
+model's own adaptive sub-steps inside every physics step ``dt``) and measured with
+:func:`planar.record.record`, exactly as :func:`spine_gym.simulate` does. What the environments
+need on top is bookkeeping: a backup so that a spine whose step fails is handed back at its last
+valid state (the env then terminates with a status, never with NaN), and a ``resolve`` flag per
+spine (solve the mechanics again only when the loads changed since the last solve, as
+``planar.batch.run`` does).
 
 :func:`step_spine` is one spine's control period; the envs call it from their one jitted call per
 step (:mod:`spine_gym.envs._step_kernels`: inputs, physics, readings and bookkeeping together).
 ``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``
 (the spines dealt out to the threads one at a time, :mod:`._deal`);
-``step_many_serial`` is its serial twin (one body compiled twice, STYLE.md; each twin has its own
-on-disk cache entry, ``_jit.pjit``, so a serial kernel never runs parallel machine code). They are
-the physics alone, as the benchmarks time it against the env.
+``step_many_serial`` is its serial twin (one body compiled twice, so that the serial and the
+parallel loop run the same code; each twin has its own on-disk cache entry, ``_jit.pjit``, so a
+serial kernel never runs parallel machine code). No env calls them: they are the physics alone,
+which ``benchmarks/bench_training_share.py`` ("the kernel alone") and ``benchmarks/bench_env.py``
+time against the env, and ``tests/test_spatial.py`` compares ``step_many_spatial`` with single
+spines.
 
 :func:`step_spine_spatial`, ``step_many_spatial`` / ``step_many_spatial_serial`` are the same for
 spatial or chained spines (:func:`spatial.solver.advance_in` and :func:`spatial.solver.record`,

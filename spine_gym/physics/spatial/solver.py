@@ -30,11 +30,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from .._deal import counter, take
-from .._jit import hot, jit, pjit
+from .._jit import hot, jit
 from ..columns import (
     ERR_BUCKLING,
     ERR_NONFINITE,
@@ -1619,33 +1617,3 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
             return st, k + done, nsub, npass
         k += m
     return OK, n, nsub, npass
-
-
-def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
-    """Advance each spatial spine i by ``n_steps`` output steps of ``dt`` (cf. planar.batch.advance_many).
-
-    Args:
-        states: (B, state size) spatial states, advanced in place.
-        kps: (B, KP_SIZE) material constants per spine (e.g. randomised).
-        kw, km: the layout tables, shared by the batch.
-        volts: (B, W) voltages [V]; loads: (B, N, 3) vertex forces [N].
-        status: (B,) output, the first failure of each spine (a failed spine stops there).
-    """
-    b = states.shape[0]
-    nw, nm, ns = sizes(kw, km)
-    todo = counter()
-    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
-        i = take(todo, b)
-        while i >= 0:
-            status[i] = OK
-            wk = make_work(nw, nm, ns)
-            for _step in range(n_steps):
-                st, _a, _c = advance_in(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt, True, wk)
-                if st != OK:
-                    status[i] = st
-                    break
-            i = take(todo, b)
-
-
-advance_many = pjit(_advance_many)
-advance_many_serial = jit(_advance_many)
