@@ -1,4 +1,5 @@
-"""Layering (STYLE.md): the physics kernels are numpy + numba only; the envs need no RL stack."""
+"""Layering: the physics kernels are numpy + numba only (the simulator must install and run without
+gymnasium, torch or matplotlib); the envs need no RL stack."""
 
 import ast
 import pathlib

@@ -1,4 +1,5 @@
-"""The one place where numba options live (STYLE.md: "keep numba options in one place").
+"""The one place where numba options live: every kernel takes its flags from here, so a change of
+flags reaches all kernels at once and no two kernels are compiled with different options by accident.
 
 Every kernel is compiled with ``cache=True`` so that the compiled machine code is written next to
 the source (``__pycache__``) and later processes load it instead of compiling again. No
