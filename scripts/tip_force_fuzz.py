@@ -22,9 +22,9 @@ import gymnasium as gym
 import numpy as np
 
 import spine_gym  # noqa: F401 - registers the env ids
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_solver as ss
-from spine_gym.physics.spatial_stability import is_buckled, load_ratio
+from spine_gym.physics import columns as L
+from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial.stability import is_buckled, load_ratio
 
 IDS = ("SmaSpine3D-v0", "SmaSpineChain-v0")
 

@@ -2,7 +2,7 @@
 
 numba re-validates a cached kernel (``cache=True``, files ``*.nbi``/``*.nbc`` in ``__pycache__``)
 only against its *own* source file, not against the callees it compiled in from other modules: after
-an edit of ``physics/solver.py`` the kernels of ``physics/env_kernels.py`` would keep running the old
+an edit of ``physics/planar/solver.py`` the kernels of ``physics/env_kernels.py`` would keep running the old
 ``advance``. A digest of all kernel sources, stored beside the cache, catches that. It runs when
 ``spine_gym`` is imported, before any kernel is loaded (numba loads a cache at a kernel's first call).
 """
@@ -18,8 +18,12 @@ __all__ = ["KERNEL_CACHE_DIRS", "KERNEL_SOURCES", "STAMP_NAME", "clear_stale_cac
 
 _PACKAGE = Path(__file__).resolve().parent
 # every file that defines kernels: the cache must go when any of them changes
-KERNEL_SOURCES = (*sorted((_PACKAGE / "physics").glob("*.py")), _PACKAGE / "envs" / "_bookkeeping.py")
-KERNEL_CACHE_DIRS = (_PACKAGE / "physics" / "__pycache__", _PACKAGE / "envs" / "__pycache__")
+KERNEL_SOURCES = (*sorted((_PACKAGE / "physics").rglob("*.py")), _PACKAGE / "envs" / "_bookkeeping.py")
+# the stamp lives in the first; physics/planar and physics/spatial hold the cores' kernels
+KERNEL_CACHE_DIRS = (
+    *(_PACKAGE / "physics" / d / "__pycache__" for d in (".", "planar", "spatial")),
+    _PACKAGE / "envs" / "__pycache__",
+)
 STAMP_NAME = "spine_gym_sources.sha256"
 
 

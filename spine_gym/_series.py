@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .physics import layout as L
+from .physics import columns as L
 
 V_MAX_ALLOWED = 100.0  # [V] sanity bound on a wire voltage
 

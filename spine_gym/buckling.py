@@ -24,10 +24,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import ModelParams, SolverOptions
-from .physics import layout as L
-from .physics.solver import equilibrium_jacobian
+from .physics import columns as L
+from .physics.planar import columns as PL
+from .physics.planar.solver import equilibrium_jacobian
+from .physics.planar.tube import shape_jacobian
 from .physics.stability import euler_critical_load, unstable_modes
-from .physics.tube import shape_jacobian
 from .simulate import SimulationError, initial_state
 
 __all__ = ["BucklingMargin", "critical_load", "euler_tip_load"]
@@ -71,7 +72,8 @@ def _jacobian(params, kp, dth, state, vforce, wires: bool) -> np.ndarray:
     n = params.n_seg
     jac = np.empty((n, n))
     if wires:
-        equilibrium_jacobian(dth, state[L.X_PR], state[L.X_MR], state[L.X_PL], state[L.X_ML], vforce, kp, jac)
+        xs = state[PL.X_PR], state[PL.X_MR], state[PL.X_PL], state[PL.X_ML]
+        equilibrium_jacobian(dth, *xs, vforce, kp, jac)
     else:
         shape_jacobian(dth, vforce, kp, jac)
     return jac
@@ -129,10 +131,10 @@ def critical_load(
                 return unstable
             raise
     state = np.asarray(state, dtype=float)
-    if state.shape != (L.state_size(n),) or not np.all(np.isfinite(state)):
-        raise ValueError(f"state must be a finite array of shape ({L.state_size(n)},), got {state.shape}")
+    if state.shape != (PL.state_size(n),) or not np.all(np.isfinite(state)):
+        raise ValueError(f"state must be a finite array of shape ({PL.state_size(n)},), got {state.shape}")
     kp = params.to_kernel()
-    dth = np.ascontiguousarray(state[L.X_HEAD : L.X_HEAD + n])
+    dth = np.ascontiguousarray(state[PL.X_HEAD : PL.X_HEAD + n])
     j0 = _jacobian(params, kp, dth, state, vforce, wires)
     a0 = np.eye(n) - j0
     extra = vforce.copy()

@@ -23,7 +23,7 @@ length, :attr:`SpineLayout.voltage_scale` (= L0 of the wire's module / ``params.
 Validation raises ``ValueError`` naming the field, the allowed range and the value: azimuths
 outside [0°, 360°), wire groups closer than one wire diameter (overlapping pores), pores inside
 the bore, a wire count of 0, and layouts whose straight column is past self-weight buckling
-(:func:`spine_gym.physics.spatial_tube.straight_load_factor` ≥ 1).
+(:func:`spine_gym.physics.spatial.tube.straight_load_factor` ≥ 1).
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .params import ModelParams, _check
-from .physics import spatial_layout as SL
-from .physics.spatial_tube import straight_load_factor
+from .physics.spatial import columns as SL
+from .physics.spatial.tube import straight_load_factor
 
 MAX_MODULES = 100
 MAX_WIRE_GROUPS = 64

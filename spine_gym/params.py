@@ -3,7 +3,7 @@
 Defaults are the baseline set of MODEL.md §7; :func:`alternative` gives the §7 alternative
 calibration. Make variants with :func:`dataclasses.replace` (validation runs again), never by
 mutation. The kernels take flat float64 arrays built by ``to_kernel()`` (layout in
-:mod:`spine_gym.physics.layout`).
+:mod:`spine_gym.physics.columns`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .physics import layout as L
+from .physics import columns as L
 
 K_BOLTZMANN = 1.380649e-23  # [J/K]
 PRESET_FORMAT = "spine_gym.ModelParams/1"  # tag of a preset file written by ModelParams.to_file

@@ -1,6 +1,6 @@
 """``simulate()``: run the spine model over a voltage and load programme (MODEL.md §6).
 
-The time loop runs inside numba (:func:`spine_gym.physics.batch.run`); this module only turns
+The time loop runs inside numba (:func:`spine_gym.physics.planar.batch.run`); this module only turns
 user inputs (constants, arrays sampled at ``dt`` or callables of time) into arrays, validates them,
 and wraps the record in a :class:`SimulationResult`.
 """
@@ -16,9 +16,10 @@ import numpy as np
 from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
-from .physics import batch
-from .physics import layout as L
-from .physics.solver import init_state
+from .physics import columns as L
+from .physics.planar import batch
+from .physics.planar import columns as PL
+from .physics.planar.solver import init_state
 from .simulate_spatial import SpatialResult, simulate_spatial
 
 __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
@@ -82,7 +83,7 @@ def build_loads(n_seg: int, n: int, dt: float, tip_force=None, vertex_forces=Non
 def initial_state(params: ModelParams, solver: SolverOptions | None = None, loads=None) -> np.ndarray:
     """The MODEL.md §3.10 initial state, solved under ``loads`` ((N, 2) vertex forces; default none)."""
     solver = solver or SolverOptions()
-    state = np.zeros(L.state_size(params.n_seg))
+    state = np.zeros(PL.state_size(params.n_seg))
     vf = np.zeros((params.n_seg, 2)) if loads is None else np.asarray(loads, dtype=float)
     st = init_state(state, params.to_kernel(), solver.to_kernel(), vf)
     if st != L.OK:
@@ -182,9 +183,9 @@ def simulate(
         state = initial_state(params, solver, loads[0])
     else:
         state = np.array(state, dtype=float)
-        if state.shape != (L.state_size(params.n_seg),):
-            raise ValueError(f"state must have shape ({L.state_size(params.n_seg)},), got {state.shape}")
-    t0 = state[L.X_TIME]
+        if state.shape != (PL.state_size(params.n_seg),):
+            raise ValueError(f"state must have shape ({PL.state_size(params.n_seg)},), got {state.shape}")
+    t0 = state[PL.X_TIME]
     out = batch.empty_record(n)
     st, k, nsub, npass = batch.run(state, kp, ks, v_r, v_l, loads, dt, out)
     if st != L.OK:
@@ -204,33 +205,33 @@ def _result(out, v_r, v_l, dt, t0, params: ModelParams, nsub, npass, state) -> S
     return SimulationResult(
         time=t0 + dt * np.arange(n + 1),
         angle_deg=np.degrees(x[:, batch.OUT_ANGLE]),
-        moment=x[:, L.X_MW].copy(),
+        moment=x[:, PL.X_MW].copy(),
         tip_x=x[:, batch.OUT_TIP_X].copy(),
         tip_y=x[:, batch.OUT_TIP_Y].copy(),
-        temperature_right=x[:, L.X_TR].copy(),
-        temperature_left=x[:, L.X_TL].copy(),
-        stress_right=x[:, L.X_SR].copy(),
-        stress_left=x[:, L.X_SL].copy(),
-        strain_right=x[:, L.X_ER].copy(),
-        strain_left=x[:, L.X_EL].copy(),
-        x_plus_right=x[:, L.X_PR].copy(),
-        x_minus_right=x[:, L.X_MR].copy(),
-        x_austenite_right=1.0 - x[:, L.X_PR] - x[:, L.X_MR],
-        x_plus_left=x[:, L.X_PL].copy(),
-        x_minus_left=x[:, L.X_ML].copy(),
-        x_austenite_left=1.0 - x[:, L.X_PL] - x[:, L.X_ML],
+        temperature_right=x[:, PL.X_TR].copy(),
+        temperature_left=x[:, PL.X_TL].copy(),
+        stress_right=x[:, PL.X_SR].copy(),
+        stress_left=x[:, PL.X_SL].copy(),
+        strain_right=x[:, PL.X_ER].copy(),
+        strain_left=x[:, PL.X_EL].copy(),
+        x_plus_right=x[:, PL.X_PR].copy(),
+        x_minus_right=x[:, PL.X_MR].copy(),
+        x_austenite_right=1.0 - x[:, PL.X_PR] - x[:, PL.X_MR],
+        x_plus_left=x[:, PL.X_PL].copy(),
+        x_minus_left=x[:, PL.X_ML].copy(),
+        x_austenite_left=1.0 - x[:, PL.X_PL] - x[:, PL.X_ML],
         resistance_right=r_wire,
         resistance_left=l_wire,
         voltage_right=vr,
         voltage_left=vl,
         power_right=params.n_w * vr**2 / r_wire,
         power_left=params.n_w * vl**2 / l_wire,
-        joule_energy_right=x[:, L.X_QJR] * vol,
-        joule_energy_left=x[:, L.X_QJL] * vol,
-        convective_loss_right=x[:, L.X_QCR] * vol,
-        convective_loss_left=x[:, L.X_QCL] * vol,
-        latent_heat_right=x[:, L.X_QLR] * vol,
-        latent_heat_left=x[:, L.X_QLL] * vol,
+        joule_energy_right=x[:, PL.X_QJR] * vol,
+        joule_energy_left=x[:, PL.X_QJL] * vol,
+        convective_loss_right=x[:, PL.X_QCR] * vol,
+        convective_loss_left=x[:, PL.X_QCL] * vol,
+        latent_heat_right=x[:, PL.X_QLR] * vol,
+        latent_heat_left=x[:, PL.X_QLL] * vol,
         params=params,
         substeps=int(nsub),
         shape_passes=int(npass),

@@ -20,13 +20,14 @@ from spine_gym.envs import SmaSpineEnv
 from spine_gym.envs.core import EnvConfig
 from spine_gym.envs.task import LoadSchedule
 from spine_gym.layout import SpineLayout
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_layout as SL
-from spine_gym.physics.solver import BUCKLING_SCREEN, equilibrium_jacobian
-from spine_gym.physics.spatial_stability import load_ratio as spatial_load_ratio
-from spine_gym.physics.spatial_stability import needs_stability_check
-from spine_gym.physics.stability import unstable_modes
-from spine_gym.physics.tube import load_ratio, shape_jacobian, shape_pass
+from spine_gym.physics import columns as L
+from spine_gym.physics.planar import columns as PL
+from spine_gym.physics.planar.solver import equilibrium_jacobian
+from spine_gym.physics.planar.tube import load_ratio, shape_jacobian, shape_pass
+from spine_gym.physics.spatial import columns as SL
+from spine_gym.physics.spatial.stability import load_ratio as spatial_load_ratio
+from spine_gym.physics.spatial.stability import needs_stability_check
+from spine_gym.physics.stability import BUCKLING_SCREEN, unstable_modes
 from spine_gym.simulate import SimulationError
 from spine_gym.simulate_spatial import simulate_spatial
 
@@ -100,13 +101,13 @@ def test_unstable_mode_count_agrees_with_the_eigenvalues():
     r = simulate(20.0, 3.2, 0.0)
     kp = P0.to_kernel()
     st = r.final_state
-    bent = st[L.X_HEAD : L.X_HEAD + 13].copy()
+    bent = st[PL.X_HEAD : PL.X_HEAD + 13].copy()
     work = np.empty((13, 13))
     for dth in (np.zeros(13), bent):
         for fy in np.linspace(0.0, -40.0, 81):
             jac = np.empty((13, 13))
             equilibrium_jacobian(
-                dth, st[L.X_PR], st[L.X_MR], st[L.X_PL], st[L.X_ML], tip_loads(13, 0, fy), kp, jac
+                dth, st[PL.X_PR], st[PL.X_MR], st[PL.X_PL], st[PL.X_ML], tip_loads(13, 0, fy), kp, jac
             )
             lam = np.linalg.eigvals(np.eye(13) - jac).real.min()
             if abs(lam) > 1e-6:

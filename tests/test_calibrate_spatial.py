@@ -20,7 +20,7 @@ from spine_gym import ModelParams, SpineLayout
 from spine_gym.calibrate import SpatialExperiment, fit, synthetic_spatial_experiment
 from spine_gym.calibrate.parameters import resolve_parameters
 from spine_gym.calibrate.protocols import EXAMPLE_WIRE_VALUES, MODULE_CHANNELS, module_protocol
-from spine_gym.physics import spatial_layout as SL
+from spine_gym.physics.spatial import columns as SL
 from spine_gym.simulate_spatial import simulate_spatial
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 

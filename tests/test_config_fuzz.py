@@ -22,8 +22,9 @@ from spine_gym.buckling import critical_load
 from spine_gym.envs.task import TARGET_KINDS
 from spine_gym.envs.task_spatial import BEND_KINDS
 from spine_gym.params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
-from spine_gym.physics import layout as L
-from spine_gym.physics.solver import init_state
+from spine_gym.physics import columns as L
+from spine_gym.physics.planar import columns as PL
+from spine_gym.physics.planar.solver import init_state
 
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
 EXAMPLES = {"SmaSpine-v0": 25, "SmaSpine3D-v0": 20, "SmaSpineChain-v0": 15}
@@ -200,7 +201,7 @@ def test_dynamics_only_fields_do_not_change_the_initial_state(field):
     p_crit = critical_load(NOMINAL).payload
 
     def solve(params, payload):
-        state = np.zeros(L.state_size(params.n_seg))
+        state = np.zeros(PL.state_size(params.n_seg))
         vforce = np.zeros((params.n_seg, 2))
         vforce[0, 1] = -payload * params.g
         return init_state(state, params.to_kernel(), ks, vforce), state

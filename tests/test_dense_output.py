@@ -13,8 +13,10 @@ import pytest
 from spine_gym import SimulationError, SolverOptions, SpineLayout, simulate
 from spine_gym.experiments import hysteresis_voltages
 from spine_gym.params import FINE_REFERENCE, ModelParams
-from spine_gym.physics import batch, dense, solver
-from spine_gym.physics import layout as L
+from spine_gym.physics import columns as L
+from spine_gym.physics import dense
+from spine_gym.physics.planar import batch, solver
+from spine_gym.physics.planar import columns as PL
 
 GATE_DEG = 0.5  # every output within 0.5° of the fine-step reference
 STEPPED = SolverOptions(dense_output=False)
@@ -101,14 +103,14 @@ def test_output_at_the_span_end_is_the_state_one_long_output_step_gives():
     assert (st, done) == (L.OK, m)
     st2, nsub2, _ = solver.advance(long, kp, ks, 3.2, 0.0, vf, m * dt, False)
     assert st2 == L.OK and nsub2 == nsub < m  # fewer sub-steps than outputs
-    heads = slice(0, L.X_TIME)  # the model time differs: m additions of dt against one of m dt
+    heads = slice(0, PL.X_TIME)  # the model time differs: m additions of dt against one of m dt
     np.testing.assert_array_equal(held[heads], long[heads])
-    np.testing.assert_array_equal(held[L.X_HEAD :], long[L.X_HEAD :])
+    np.testing.assert_array_equal(held[PL.X_HEAD :], long[PL.X_HEAD :])
     row = np.empty(batch.OUT_SIZE)
     batch.record(held, kp, row)
     np.testing.assert_array_equal(out[-1], row)
-    assert held[L.X_TIME] == pytest.approx(start[L.X_TIME] + m * dt, abs=1e-12)
-    np.testing.assert_allclose(out[:, L.X_TIME], start[L.X_TIME] + dt * np.arange(1, m + 1), atol=1e-12)
+    assert held[PL.X_TIME] == pytest.approx(start[PL.X_TIME] + m * dt, abs=1e-12)
+    np.testing.assert_allclose(out[:, PL.X_TIME], start[PL.X_TIME] + dt * np.arange(1, m + 1), atol=1e-12)
 
 
 def test_outputs_inside_a_sub_step_are_the_linear_interpolant():

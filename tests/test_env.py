@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 
 import spine_gym
 from spine_gym import ModelParams, SolverOptions, simulate
-from spine_gym.params import FINE_REFERENCE
 from spine_gym.envs import OBS_NAMES, SmaSpineEnv, default_randomization
 from spine_gym.envs.render import SpineRenderer
 from spine_gym.envs.task import LoadSchedule, TargetProfile, TipForceEvent
-from spine_gym.physics import layout as L
+from spine_gym.params import FINE_REFERENCE
+from spine_gym.physics import columns as L
 
 NO_LOADS = {"tip_force_range": None, "payload_range": None}
 INFO_KEYS = {

@@ -34,7 +34,7 @@ from spine_gym.envs.table import Entry, Table
 from spine_gym.envs.task import TipForceEvent
 from spine_gym.envs.task_spatial import arc_tip_position
 from spine_gym.layout import SpineLayout
-from spine_gym.physics import layout as L
+from spine_gym.physics import columns as L
 from spine_gym.simulate_spatial import simulate_spatial
 
 torch.set_num_threads(1)

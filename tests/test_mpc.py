@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
-from spine_gym.agents.runtime import load_tuned
-from spine_gym.agents.runtime import VALIDATION_SEED_BASE
+from spine_gym.agents.runtime import VALIDATION_SEED_BASE, load_tuned
 from spine_gym.agents.scenarios import HARD_LIKE_KWARGS
 from spine_gym.controllers import (
     DisturbanceConfig,
@@ -17,7 +16,8 @@ from spine_gym.controllers import (
     austenite_from_resistance,
 )
 from spine_gym.envs.task import LoadSchedule, TargetProfile
-from spine_gym.physics import layout as L
+from spine_gym.physics import columns as L
+from spine_gym.physics.planar import columns as PL
 from spine_gym.physics.rollout import rollout_many, rollout_many_serial
 
 NOISY = {
@@ -143,7 +143,7 @@ def test_rollout_batch_equals_single_env_rollouts_with_the_same_voltages(kernel)
     side = snap.arrays["wvol"][0]  # wire volume of one side
     for i in range(n):
         env.restore(snap)
-        e0 = snap.state[[L.X_QJR, L.X_QJL]].sum() * side
+        e0 = snap.state[[PL.X_QJR, PL.X_QJL]].sum() * side
         energy = 0.0
         for j in range(h):
             _, _, _, _, info = env.step(actions[i, j])
@@ -179,7 +179,7 @@ def test_estimator_recovers_the_phase_fractions_on_seeded_episodes():
         x_a_max = 0.0
         while True:
             est.update(obs)
-            x = env.state[[L.X_PR, L.X_MR, L.X_PL, L.X_ML]]
+            x = env.state[[PL.X_PR, PL.X_MR, PL.X_PL, PL.X_ML]]
             worst = max(worst, float(np.abs(est.fractions - x).max()))
             x_a_max = max(x_a_max, float(1.0 - x[0] - x[1]), float(1.0 - x[2] - x[3]))
             a, _ = pid.predict(obs)

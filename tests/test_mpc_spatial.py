@@ -12,9 +12,9 @@ from spine_gym.controllers import MPPIConfig, SpatialMPPIController, SpatialPhas
 from spine_gym.controllers.mpc_spatial import SpatialReadings, drive_patterns
 from spine_gym.envs.task import LoadSchedule
 from spine_gym.envs.task_spatial import BendTarget
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_layout as SL
+from spine_gym.physics import columns as L
 from spine_gym.physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
+from spine_gym.physics.spatial import columns as SL
 
 
 def _env(env_id=SPATIAL_ENV_ID, **kw):

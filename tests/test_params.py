@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from spine_gym.params import ModelParams, SolverOptions, alternative, field_names
-from spine_gym.physics import layout as L
+from spine_gym.physics import columns as L
 
 
 def test_baseline_derived_constants_match_model_md():

@@ -28,10 +28,11 @@ from spine_gym.experiments import (
     hysteresis_voltages,
 )
 from spine_gym.layout import Module, SpineLayout, WireGroup, seed_module
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_layout as SL
-from spine_gym.physics import spatial_solver as ss
-from spine_gym.physics import spatial_tube as tube3
+from spine_gym.physics import columns as L
+from spine_gym.physics import env_kernels
+from spine_gym.physics.spatial import columns as SL
+from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial import tube as tube3
 from spine_gym.physics.stability import solve_in_place
 from spine_gym.simulate_spatial import SpatialResult
 
@@ -567,6 +568,8 @@ def test_capacity_metrics_of_a_chain():
 
 
 def test_batch_of_spatial_spines_equals_single_spines():
+    """The env kernels' parallel loop over spatial spines (rows dealt out to the threads) advances
+    each spine exactly as :func:`env_kernels.step_spine_spatial` does alone."""
     lay = SpineLayout.chain(2)
     kp, kw, km = lay.to_kernel()
     ks = SolverOptions().to_kernel()
@@ -583,16 +586,24 @@ def test_batch_of_spatial_spines_equals_single_spines():
     )
     kps = np.tile(kp, (b, 1))
     kps[1, L.K_EI] *= 1.2  # per-spine constants
+    kws, kms = np.stack([kw] * b), np.stack([km] * b)
     states = init.copy()
+    backup = np.empty_like(states)
+    resolve, active = np.ones(b, dtype=np.bool_), np.ones(b, dtype=np.bool_)
     status = np.empty(b, dtype=np.int64)
-    ss.advance_many(states, kps, ks, kw, km, volts, loads, 0.1, 30, status)  # the prange loop
+    rec = np.empty((b, ss.record_size(*ss.sizes(kw, km))))
+    env_kernels.step_many_spatial(  # the prange loop
+        states, backup, kps, ks, kws, kms, volts, loads, resolve, active, 0.1, 30, status, rec
+    )
     assert np.all(status == L.OK)
     for i in range(b):
-        single = init[i].copy()
-        for _ in range(30):
-            st, _, _ = ss.advance(single, kps[i], ks, kw, km, volts[i], loads[i], 0.1)
-            assert st == L.OK
+        single, rec_i = init[i].copy(), np.empty(rec.shape[1])
+        st = env_kernels.step_spine_spatial(
+            single, np.empty_like(single), kps[i], ks, kw, km, volts[i], loads[i], True, 0.1, 30, rec_i
+        )
+        assert st == L.OK
         np.testing.assert_array_equal(states[i], single)
+        np.testing.assert_array_equal(rec[i], rec_i)
 
 
 def test_layout_replace_and_non_tuple_wires():

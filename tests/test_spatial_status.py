@@ -17,9 +17,14 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401  (registers the ids)
-from spine_gym.physics import layout as L
-from spine_gym.physics import spatial_solver as ss
-from spine_gym.physics.spatial_stability import is_buckled, is_buckled_at, needs_stability_check, stability_work
+from spine_gym.physics import columns as L
+from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial.stability import (
+    is_buckled,
+    is_buckled_at,
+    needs_stability_check,
+    stability_work,
+)
 
 SOLVER_LIMITS = (L.ERR_SHAPE, L.ERR_ROOT, L.ERR_SUBSTEPS)
 # (id, seed, tip_force_count): the first two ended with ERR_SHAPE before SPATIAL.md §8.11 (a 0.1-s
@@ -65,7 +70,7 @@ def parts(state, kw, km):
 
 
 def replay_substeps(r):
-    """The failing step sub-step by sub-step (as ``spatial_solver._span``): (state at the start of
+    """The failing step sub-step by sub-step (as ``spatial.solver._span``): (state at the start of
     the sub-step that failed, its end fractions (x+, x-) per wire) or (the state the step ended on, None)."""
     kp, ks, kw, km, vf = r["kp"], r["ks"], r["kw"], r["km"], r["loads"]
     nw, nm, ns = ss.sizes(kw, km)

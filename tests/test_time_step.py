@@ -5,8 +5,10 @@ import numpy as np
 import pytest
 
 from spine_gym import ModelParams, SolverOptions, simulate
-from spine_gym.physics import layout as L
-from spine_gym.physics import sma, solver
+from spine_gym.physics import columns as L
+from spine_gym.physics import sma
+from spine_gym.physics.planar import columns as PL
+from spine_gym.physics.planar import solver
 
 KP = ModelParams().to_kernel()
 
@@ -40,19 +42,20 @@ def test_stress_sensitivity_matches_re_solved_composite():
     vf = np.zeros((n, 2))
     work, saved = np.empty(n), np.empty(n)
     sens = np.empty((2, 4))
-    dth = st[L.X_HEAD : L.X_HEAD + n]
-    s = st[L.X_HEAD + n :]
-    solver.stress_sensitivity(dth, s, st[L.X_SR], st[L.X_SL], *st[[L.X_PR, L.X_MR, L.X_PL, L.X_ML]], KP, sens)
-    assert st[L.X_SR] > 1e8 and st[L.X_SL] > 1e8
+    dth = st[PL.X_HEAD : PL.X_HEAD + n]
+    s = st[PL.X_HEAD + n :]
+    xs = st[[PL.X_PR, PL.X_MR, PL.X_PL, PL.X_ML]]
+    solver.stress_sensitivity(dth, s, st[PL.X_SR], st[PL.X_SL], *xs, KP, sens)
+    assert st[PL.X_SR] > 1e8 and st[PL.X_SL] > 1e8
     fd = np.empty((2, 4))
     h = 1e-7
-    for j, idx in enumerate((L.X_PR, L.X_MR, L.X_PL, L.X_ML)):
+    for j, idx in enumerate((PL.X_PR, PL.X_MR, PL.X_PL, PL.X_ML)):
         got = []
         for sgn in (1, -1):
             trial = st.copy()
             trial[idx] += sgn * h
             assert solver.composite(trial, vf, KP, ks, work, saved, False)[0] == L.OK
-            got.append(trial[[L.X_SR, L.X_SL]])
+            got.append(trial[[PL.X_SR, PL.X_SL]])
         fd[:, j] = (got[0] - got[1]) / (2 * h)
     # the secant sensitivity and the small-angle slopes make it a Jacobian to ~1 %, not exact
     np.testing.assert_allclose(sens, fd, rtol=0.02, atol=0.02 * np.abs(fd).max())
@@ -96,7 +99,7 @@ def test_rate_cache_never_serves_rates_of_other_constants():
     ks = SolverOptions().to_kernel()
     vf = np.zeros((n, 2))
     warm, cold = st.copy(), st.copy()
-    cold[L.X_RCACHE : L.X_RCACHE + L.RCACHE_SIZE] = 0.0
+    cold[PL.X_RCACHE : PL.X_RCACHE + PL.RCACHE_SIZE] = 0.0
     for s in (warm, cold):
         for _ in range(20):
             assert solver.advance(s, kp2, ks, 3.2, 0.0, vf, 0.01, False)[0] == L.OK

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from spine_gym.params import ModelParams
-from spine_gym.physics import layout as L
-from spine_gym.physics import tube
+from spine_gym.physics import columns as L
+from spine_gym.physics.planar import tube
 
 P = ModelParams()
 KP = P.to_kernel()

@@ -13,7 +13,7 @@ import spine_gym  # noqa: F401 - registers the env
 from spine_gym.envs import SmaSpineEnv, SmaSpineVectorEnv
 from spine_gym.envs.task import LoadSchedule, TargetProfile
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
-from spine_gym.physics import layout as L
+from spine_gym.physics import columns as L
 
 # short episodes so that autoresets happen; every source of randomness switched on
 KW = {

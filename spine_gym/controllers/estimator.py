@@ -1,13 +1,13 @@
 """State estimators: the hidden phase fractions of a spine from what its env observes.
 
 The env observes the bending angle, both wire temperatures and both wire resistances (and the
-action it applied). The model state behind them (``spine_gym.physics.layout``) also holds, per
+action it applied). The model state behind them (``spine_gym.physics.planar.columns``) also holds, per
 wire, the martensite fractions x₊ (tension variant) and x₋ (compression variant) and the shape of
 the tube. :class:`PhaseEstimator` keeps a full model state and, each control period, does
 
 1. **predict** — advance its state by one control period with the voltages the env applied (the
    observation's previous action), nominal parameters and no external load (the loads are not
-   observed), on the env's physics (:func:`spine_gym.physics.solver.advance`, same sub-steps);
+   observed), on the env's physics (:func:`spine_gym.physics.planar.solver.advance`, same sub-steps);
 2. **correct** — replace what is measured:
 
    * the temperatures by the measured ones;
@@ -56,11 +56,12 @@ import numpy as np
 
 from ..envs.core import OBS_NAMES, EnvConfig, planar_obs_index
 from ..envs.spatial import SpatialConfig
-from ..physics import layout as L
-from ..physics import spatial_layout as SL
-from ..physics import spatial_solver as sps
-from ..physics.solver import advance, composite, init_state, needs_stability_check
-from ..physics.spatial_stability import needs_stability_check as spatial_needs_check
+from ..physics import columns as L
+from ..physics.planar import columns as PL
+from ..physics.planar.solver import advance, composite, init_state, needs_stability_check
+from ..physics.spatial import columns as SL
+from ..physics.spatial import solver as sps
+from ..physics.spatial.stability import needs_stability_check as spatial_needs_check
 
 __all__ = ["DisturbanceConfig", "PhaseEstimator", "SpatialPhaseEstimator", "austenite_from_resistance"]
 
@@ -159,7 +160,7 @@ class PhaseEstimator:
         self.identified = self.nominal  # the parameters before the λ_A estimate
         self.lam_a_scale = 1.0  # estimated λ_A / nominal λ_A
         self.cov = np.zeros((3, 3))  # covariance of the augmented estimate (λ_A scale, f_x, f_y)
-        self.state = np.zeros(L.state_size(n))
+        self.state = np.zeros(PL.state_size(n))
         self._work = np.empty(n)
         self._saved = np.empty(n)
         self.angle_offset = 0.0  # [deg] measured − estimated angle after the last update
@@ -204,7 +205,7 @@ class PhaseEstimator:
 
     def _angle_of(self, state: np.ndarray) -> float:
         n = self.params.n_seg
-        return float(np.degrees(state[L.X_HEAD : L.X_HEAD + n].sum()))
+        return float(np.degrees(state[PL.X_HEAD : PL.X_HEAD + n].sum()))
 
     @property
     def tip_force(self) -> np.ndarray:
@@ -219,7 +220,7 @@ class PhaseEstimator:
     @property
     def fractions(self) -> np.ndarray:
         """Estimated (x₊ right, x₋ right, x₊ left, x₋ left)."""
-        return self.state[[L.X_PR, L.X_MR, L.X_PL, L.X_ML]].copy()
+        return self.state[[PL.X_PR, PL.X_MR, PL.X_PL, PL.X_ML]].copy()
 
     def update(self, obs: np.ndarray) -> np.ndarray:
         """Predict over the control period just taken (unless this is the first observation of the
@@ -256,10 +257,10 @@ class PhaseEstimator:
         """(status, state): ``predicted`` with the measured temperatures, the austenite fractions
         of the resistances (under ``params``' λ_A, λ_M) and the shape solved under ``loads``."""
         s = predicted.copy()
-        s[L.X_TR] = obs[OBS_TEMP_R]
-        s[L.X_TL] = obs[OBS_TEMP_L]
+        s[PL.X_TR] = obs[OBS_TEMP_R]
+        s[PL.X_TL] = obs[OBS_TEMP_L]
         xa = austenite_from_resistance(obs[[OBS_RES_R, OBS_RES_L]], params)
-        for (ip, im), x_a in zip(((L.X_PR, L.X_MR), (L.X_PL, L.X_ML)), xa, strict=True):
+        for (ip, im), x_a in zip(((PL.X_PR, PL.X_MR), (PL.X_PL, PL.X_ML)), xa, strict=True):
             mart = s[ip] + s[im]
             share = s[ip] / mart if mart > 1e-12 else 1.0
             s[ip] = (1.0 - x_a) * share
@@ -338,7 +339,7 @@ class SpatialPhaseEstimator:
     The same predict/correct cycle on the spatial core (SPATIAL.md), per wire group: predict one
     control period with the applied voltages (the observation's previous actions, the env's
     per-wire scale), nominal parameters and no external load
-    (:func:`spine_gym.physics.spatial_solver.advance`); correct the temperatures to the measured
+    (:func:`spine_gym.physics.spatial.solver.advance`); correct the temperatures to the measured
     ones and each wire's austenite fraction to its resistance (MODEL.md §3.7 with the wire's own
     length, split of the martensite as predicted); solve the shape again (the composite solve).
     ``identify=True`` takes T_E and λ_M from the first observation as the planar estimator does.
@@ -388,7 +389,7 @@ class SpatialPhaseEstimator:
         return obs[self.index[key]]
 
     def _block(self, field: int) -> np.ndarray:
-        """View of the per-wire block ``field`` (``spatial_layout.F_*``) of the estimated state."""
+        """View of the per-wire block ``field`` (``spatial.columns.F_*``) of the estimated state."""
         o = SL.wire_offset(field, self.n_wires)
         return self.state[o : o + self.n_wires]
 

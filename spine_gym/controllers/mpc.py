@@ -58,7 +58,8 @@ import numpy as np
 from ..envs.core import EnvConfig, planar_obs_index
 from ..envs.task import ANGLE_LIMIT
 from ..params import SolverOptions
-from ..physics import layout as L
+from ..physics import columns as L
+from ..physics.planar import columns as PL
 from ..physics.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, _check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
@@ -474,7 +475,7 @@ class MPPIController(MPPIBase):
         if env is not None:
             self.bind(env)
         n, h = s.n_samples, self.horizon_steps
-        self._work = np.empty((n, L.state_size(p.n_seg)))
+        self._work = np.empty((n, PL.state_size(p.n_seg)))
         self._angle = np.empty((n, h))
         self._temp = np.empty((n, h, 2))
         self._joule = np.empty((n, h, 2))
@@ -529,6 +530,6 @@ class MPPIController(MPPIBase):
             self._status,
         )
         err = np.degrees(self._angle) + offset - targets[None, :]
-        q0 = np.array([state0[L.X_QJR], state0[L.X_QJL]])
+        q0 = np.array([state0[PL.X_QJR], state0[PL.X_QJL]])
         energy = np.sum(self._joule[:, -1, :] - q0[None, :], axis=1) * side_volume
         return self._cost(err * err, energy, self._temp, self._status)

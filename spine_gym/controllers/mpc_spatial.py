@@ -5,7 +5,7 @@ from the shifted plan, the same :class:`~.mpc.MPPIConfig`) generic over the wire
 :class:`~spine_gym.layout.SpineLayout`: one voltage sequence per wire group (4 for the seed's
 module, 4 per module for a chain). The rollouts are one call of
 :func:`spine_gym.physics.rollout.rollout_many_spatial` on the spatial core the env runs
-(:func:`spine_gym.physics.spatial_solver.advance`); what they record is turned into the env's
+(:func:`spine_gym.physics.spatial.solver.advance`); what they record is turned into the env's
 readings by the env's own probe (tip bending vector [deg], tip position [mm], temperatures [K],
 cumulative Joule heat [J]), so the cost uses the env's definitions:
 
@@ -42,9 +42,9 @@ from ..envs.core import EnvConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
 from ..envs.task import LoadSchedule
-from ..physics import spatial_layout as SL
 from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
-from ..physics.spatial_solver import make_work, record, record_size
+from ..physics.spatial import columns as SL
+from ..physics.spatial.solver import make_work, record, record_size
 from .baselines import volts_to_action
 from .estimator import SpatialPhaseEstimator
 from .mpc import PLAN_FIELDS, PRIVILEGED_MODES, MPPIBase, MPPIConfig

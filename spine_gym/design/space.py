@@ -37,7 +37,7 @@ import numpy as np
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
 from ..layout import MAX_MODULES, SpineLayout
 from ..params import ModelParams, SolverOptions, field_names
-from ..physics import layout as L
+from ..physics import columns as L
 from ..simulate import SimulationError
 
 __all__ = [

@@ -28,8 +28,9 @@ from collections import namedtuple
 import numpy as np
 
 from ..physics._jit import hot, jit, jit_inline
-from ..physics.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
-from ..physics.layout import OK, X_QJL, X_QJR, X_TL, X_TR
+from ..physics.columns import OK
+from ..physics.planar.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
+from ..physics.planar.columns import X_QJL, X_QJR, X_TL, X_TR
 
 # scalar settings passed as one float array (Spec.settings)
 S_PERIOD, S_ERROR_SCALE, S_ENERGY_COEF, S_COST_WEIGHT, S_T_LIMIT, N_SETTINGS = range(6)
@@ -350,13 +351,13 @@ def planar_probe_row(i, meas, ohm, vol, probe_cols, probe):
     p[jl + 1] = m[X_QJL] * vol[i, 1]
 
 
-# columns of a spatial_solver.record row the probe reads (SpatialPlant.record_cols)
+# columns of a spatial.solver.record row the probe reads (SpatialPlant.record_cols)
 R_MODB, R_TIPB, R_TIPP, R_RHO, R_TEMP, R_QJ, N_R = range(7)
 
 
 @jit
 def spatial_probe(rows, rec, record_cols, ohm, vol, probe_cols, probe):
-    """Probe rows of spatial spines from their ``spatial_solver.record`` rows (``ohm`` (B, W)
+    """Probe rows of spatial spines from their ``spatial.solver.record`` rows (``ohm`` (B, W)
     L0/A_w of each wire [1/m], ``vol`` (B, W) wire volume of each group [m^3])."""
     for j in range(rows.shape[0]):
         spatial_probe_row(rows[j], rec, record_cols, ohm, vol, probe_cols, probe)

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..physics import layout as L
+from ..physics import columns as L
 from .core import status_text
 
 __all__ = ["LazyDict", "RowInfo", "VectorInfoKeys", "row_infos", "vector_info", "vector_info_keys"]

@@ -16,7 +16,8 @@ its fast C path; :class:`.table_batch.TableBatch` holds them):
 * ``plant``: the plant's arrays, :data:`PLANAR_PLANT` / :data:`SPATIAL_PLANT` order;
 * ``step``, ``mem``, ``spec``, ``out``: :data:`._bookkeeping.Step`, ``Memory``, ``Spec``, ``Out``.
 
-Each kernel is one body compiled twice (STYLE.md): ``*_serial`` loops over the spines serially,
+Each kernel is one body compiled twice, so that the serial and the parallel loop cannot differ
+(tests/test_vector_env.py compares them bit for bit): ``*_serial`` loops over the spines serially,
 the other runs that loop with ``prange`` on all numba threads. A spine's probe and bookkeeping
 (:func:`._bookkeeping.planar_probe_row`, :func:`._bookkeeping.finish_row`) run inside the loop, right
 after its physics, on its own row of scratch: rows are independent, and run after the loop they

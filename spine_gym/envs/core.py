@@ -23,8 +23,9 @@ import numpy as np
 
 from ..layout import wire_key
 from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
-from ..physics import layout as L
-from ..physics.solver import init_state
+from ..physics import columns as L
+from ..physics.planar import columns as PL
+from ..physics.planar.solver import init_state
 from ..uncertainty import ParameterUncertainty, apply_offsets
 from .table import Entry, Table
 from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
@@ -462,7 +463,7 @@ class EnvConfig(BaseEnvConfig):
         return 2.0 * p.n_w * self.v_max**2 / r_min * self.control_period
 
     def initial_status(self, params: ModelParams, payload: float) -> int:
-        state = np.zeros(L.state_size(params.n_seg))
+        state = np.zeros(PL.state_size(params.n_seg))
         return init_state(
             state, params.to_kernel(), self.solver.to_kernel(), self.initial_loads(params, payload)
         )
@@ -602,7 +603,8 @@ class SpineSnapshot:
 
     @property
     def state(self) -> np.ndarray:
-        """The model state vector (``spine_gym.physics.layout``)."""
+        """The model state vector (``spine_gym.physics.planar.columns``, or
+        ``spine_gym.physics.spatial.columns`` for a spatial spine)."""
         return self.arrays["states"]
 
     @property

@@ -14,9 +14,10 @@ from typing import Any
 import numpy as np
 
 from ..params import ModelParams
-from ..physics import batch, env_kernels
-from ..physics import layout as L
-from ..physics.solver import init_state
+from ..physics import env_kernels
+from ..physics.planar import batch
+from ..physics.planar import columns as PL
+from ..physics.planar.solver import init_state
 from . import _bookkeeping as bk
 from . import _step_kernels as sk
 from .table_batch import TableBatch
@@ -33,7 +34,7 @@ class PlanarBatch(TableBatch):
     def _alloc_plant(self, b: int) -> None:
         p = self.cfg.params
         self.nominal_kp = p.to_kernel()
-        self.states = np.zeros((b, L.state_size(p.n_seg)))
+        self.states = np.zeros((b, PL.state_size(p.n_seg)))
         self.kps = np.tile(self.nominal_kp, (b, 1))
 
     def record_size(self) -> int:
@@ -83,12 +84,12 @@ class PlanarBatch(TableBatch):
         _, _, params = self.episodes[i]
         k = int(self.mem.k[i])
         return {
-            "dth": self.states[i, L.X_HEAD : L.X_HEAD + n].copy(),
+            "dth": self.states[i, PL.X_HEAD : PL.X_HEAD + n].copy(),
             "kp": self.kps[i].copy(),
-            "temperature": (float(self.states[i, L.X_TR]), float(self.states[i, L.X_TL])),
+            "temperature": (float(self.states[i, PL.X_TR]), float(self.states[i, PL.X_TL])),
             "ambient": float(params.T_E),
             "target_deg": float(self.targets[i, min(k, self.targets.shape[1] - 1), 0]),
-            "angle_deg": float(np.degrees(self.states[i, L.X_HEAD : L.X_HEAD + n].sum())),
+            "angle_deg": float(np.degrees(self.states[i, PL.X_HEAD : PL.X_HEAD + n].sum())),
             "tip_force": self.forces[i, min(k, self.cfg.n_steps - 1)].copy(),
             "time": k * self.cfg.control_period,
             "voltage": (self.mem.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,

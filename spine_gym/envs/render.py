@@ -1,7 +1,7 @@
 """``render_mode="rgb_array"`` frames of the spine (matplotlib; this module is imported on the
 first ``render()`` so that ``import spine_gym`` stays free of matplotlib).
 
-The centre line comes from :func:`spine_gym.physics.tube.vertices` (the model's own geometry);
+The centre line comes from :func:`spine_gym.physics.planar.tube.vertices` (the model's own geometry);
 the two wires are drawn at the offset ``a`` on either side and coloured by their temperature on a
 scale from the ambient temperature to ``temperature_limit`` (the colour bar on the right, with a
 mark at each wire's temperature); the target is drawn as a dashed circular arc of the spine's
@@ -34,10 +34,10 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the "3d" projection)
 
-from ..physics import layout as L
-from ..physics import spatial_layout as SL
-from ..physics.spatial_tube import kinematics, positions
-from ..physics.tube import vertices
+from ..physics import columns as L
+from ..physics.planar.tube import vertices
+from ..physics.spatial import columns as SL
+from ..physics.spatial.tube import kinematics, positions
 from .task_spatial import arc_positions
 
 FRAME_SIZE = (480, 480)  # [px] width, height

@@ -1,6 +1,6 @@
 """Configuration, tables and batch of the spatial envs ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
 
-The physics is the wire- and module-generic core of ``spine_gym.physics.spatial_solver``
+The physics is the wire- and module-generic core of ``spine_gym.physics.spatial.solver``
 (SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_spine_spatial`, stepped with the
 bookkeeping in one call (:func:`._step_kernels.spatial_step`); the bookkeeping
 is the table-driven writer every env shares (:class:`.table_batch.TableBatch`). The env classes
@@ -18,8 +18,8 @@ import numpy as np
 from ..layout import MAX_MODULES, SpineLayout
 from ..params import ModelParams
 from ..physics import env_kernels
-from ..physics import spatial_layout as SL
-from ..physics.spatial_solver import init_state, record_size
+from ..physics.spatial import columns as SL
+from ..physics.spatial.solver import init_state, record_size
 from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
 from . import _step_kernels as sk

@@ -113,7 +113,7 @@ class SmaSpineEnv(gym.Env):
       ``max_episode_steps=episode_duration / control_period`` (the TimeLimit wrapper of ``gym.make``
       truncates at the smaller of the two).
     * **Termination** only when the model fails (``info["status"]`` != 0, a
-      ``spine_gym.physics.layout`` status code, ``info["status_text"]`` its meaning). The
+      ``spine_gym.physics.columns`` status code, ``info["status_text"]`` its meaning). The
       observation is then that of the last valid state (the failed step is rolled back, so nothing
       is ever NaN). With the default load ranges it did not happen in 2 × 128 randomised 60-s
       episodes of held full-voltage switching at ``v_max`` = 5 and 8 V.
@@ -329,7 +329,8 @@ class SmaSpineEnv(gym.Env):
 
     @property
     def state(self) -> np.ndarray:
-        """Copy of the model state vector (``spine_gym.physics.layout``)."""
+        """Copy of the model state vector (``spine_gym.physics.planar.columns``, or
+        ``spine_gym.physics.spatial.columns`` for a spatial spine)."""
         return self._core.states[0].copy()
 
     def _episode(self):

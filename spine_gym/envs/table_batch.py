@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..params import ModelParams
-from ..physics import layout as L
+from ..physics import columns as L
 from ..uncertainty import ParameterUncertainty
 from . import _bookkeeping as bk
 from .core import RESET_OPTION_KEYS, BaseEnvConfig, SpineSnapshot, status_text, validate_actions

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.spatial_layout import M_NSEG, M_SEG0
-from ..physics.spatial_tube import kinematics, positions
+from ..physics.spatial.columns import M_NSEG, M_SEG0
+from ..physics.spatial.tube import kinematics, positions
 from .task import ANGLE_LIMIT, _finite, _range
 
 __all__ = ["BendTarget", "ChainTarget", "BEND_KINDS", "arc_positions", "arc_tip_position"]
@@ -180,7 +180,7 @@ def arc_positions(bends_deg: np.ndarray, km: np.ndarray) -> np.ndarray:
     atan2(b_k2, b_k1) in the module's base frame) has every segment rotated by the same ω, of
     magnitude |b_k| / N_k about the axis normal to the bend (a parallel-transported frame turns by
     equal steps on an arc); the positions are the spatial core's own kinematics
-    (:func:`spine_gym.physics.spatial_tube.kinematics`).
+    (:func:`spine_gym.physics.spatial.tube.kinematics`).
 
     Args:
         bends_deg: (K, 2) or (n, K, 2) module bending vectors [deg].

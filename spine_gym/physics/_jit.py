@@ -1,4 +1,5 @@
-"""The one place where numba options live (STYLE.md: "keep numba options in one place").
+"""The one place where numba options live: every kernel takes its flags from here, so a change of
+flags reaches all kernels at once and no two kernels are compiled with different options by accident.
 
 Every kernel is compiled with ``cache=True`` so that the compiled machine code is written next to
 the source (``__pycache__``) and later processes load it instead of compiling again. No
@@ -52,8 +53,8 @@ def hot(func):
     NRT a kernel may not allocate (compile error, also in whatever it calls: numba compiles the
     callees for its flags) and must not return an array or call a kernel that returns one (views,
     wire_block: that reference would never be released). Its arrays are borrowed from the caller,
-    which keeps them alive; so a ``jit`` wrapper allocates the scratch (``solver.composite``,
-    ``solver._advance``, ``tube.solve_shape``) and hands it to the ``hot`` kernel (``*_in``,
-    ``solver._span``). Arithmetic and results are unchanged (bit for bit).
+    which keeps them alive; so a ``jit`` wrapper allocates the scratch (``planar.solver.composite``,
+    ``planar.solver._advance``, ``planar.tube.solve_shape``) and hands it to the ``hot`` kernel (``*_in``,
+    ``planar.solver._span``). Arithmetic and results are unchanged (bit for bit).
     """
     return numba.njit(cache=True, nogil=True, _nrt=False)(func)

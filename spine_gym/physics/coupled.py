@@ -1,11 +1,12 @@
 """Per-wire pieces of the coupled (linearly implicit) phase step, shared by both cores (MODEL.md §6.5).
 
-The planar core (:mod:`.solver`, two wires) and the spatial core (:mod:`.spatial_solver`, any
+The planar core (:mod:`.planar.solver`, two wires) and the spatial core (:mod:`.spatial.solver`, any
 number of wires) build the same step from these: the kinetics F of §3.5, the quiet-step test, the
 matrix of the linearly implicit Euler step of all wires' fractions (coupled through the composite
 equilibrium's dσ/dx), the heating rate of §3.9 for the error estimate and the step-size factor of
 the error control, and the error control's first try and accept/retry decision of a sub-step.
-Rates and slopes come from :func:`.sma.rates_and_slopes` as (W, 12) rows.
+Rates and slopes come from :func:`.sma.rates_and_slopes` as (W, 12) rows. ``SECANT_MIN_DM`` is the
+smallest moment change over a step from which both cores refresh their secant sensitivity.
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from __future__ import annotations
 import math
 
 from ._jit import hot
-from .layout import K_ASV, K_RHOC, K_TE
+from .columns import K_ASV, K_RHOC, K_TE
 from .sma import latent_heats, resistivity
 
+SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
 X_ACTIVE = 1e-6  # a phase with fraction above this takes part in the step-size rule (§6.1 b)
 STEP_GROW = 4.0  # largest factor by which the coupled scheme's error control lengthens a sub-step
 STEP_SHRINK = 0.2  # smallest factor by which it shortens one

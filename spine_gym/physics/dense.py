@@ -1,16 +1,17 @@
 """Sub-steps across output steps whose inputs are held, with dense output (MODEL.md §6.5).
 
-The time loops of both cores (:func:`.batch.run`, :func:`.spatial_solver.run`) hand every run of
+The time loops of both cores (:func:`.planar.batch.run`, :func:`.spatial.solver.run`) hand every run of
 consecutive output steps with equal inputs (voltages and loads: the zero-order hold of
-``simulate``) to one call of the core's span advance (:func:`.solver.advance_held`,
-:func:`.spatial_solver.advance_held_in`), so the error-controlled sub-steps are not cut at every
+``simulate``) to one call of the core's span advance (:func:`.planar.solver.advance_held`,
+:func:`.spatial.solver.advance_held_in`), so the error-controlled sub-steps are not cut at every
 output point. An output that falls inside an accepted sub-step is recorded from the state linearly
 interpolated between the sub-step's ends; one at a sub-step's end is that state itself. This
 module holds the rule both drivers share: which output steps form a span (:func:`held_steps`),
 where an output falls in a sub-step (:func:`output_fraction`) and the interpolation
 (:func:`interpolate`) and the sub-step cap of a span (:func:`span_options`: ``SolverOptions.dense_h_max``,
 never below the output step). ``SolverOptions.dense_output`` switches it off (one call per output
-step); a span of one output step is exactly that call.
+step); a span of one output step is exactly that call. :func:`last_h` is where both cores end a
+sub-step before the end of its output step (or span).
 
 Linear interpolation is consistent with the scheme: within a sub-step the discrete heat balance
 and the energy accumulators (§6.1 d–f) are linear in the elapsed fraction of the step, so the
@@ -23,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import hot, jit
-from .layout import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
+from .columns import S_DENSE, S_HMAX, S_SCHEME, SCHEME_COUPLED
 
 OUTPUT_TOL = 1e-9  # an output within this fraction of dt after a sub-step's end counts as at the end
 
@@ -92,3 +93,11 @@ def interpolate(start, end, theta, out):
     (a wire at rest, Joule heat after switch-off) stays exactly what it was."""
     for i in range(out.shape[0]):
         out[i] = start[i] + theta * (end[i] - start[i])
+
+
+@hot
+def last_h(rem, dt, h):
+    """Clip a proposed sub-step to what is left of the output step, without leaving a sliver."""
+    if h > rem or rem - h < 1e-9 * dt:
+        return rem
+    return h

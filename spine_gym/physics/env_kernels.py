@@ -1,22 +1,26 @@
 """One control period for many spines: the jitted step shared by the single and the vector env.
 
-Nothing here adds an equation: each spine is advanced with :func:`solver.advance` (the model's own
-adaptive sub-steps inside every physics step ``dt``) and measured with :func:`batch.record`, exactly
-as :func:`spine_gym.simulate` does. What the environments need on top is bookkeeping: a backup so
-that a spine whose step fails is handed back at its last valid state (the env then terminates
-with a status, never with NaN), and a ``resolve`` flag per spine (solve the mechanics again only
-when the loads changed since the last solve, as ``batch.run`` does).
+Nothing here adds an equation: each spine is advanced with :func:`planar.solver.advance` (the
+model's own adaptive sub-steps inside every physics step ``dt``) and measured with
+:func:`planar.record.record`, exactly as :func:`spine_gym.simulate` does. What the environments
+need on top is bookkeeping: a backup so that a spine whose step fails is handed back at its last
+valid state (the env then terminates with a status, never with NaN), and a ``resolve`` flag per
+spine (solve the mechanics again only when the loads changed since the last solve, as
+``planar.batch.run`` does).
 
 :func:`step_spine` is one spine's control period; the envs call it from their one jitted call per
 step (:mod:`spine_gym.envs._step_kernels`: inputs, physics, readings and bookkeeping together).
 ``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``
 (the spines dealt out to the threads one at a time, :mod:`._deal`);
-``step_many_serial`` is its serial twin (one body compiled twice, STYLE.md; each twin has its own
-on-disk cache entry, ``_jit.pjit``, so a serial kernel never runs parallel machine code). They are
-the physics alone, as the benchmarks time it against the env.
+``step_many_serial`` is its serial twin (one body compiled twice, so that the serial and the
+parallel loop run the same code; each twin has its own on-disk cache entry, ``_jit.pjit``, so a
+serial kernel never runs parallel machine code). No env calls them: they are the physics alone,
+which ``benchmarks/bench_training_share.py`` ("the kernel alone") and ``benchmarks/bench_env.py``
+time against the env, and ``tests/test_spatial.py`` compares ``step_many_spatial`` with single
+spines.
 
 :func:`step_spine_spatial`, ``step_many_spatial`` / ``step_many_spatial_serial`` are the same for
-spatial or chained spines (:func:`spatial_solver.advance_in` and :func:`spatial_solver.record`,
+spatial or chained spines (:func:`spatial.solver.advance_in` and :func:`spatial.solver.record`,
 SPATIAL.md), used by ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``; each spine carries its own layout
 tables (``kw``, ``km``), which depend on the episode's (possibly randomised) parameters.
 """
@@ -29,12 +33,12 @@ import numba
 
 from ._deal import counter, take
 from ._jit import jit, pjit
-from .batch import record
-from .layout import ERR_NONFINITE, OK
-from .solver import advance
-from .spatial_solver import advance_in as spatial_advance_in
-from .spatial_solver import make_work, sizes
-from .spatial_solver import record as spatial_record
+from .columns import ERR_NONFINITE, OK
+from .planar.record import record
+from .planar.solver import advance
+from .spatial.solver import advance_in as spatial_advance_in
+from .spatial.solver import make_work, sizes
+from .spatial.solver import record as spatial_record
 
 
 @jit
@@ -50,11 +54,11 @@ def step_spine(state, backup, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, meas)
         resolve: the loads differ from those of the last mechanical solve.
         dt: physics step [s]; the control period is ``n_sub * dt``.
         n_sub: physics steps per control period.
-        meas: (batch.OUT_SIZE,) out; :func:`batch.record` after the step (of the restored state if
-            the step failed).
+        meas: (planar.record.OUT_SIZE,) out; :func:`planar.record.record` after the step (of the restored
+            state if the step failed).
 
     Returns:
-        ``layout`` status code: OK or the first failure.
+        ``columns`` status code: OK or the first failure.
     """
     status = OK
     for q in range(state.shape[0]):
@@ -84,8 +88,9 @@ def _step_many(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_
         active: (B,) bool, spines to advance (others are left untouched).
         dt: physics step [s]; the control period is ``n_sub * dt``.
         n_sub: physics steps per control period.
-        status: (B,) int64 out; ``layout`` status code of the step (OK or the first failure).
-        meas: (B, batch.OUT_SIZE) out; :func:`batch.record` of each active spine after the step.
+        status: (B,) int64 out; ``columns`` status code of the step (OK or the first failure).
+        meas: (B, planar.record.OUT_SIZE) out; :func:`planar.record.record` of each active spine after
+            the step.
     """
     todo = counter()
     for _slot in numba.prange(states.shape[0]):  # rows dealt out one at a time (._deal)
@@ -104,7 +109,7 @@ step_many_serial = jit(_step_many)
 
 @jit
 def record_many(states, kps, rows, meas):
-    """:func:`batch.record` of the spines ``rows`` (int array) into ``meas[rows]``."""
+    """:func:`planar.record.record` of the spines ``rows`` (int array) into ``meas[rows]``."""
     for k in range(rows.shape[0]):
         i = rows[k]
         record(states[i], kps[i], meas[i])
@@ -120,11 +125,11 @@ def _all_finite(x):
 
 @jit
 def step_spine_spatial(state, backup, kp, ks, kw, km, volts, loads, resolve, dt, n_sub, rec):
-    """:func:`step_spine` for a spatial or chained spine (:func:`spatial_solver.advance_in`, SPATIAL.md).
+    """:func:`step_spine` for a spatial or chained spine (:func:`spatial.solver.advance_in`, SPATIAL.md).
 
     Args as :func:`step_spine`, except: ``kw`` (W, KW_SIZE) and ``km`` (K, KM_SIZE) the spine's
     layout tables (they depend on the episode's parameters); ``volts`` (W,) [V]; ``loads`` (N, 3)
-    global x/y/z vertex forces [N]; ``rec`` (record_size,) out, the :func:`spatial_solver.record`
+    global x/y/z vertex forces [N]; ``rec`` (record_size,) out, the :func:`spatial.solver.record`
     row after the step.
 
     A physics step that reports OK but leaves a non-finite state counts as failed (ERR_NONFINITE,
@@ -183,7 +188,7 @@ step_many_spatial_serial = jit(_step_many_spatial)
 
 @jit
 def record_many_spatial(states, kps, kws, kms, rows, rec):
-    """:func:`spatial_solver.record` of the spatial spines ``rows`` into ``rec[rows]``."""
+    """:func:`spatial.solver.record` of the spatial spines ``rows`` into ``rec[rows]``."""
     for k in range(rows.shape[0]):
         i = rows[k]
         nw, nm, ns = sizes(kws[i], kms[i])

@@ -1,24 +1,25 @@
 """Many open-loop rollouts of one spine from one start state: the predictor of sampling MPC.
 
 Nothing here adds an equation. Every rollout copies the start state and is advanced control step by
-control step with :func:`solver.advance`, ``n_sub`` physics steps of ``dt`` per control step and the
+control step with :func:`planar.solver.advance`, ``n_sub`` physics steps of ``dt`` per control step and the
 mechanics re-solved on the first physics step of a control step whose loads changed — exactly the
 loop of :func:`env_kernels.step_many`, so a rollout of the env's state with the env's voltages and
 loads gives the env's trajectory bit for bit (tested). What a rollout records per control step is
 what a controller's cost needs: the bending angle Θ [rad], both wire temperatures [K] and both
 wires' accumulated Joule heat per unit volume [J/m^3] (the env's energy accounting,
-:mod:`spine_gym.envs._bookkeeping`). A rollout whose step fails (``layout`` status != OK) keeps its
+:mod:`spine_gym.envs._bookkeeping`). A rollout whose step fails (``columns`` status != OK) keeps its
 last valid values for the rest of the horizon and reports the status, so the caller can reject it.
 
-Compiled twice from one body (STYLE.md): ``rollout_many`` runs the rollouts in parallel with
+Compiled twice from one body, so that the serial twin the tests compare the parallel loop with
+(tests/test_mpc.py) runs the same code: ``rollout_many`` runs the rollouts in parallel with
 ``prange`` (dealt out to the threads one at a time, :mod:`._deal`: sampled voltage sequences
 differ in cost); ``rollout_many_serial`` is the serial twin.
 
 ``rollout_many_spatial`` / ``rollout_many_spatial_serial`` are the same for a spatial or chained
-spine (SPATIAL.md): every rollout is advanced with :func:`spatial_solver.advance`, exactly the loop
+spine (SPATIAL.md): every rollout is advanced with :func:`spatial.solver.advance`, exactly the loop
 of :func:`env_kernels.step_many_spatial` (a physics step that reports OK but leaves a non-finite
 state counts as failed, as there), and records after every control step the spine's
-:func:`spatial_solver.record` row — the row the env's probe turns into its readings (tip bending,
+:func:`spatial.solver.record` row — the row the env's probe turns into its readings (tip bending,
 tip position, temperatures, resistances, Joule heat), so the caller scores a rollout with the
 env's own conversions.
 """
@@ -30,11 +31,12 @@ import numpy as np
 
 from ._deal import counter, take
 from ._jit import jit, pjit
-from .layout import ERR_NONFINITE, OK, X_HEAD, X_QJL, X_QJR, X_TL, X_TR
-from .solver import advance
-from .spatial_solver import advance_in as spatial_advance_in
-from .spatial_solver import make_work, sizes
-from .spatial_solver import record as spatial_record
+from .columns import ERR_NONFINITE, OK
+from .planar.columns import X_HEAD, X_QJL, X_QJR, X_TL, X_TR
+from .planar.solver import advance
+from .spatial.solver import advance_in as spatial_advance_in
+from .spatial.solver import make_work, sizes
+from .spatial.solver import record as spatial_record
 
 RECORD, START, HOLD = 0, 1, 2  # what a rollout records after a control step (_record_source)
 
@@ -119,14 +121,14 @@ def _rollout_many_spatial(state0, kp, ks, kw, km, volts, loads, resolve, dt, n_s
     """Roll ``B`` copies of the spatial ``state0`` over ``H`` control steps with their own voltages.
 
     Args:
-        state0: (S,) spatial start state (:mod:`.spatial_layout`; not modified).
+        state0: (S,) spatial start state (:mod:`.spatial.columns`; not modified).
         kp, ks: constants and solver options; kw, km: the spine's wire-group and module tables.
         volts: (B, H, W) voltage on each wire group held over control step h [V].
         loads: (H, N, 3) global vertex forces held over control step h [N] (shared by every rollout).
         resolve: (H,) bool, the loads of step h differ from those of the last mechanical solve.
         dt: physics step [s]; n_sub: physics steps per control step.
         work: (B, S) scratch, row b receives rollout b's state (its final state on return).
-        rec: (B, H, R) out, the :func:`spatial_solver.record` row after each control step
+        rec: (B, H, R) out, the :func:`spatial.solver.record` row after each control step
             (R = ``record_size``); a failed rollout holds its last valid row (the start state's
             if it failed in the first step).
         status: (B,) int64 out, OK or the first failure's status code.

@@ -1,7 +1,7 @@
 """Müller–Achenbach–Seelecke (MAS) wire model, per unit volume (MODEL.md §3).
 
 Pure jitted kernels: scalars and the constant array ``kp`` in, scalars out. Energies and stresses
-are in J/m^3 ≡ Pa. Nothing here knows about the spine; :mod:`spine_gym.physics.solver` couples it.
+are in J/m^3 ≡ Pa. Nothing here knows about the spine; :mod:`spine_gym.physics.planar.solver` couples it.
 """
 
 from __future__ import annotations
@@ -9,22 +9,10 @@ from __future__ import annotations
 import math
 
 from ._jit import hot
-from .layout import (
-    K_DETA,
-    K_DSIG,
-    K_DU,
-    K_EA,
-    K_EM,
-    K_EPST,
-    K_INVTAU,
-    K_KE,
-    K_LAMA,
-    K_LAMM,
-    K_LAMP,
-    K_VLKB,
-)
+from .columns import K_DETA, K_DSIG, K_DU, K_EA, K_EM, K_EPST, K_INVTAU, K_KE, K_LAMA, K_LAMM, K_LAMP, K_VLKB
 
 EXP_CLAMP = 700.0  # MODEL.md §6.3.1: exp(-min(λΔG, 700)); never exp of a huge argument
+SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 SLOPE_DT = 1e-3  # [K] temperature step of the finite difference ∂ΔG/∂T in rates_and_slopes
 
 

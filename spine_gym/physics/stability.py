@@ -17,7 +17,8 @@ number of angles per segment) can use it.
 
 :func:`dunkerley_weight` feeds a cheap, conservative screen: Dunkerley's lower bound on the
 buckling load of a clamped column under point loads, used to skip the check where buckling is
-impossible.
+impossible (both cores check above ``BUCKLING_SCREEN``). :func:`chord_slope` is the derivative
+of a segment's chord both cores' stability Jacobians take.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import math
 from ._jit import hot
 
 PIVOT_TOL = 1e-12  # |pivot| below this counts as singular (I − J has a unit diagonal scale)
+BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
 
 
 @hot
@@ -185,3 +187,12 @@ def lu_solve(lu, piv, b):
         for j in range(k + 1, n):
             acc -= lu[k, j] * b[j]
         b[k] = acc / lu[k, k]
+
+
+@hot
+def chord_slope(dth, ls):
+    """dc/dΔθ of the chord of §4.3 [m/rad] (series −ls(Δθ/12 − Δθ³/480) near 0, no cancellation)."""
+    if abs(dth) < 1e-2:
+        return -ls * dth * (1.0 / 12.0 - dth * dth / 480.0)
+    h = 0.5 * dth
+    return ls * (math.cos(h) / dth - 2.0 * math.sin(h) / (dth * dth))

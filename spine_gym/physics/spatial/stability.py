@@ -1,6 +1,6 @@
-"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.solver`.
+"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.planar.solver`.
 
-The spatial shape is the fixed point ω = f(ω, G(ω)) of :func:`.spatial_tube.shape_pass` with the
+The spatial shape is the fixed point ω = f(ω, G(ω)) of :func:`.tube.shape_pass` with the
 module wire moments G following the shape through the wire lengths (SPATIAL.md §3–§4). As in the
 plane, a converged fixed point can be an exact but unstable equilibrium (the straight column under
 an axial load past buckling), and :func:`.stability.unstable_modes` on the (2N × 2N) Jacobian of
@@ -22,7 +22,7 @@ Q_k(u) = Σ_j d_j (e_j·u)² [e_j·u < 0], d_j = n_w,j A_w a_j² E_j / L_ref,j. 
 the quadratic form Σ over antiparallel pairs (j, q) of such wires of min(d_j, d_q) (e_j·u)²
 (whichever way u points, one wire of the pair is stretched); an unpaired one counts for nothing.
 This is exact for the seed's four equal wires (Q isotropic) and is i14's planar rule of
-:func:`.solver._tangent_moduli` in a planar layout: a threshold wire opposite a taut or slack one
+:func:`planar.solver._tangent_moduli` in a planar layout: a threshold wire opposite a taut or slack one
 adds nothing, two at the threshold add the softer one. "At the threshold" means a strain excess
 over the stress-free strain within [−(SLACK_TOL + 2 s_k / L_ref), SLACK_TOL], s_k = Σ ls Δθ²/24 the
 second-order shortening of the module's chords: a wire perpendicular to an in-plane bend goes
@@ -39,14 +39,12 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .layout import K_AW, K_EI, K_EPST, K_G
-from .sma import compliance
-from .solver import BUCKLING_SCREEN, SLACK_TOL
-from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_LREF, W_MOD, W_NW
-from .spatial_tube import chord_sums, rot_coeffs, shape_pass, wire_length
-from .stability import dunkerley_weight, unstable_modes
-from .tube import chord_slope
+from .._jit import hot, jit
+from ..columns import K_AW, K_EI, K_EPST, K_G
+from ..sma import SLACK_TOL, compliance
+from ..stability import BUCKLING_SCREEN, chord_slope, dunkerley_weight, unstable_modes
+from .columns import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_LREF, W_MOD, W_NW
+from .tube import chord_sums, rot_coeffs, shape_pass, wire_length
 
 FD_STEP = 1e-6  # [rad] central-difference step of the tube Jacobian (truncation ~1e-12, roundoff ~1e-10)
 PAIR_TOL = 1e-9  # two wires of a module are antiparallel if their e vectors cancel to this
@@ -58,7 +56,7 @@ def load_ratio(vforce, kp, km):
 
     Σ |F| h² · 4/(π² E_t I) over the vertex forces (with the disk at each module's top vertex)
     and the segment weights at their centres, h the arc length from the clamp. Below 1 the tube
-    cannot buckle in any shape (cf. :func:`.tube.load_ratio`); O(N).
+    cannot buckle in any shape (cf. :func:`planar.tube.load_ratio`); O(N).
     """
     g = kp[K_G]
     s = 0.0
@@ -135,7 +133,8 @@ def tube_jacobian(omega, mw, vforce, kp, km, jac, rows, frames, chords):
 def length_gradient(w1, w2, ls, a, ex, ey):
     """Exact ∂ℓ/∂ω of one segment's share ℓ = f(Δθ) (ls − a e·ω) of a wire length (SPATIAL.md §4).
 
-    ∂ℓ/∂ω = (f'/Δθ) (ls − a e·ω) ω − f a e, f = 2 sin(Δθ/2)/Δθ, f' = :func:`.tube.chord_slope` / ls.
+    ∂ℓ/∂ω = (f'/Δθ) (ls − a e·ω) ω − f a e, f = 2 sin(Δθ/2)/Δθ,
+    f' = :func:`spine_gym.physics.stability.chord_slope` / ls.
     """
     th2 = w1 * w1 + w2 * w2
     th = math.sqrt(th2)

@@ -1,15 +1,15 @@
 """The record row of one planar spine: the state's head and the outputs derived from it (MODEL.md §6.1, 2.).
 
-One row per output step: the state's head (``layout`` X_*), then the bending angle Θ, the wire
+One row per output step: the state's head (``columns`` X_*), then the bending angle Θ, the wire
 resistivities and the tip position in the OUT_* columns. :func:`.batch.run` and the
 :func:`.solver.advance_held` dense output write it; the env kernels measure with it.
 """
 
 from __future__ import annotations
 
-from ._jit import hot
-from .layout import X_HEAD, X_ML, X_MR, X_PL, X_PR
-from .sma import resistivity
+from .._jit import hot
+from ..sma import resistivity
+from .columns import X_HEAD, X_ML, X_MR, X_PL, X_PR
 from .tube import tip_position
 
 # columns written by ``record`` after the state's head

@@ -1,14 +1,15 @@
-"""Index constants of the flat float64 arrays the kernels take (MODEL.md §6.4).
+"""Index constants of the flat float64 arrays both cores take (MODEL.md §6.4), and their status codes.
 
-Three arrays travel between Python and the jitted kernels:
+Column indices, not geometry (the spine's geometry is :mod:`spine_gym.layout`). Two arrays
+travel between Python and the jitted kernels of either core:
 
 * ``kp``  — physical constants (primary and derived), built by :meth:`spine_gym.params.ModelParams.to_kernel`.
 * ``ks``  — solver options, built by :meth:`spine_gym.params.SolverOptions.to_kernel`.
-* ``state`` — the full model state of one spine (dynamic states, last mechanical solution,
-  Newton sensitivity and energy accumulators). Its length depends on the segment count N.
 
-Flat arrays (rather than structs) make a batch of spines a 2-D array, one row per environment,
-which is what the vector environment and the design sweeps need.
+The state of one spine is each core's own: :mod:`.planar.columns` (X_*) and
+:mod:`.spatial.columns` (with the spatial core's wire and module tables). Flat arrays (rather than
+structs) make a batch of spines a 2-D array, one row per environment, which is what the vector
+environment and the design sweeps need.
 """
 
 from __future__ import annotations
@@ -72,42 +73,10 @@ SCHEME_FROZEN = 0
 SCHEME_COUPLED = 1
 SCHEMES = {"frozen": SCHEME_FROZEN, "coupled": SCHEME_COUPLED}
 
-# ---------------------------------------------------------------- state vector
-(
-    X_PR,  # x+ right wire
-    X_MR,  # x- right wire
-    X_PL,  # x+ left wire
-    X_ML,  # x- left wire
-    X_TR,  # [K] temperature right
-    X_TL,  # [K] temperature left
-    X_MW,  # [N m] wire moment of the last mechanical solution
-    X_SR,  # [Pa] stress right
-    X_SL,  # [Pa] stress left
-    X_ER,  # [-] strain right
-    X_EL,  # [-] strain left
-    X_TIME,  # [s] model time
-    X_QJR,  # [J/m^3] accumulated Joule heat, right wire (per unit volume)
-    X_QJL,  # [J/m^3] accumulated Joule heat, left wire
-    X_QCR,  # [J/m^3] accumulated convective loss, right
-    X_QCL,  # [J/m^3] accumulated convective loss, left
-    X_QLR,  # [J/m^3] accumulated latent heat released into the wire, right
-    X_QLL,  # [J/m^3] accumulated latent heat released into the wire, left
-    X_HNEXT,  # [s] sub-step the coupled scheme's error control proposes next (0: none yet)
-    X_RCACHE,  # start of RCACHE_SIZE floats: (σ_R, T_R, σ_L, T_L) and the rates and slopes there
-) = range(20)
 # kp entries the rates depend on (§3.1–3.4): part of the rate caches' keys (planar X_RCACHE, the
 # spatial state's tail), so that a state advanced with other constants (the MPC's nominal model on a
 # copy of a randomised plant's state) recomputes them
 RATE_KP = (K_EA, K_EM, K_EPST, K_DSIG, K_KE, K_DETA, K_DU, K_VLKB, K_INVTAU)
-RCACHE_SIZE = 4 + len(RATE_KP) + 24  # the coupled scheme's rates at the end of its last sub-step, keyed by
-# (σ_R, T_R, σ_L, T_L) and the 9 constants they depend on (RATE_KP)
-X_HEAD = X_RCACHE + RCACHE_SIZE  # size of the fixed part; then Δθ[N], then the sensitivity s = dΔθ/dM [N]
-
-
-def state_size(n_seg: int) -> int:
-    """Length of the state vector for ``n_seg`` segments."""
-    return X_HEAD + 2 * n_seg
-
 
 # ---------------------------------------------------------------- status codes
 OK = 0

@@ -23,21 +23,8 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .coupled import (
-    T_PER_FRACTION,
-    accept_or_retry,
-    copy_rows,
-    first_try,
-    heat_terms,
-    heating_rate,
-    kinetics,
-    linear_system,
-    quiet,
-    step_rate,
-)
-from .dense import interpolate, output_fraction
-from .layout import (
+from .._jit import hot, jit
+from ..columns import (
     ERR_BUCKLING,
     ERR_NONFINITE,
     ERR_ROOT,
@@ -74,6 +61,34 @@ from .layout import (
     S_TOLTH,
     S_TOLX,
     SCHEME_COUPLED,
+)
+from ..coupled import (
+    SECANT_MIN_DM,
+    T_PER_FRACTION,
+    accept_or_retry,
+    copy_rows,
+    first_try,
+    heat_terms,
+    heating_rate,
+    kinetics,
+    linear_system,
+    quiet,
+    step_rate,
+)
+from ..dense import interpolate, last_h, output_fraction
+from ..sma import (
+    SLACK_TOL,
+    clip_fractions,
+    compliance,
+    latent_heats,
+    phase_step,
+    rates,
+    rates_and_slopes,
+    resistivity,
+    stress,
+)
+from ..stability import BUCKLING_SCREEN, chord_slope, lu_factor, lu_solve, solve_in_place, unstable_modes
+from .columns import (
     X_EL,
     X_ER,
     X_HEAD,
@@ -97,19 +112,7 @@ from .layout import (
     X_TR,
 )
 from .record import record
-from .sma import (
-    clip_fractions,
-    compliance,
-    latent_heats,
-    phase_step,
-    rates,
-    rates_and_slopes,
-    resistivity,
-    stress,
-)
-from .stability import lu_factor, lu_solve, solve_in_place, unstable_modes
 from .tube import (
-    chord_slope,
     load_ratio,
     segment_lengths,
     shape_jacobian,
@@ -119,10 +122,7 @@ from .tube import (
     wire_lengths,
 )
 
-SECANT_MIN_DM = 1e-6  # [N m] smallest moment change used to refresh the sensitivity s
-BUCKLING_SCREEN = 0.9  # Dunkerley load ratio above which converged shapes are tested for stability
 NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
-SLACK_TOL = 1e-9  # [-] a wire within this strain of its stress-free length is at the slack threshold
 
 
 @hot
@@ -685,14 +685,6 @@ def _mechanics_update(state, xs, vforce, kp, ks, work, saved, mats, vecs):
 
 
 @hot
-def _last_h(rem, dt, h):
-    """Clip a proposed sub-step to what is left of the output step, without leaving a sliver."""
-    if h > rem or rem - h < 1e-9 * dt:
-        return rem
-    return h
-
-
-@hot
 def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved, xs, mats, vecs):
     """One sub-step of MODEL.md §6.1 as written: rates frozen at its start, r·h <= c, implicit Euler.
 
@@ -709,7 +701,7 @@ def _substep_frozen(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved,
     h = rem  # b. step size
     if r * h > ks[S_C]:
         h = min(max(ks[S_C] / r, ks[S_HMIN]), rem)
-    h = _last_h(rem, dt, min(h, ks[S_HMAX]))
+    h = last_h(rem, dt, min(h, ks[S_HMAX]))
     xs[0], xs[1] = phase_step(xpr, xmr, h, ppA_r, pAp_r, pmA_r, pAm_r)  # c.
     xs[2], xs[3] = phase_step(xpl, xml, h, ppA_l, pAp_l, pmA_l, pAm_l)
     st = _apply_heat(state, xs, h, jr_num, jl_num, kp)  # d.–f.
@@ -824,7 +816,7 @@ def _substep_coupled(state, kp, ks, jr_num, jl_num, vforce, rem, dt, work, saved
         cw[CW_BACKUP][i] = state[i]
     passes = 0
     while True:
-        hh = _last_h(rem, dt, h)
+        hh = last_h(rem, dt, h)
         if not _predict_coupled(state, kp, hh, jr_num, jl_num, cw):
             return ERR_NONFINITE, hh, passes, False
         st = _apply_heat(state, cw[CW_XS], hh, jr_num, jl_num, kp)
@@ -923,7 +915,7 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
     """Advance one spine by one output step ``dt`` with voltages and loads held (MODEL.md §6.1).
 
     Args:
-        state: model state (see :mod:`layout`), updated in place.
+        state: model state (see :mod:`.columns`), updated in place.
         kp, ks: constants and solver options.
         v_r, v_l: voltage on each wire of the right / left side [V].
         vforce: (N, 2) external forces at the vertices P_0 … P_{N−1} [N], global x/y.

@@ -4,12 +4,12 @@ The unknowns of the composite module are the K module wire moments M_w,k (2K sca
 components). G(M) is the wire moment that the constitutive law (MODEL.md §3.6) gives at the strains
 of the shape that M produces (SPATIAL.md §3–§4); the solve finds M = G(M).
 
-* Coupled Newton (default, the generalisation of :func:`.solver.composite_newton`): one shape
+* Coupled Newton (default, the generalisation of :func:`planar.solver.composite_newton`): one shape
   pass per iteration; M updated by the Newton step ΔM = (I − J)⁻¹ (G − M) with the loop gain
   J = ∂G/∂ω · S from the wires' tangent moduli and the shape sensitivity S = dω/dM, a secant
   (Broyden) matrix carried in the state; the shape predicted by ω += S ΔM.
 * Whole-shape Newton (:func:`composite_full_newton`), if the coupled Newton does not converge
-  (near buckling): Newton on ω with the stability Jacobian of :mod:`.spatial_stability`.
+  (near buckling): Newton on ω with the stability Jacobian of :mod:`.stability`.
 * Safeguard, if that does not converge either: from the untouched starting point,
   S is refreshed by finite differences of full shape solves and a back-tracking Newton with a
   full shape solve per evaluation drives max|G − M| below the tolerance (the step is halved
@@ -19,7 +19,7 @@ For the planar layouts (wires at 0° and 180°, optionally unpowered ones at 90�
 quantity is exactly zero, the Newton step reduces to the planar scalar step and the secant update
 to the planar one, so the two cores agree to the solver tolerance (SPATIAL.md §7.1, tested).
 
-:func:`advance` mirrors :func:`.solver.advance` over arrays of wires, with the scheme that
+:func:`advance` mirrors :func:`planar.solver.advance` over arrays of wires, with the scheme that
 ``SolverOptions.scheme`` selects: the coupled linearly implicit step with error-controlled sub-steps
 (default, MODEL.md §6.5, SPATIAL.md §8.6; its per-wire pieces are :mod:`.coupled`'s, shared with the
 planar core) or the frozen-rate step of MODEL.md §6.1; implicit convection and exact energy
@@ -30,25 +30,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from ._deal import counter, take
-from ._jit import hot, jit, pjit
-from .coupled import (
-    T_PER_FRACTION,
-    accept_or_retry,
-    copy_rows,
-    first_try,
-    heat_terms,
-    heating_rate,
-    kinetics,
-    linear_system,
-    quiet,
-    step_rate,
-)
-from .dense import held_steps, interpolate, output_fraction, span_options, spans_outputs
-from .layout import (
+from .._jit import hot, jit
+from ..columns import (
     ERR_BUCKLING,
     ERR_NONFINITE,
     ERR_ROOT,
@@ -79,7 +64,21 @@ from .layout import (
     S_TOLX,
     SCHEME_COUPLED,
 )
-from .sma import (
+from ..coupled import (
+    SECANT_MIN_DM,
+    T_PER_FRACTION,
+    accept_or_retry,
+    copy_rows,
+    first_try,
+    heat_terms,
+    heating_rate,
+    kinetics,
+    linear_system,
+    quiet,
+    step_rate,
+)
+from ..dense import held_steps, interpolate, last_h, output_fraction, span_options, spans_outputs
+from ..sma import (
     clip_fractions,
     compliance,
     latent_heats,
@@ -89,8 +88,8 @@ from .sma import (
     resistivity,
     stress,
 )
-from .solver import SECANT_MIN_DM, _last_h
-from .spatial_layout import (
+from ..stability import lu_factor, lu_solve, solve_in_place
+from .columns import (
     F_EPS,
     F_QC,
     F_QJ,
@@ -121,7 +120,7 @@ from .spatial_layout import (
     sens_offset,
     wire_offset,
 )
-from .spatial_stability import (
+from .stability import (
     add_wire_term,
     is_buckled_at,
     is_buckled_in,
@@ -129,7 +128,7 @@ from .spatial_stability import (
     stability_work,
     tube_jacobian,
 )
-from .spatial_tube import (
+from .tube import (
     bending_vector,
     chord_sums,
     gain_sums,
@@ -140,10 +139,9 @@ from .spatial_tube import (
     tip_point,
     wire_length,
 )
-from .stability import lu_factor, lu_solve, solve_in_place
 
 FD_DM = 1e-4  # [N m] moment step of the finite-difference sensitivity of the safeguard
-INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as solver.init_state)
+INIT_DM = 1e-3  # [N m] moment of the initial sensitivity probe (as planar.solver.init_state)
 MAX_HALVINGS = 30  # back-tracking halvings of one safeguarded Newton step
 SAFE_TOL = 0.01  # shape tolerance of the safeguard relative to tol_theta
 MECH_RETRY = 0.25  # a coupled sub-step whose composite solve failed is retried this much shorter
@@ -185,7 +183,7 @@ def wire_block(state, field, nw):
     WK_CHORDS,  # (N, 3) chords
     WK_NEW,  # (N, 2) new ω of a shape pass
     WK_SAVED_W,  # (N, 2) saved ω
-    WK_SUMS,  # (K, 3) chord sums of the wire lengths (spatial_tube.chord_sums)
+    WK_SUMS,  # (K, 3) chord sums of the wire lengths (spatial.tube.chord_sums)
     WK_EPS,  # (W,) strains
     WK_SIG,  # (W,) stresses
     WK_G,  # (K, 2) G(M)
@@ -196,7 +194,7 @@ def wire_block(state, field, nw):
     WK_WTRIAL,  # (N, 2) trial ω
     WK_RATES,  # (W, 4) rates
     WK_XNEW,  # (W, 2) new fractions
-    WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial_tube.gain_sums)
+    WK_GAIN,  # (K, 2K, 3) sums of the loop gain (spatial.tube.gain_sums)
     # the coupled time step (MODEL.md §6.5; x and Δx ordered (x+, x-) of wire 0, wire 1, ...)
     WK_JNUM,  # (W,) U²/L0² of every wire [V²/m²] (Joule heating j = this / resistivity)
     WK_X0,  # (2W,) fractions at the start of the sub-step
@@ -220,7 +218,7 @@ def wire_block(state, field, nw):
     WK_MID,  # (sens_offset,)
     # the whole-shape Newton and the stability test
     WK_STEP,  # (2N,) Newton step on ω
-    WK_STAB,  # the tuple of spatial_stability.stability_work
+    WK_STAB,  # the tuple of spatial.stability.stability_work
     WK_SAVED_S,  # (2N, 2K) S at the start of the fallbacks (restored if they fail)
     WK_KPW,  # (W, KP_SIZE) every wire's own material constants (:func:`wire_constants`)
 ) = range(39)
@@ -330,8 +328,8 @@ def loop_gain(omega, sens, xp, xm, sig, kp, kw, km, jac, gs, sums_known=False):
     """J = dG/dM = ∂G/∂ω · S into ``jac`` (2K × 2K) at the stresses ``sig``; a slack wire (σ = 0)
     adds nothing.
 
-    ∂L/∂ω · S of every wire from its module's sums ``gs`` (:func:`.spatial_tube.gain_sums`,
-    :func:`.spatial_tube.length_slope`), computed here unless ``sums_known`` (they depend on ω and
+    ∂L/∂ω · S of every wire from its module's sums ``gs`` (:func:`.tube.gain_sums`,
+    :func:`.tube.length_slope`), computed here unless ``sums_known`` (they depend on ω and
     S only: the coupled step's dσ/dx computed them at the same ω and S).
     """
     ncol = jac.shape[1]
@@ -416,7 +414,7 @@ def _predict(omega, sens, dm, scale, out):
 
 @jit
 def composite_newton(mw, omega, sens, xp, xm, vforce, kp, ks, kw, km, wk, known=False, sums_known=False):
-    """Coupled Newton composite solve in place on (mw, omega); cf. :func:`.solver.composite_newton`.
+    """Coupled Newton composite solve in place on (mw, omega); cf. :func:`planar.solver.composite_newton`.
 
     Converged when the last shape pass moved ω by less than tol_theta and either the residual
     max|G − M| or the Newton step ΔM is below tol_moment. The residual is tested first, as it needs
@@ -581,9 +579,9 @@ def copy_pairs(dst, src):
 @hot
 def composite_full_newton(mw, omega, xp, xm, vforce, kp, ks, kw, km, wk):
     """Newton on the whole shape, R(ω) = ω − f(ω, G(ω)) = 0 with the tangent I − J (cf.
-    :func:`.solver.composite_full_newton`): the fallback near buckling, where the coupled Newton's
+    :func:`planar.solver.composite_full_newton`): the fallback near buckling, where the coupled Newton's
     fixed-point passes contract only by ≈ load / critical load. J is the stability Jacobian of
-    :mod:`.spatial_stability`; O(N³) per iteration. M_w = G(ω) at every iterate.
+    :mod:`.stability`; O(N³) per iteration. M_w = G(ω) at every iterate.
 
     Returns:
         (status, iterations); on OK, wk[WK_EPS], wk[WK_SIG] hold the strains and stresses of the shape.
@@ -648,7 +646,7 @@ def slack_fold(omega, xp, xm, vforce, kp, kw, km, wk):
     beyond it nearby (SPATIAL.md §8.11). The first whole-shape Newton step (the linearised
     equilibrium under the new fractions ``xp``, ``xm`` and loads) slackens wires that are taut at
     the start, and with those wires at their threshold the start fails the stability test
-    (:func:`.spatial_stability.is_buckled_at`). ``omega`` and the state are left as they are
+    (:func:`.stability.is_buckled_at`). ``omega`` and the state are left as they are
     (scratch: wk[WK_MTRIAL], wk[WK_WTRIAL] and the whole-shape Newton's arrays)."""
     mt = wk[WK_MTRIAL]
     trial = wk[WK_WTRIAL]
@@ -680,10 +678,10 @@ def solve_mechanics(
     """Composite solve on the state's views (M_w, ω, S, x+, x-, and ε, σ written on success).
 
     Newton first, then Newton on the whole shape (needed near buckling), then the safeguard, each
-    from the untouched starting point (cf. solver.composite).
-    With ``check`` (loads that might buckle the spine, :func:`.spatial_stability.needs_stability_check`)
+    from the untouched starting point (cf. planar.solver.composite).
+    With ``check`` (loads that might buckle the spine, :func:`.stability.needs_stability_check`)
     the starting shape and the converged one are tested for stability and ERR_BUCKLING returned,
-    state untouched, if either is unstable (as :func:`.solver.composite`). A failed solve is
+    state untouched, if either is unstable (as :func:`planar.solver.composite`). A failed solve is
     reported as ERR_BUCKLING if its starting shape is unstable, else with its own status.
     ``known``: ``eps`` are the strains of the starting shape ω, ``sums_known``: wk[WK_GAIN] its
     loop-gain sums (see :func:`composite_newton`).
@@ -775,7 +773,8 @@ def _store_strains(eps, sig, e_new, s_new):
 
 @jit
 def composite(state, vforce, kp, ks, kw, km, wk, check=False):
-    """Solve the composite module for the state's fractions and the loads, in place (cf. solver.composite).
+    """Solve the composite module for the state's fractions and the loads, in place
+    (cf. planar.solver.composite).
 
     Updates M_w, ω, ε, σ in ``state``; ``check`` as :func:`solve_mechanics`.
     Returns (status, shape passes used).
@@ -830,7 +829,7 @@ def _secant_update(sens, omega, saved_w, mw, saved_m):
 # ---------------------------------------------------------------- time step (MODEL.md §6.1, §6.5)
 @hot
 def _choose_h(rem, dt, r, ks):
-    """Sub-step size of MODEL.md §6.1 b, exactly as solver.advance."""
+    """Sub-step size of MODEL.md §6.1 b, exactly as planar.solver.advance."""
     c_crit = ks[S_C]
     h = rem
     if r * h > c_crit:
@@ -933,7 +932,7 @@ def _mechanics(mw, omega, sens, xp, xm, eps, sig, vforce, kp, ks, kw, km, wk, su
 @hot
 def _substep_frozen(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
     """One sub-step of MODEL.md §6.1 as written (rates frozen at its start, r·h <= c), as
-    :func:`.solver._substep_frozen` for every wire. Returns (status, h, shape passes, solved)."""
+    :func:`planar.solver._substep_frozen` for every wire. Returns (status, h, shape passes, solved)."""
     xp, xm, temp, sig, eps, qj, qc, ql = wb
     rt = wk[WK_RATES]
     xs = wk[WK_XS]
@@ -967,7 +966,7 @@ def stress_sensitivity(omega, sens, xp, xm, sig, kp, kw, km, act, na, jac, gs, i
     ∂σ_j/∂x₋ = E*_j (ε_T − σ_j k_E) (E* = 1/compliance, 0 when slack), which moves G by
     dG_k = n_w A_w a_j e_j dσ_j|_ε (SPATIAL.md §3); the equilibrium M = G(M) then moves by
     dM = (I − J)⁻¹ dG|_ε (J = :func:`loop_gain`) and every stress by E*_i (dL_i/dM) dM / L_ref,i. The
-    planar layout gives :func:`.solver.stress_sensitivity`. The other wires' rows and columns are
+    planar layout gives :func:`planar.solver.stress_sensitivity`. The other wires' rows and columns are
     not needed (:func:`_active_wires`); each entry is computed as over all wires.
     The loop-gain sums stay in wk[WK_GAIN] for the composite solve's first Newton step.
     """
@@ -1065,7 +1064,7 @@ def _predict_coupled(
     jac, gs, inv, dm, dmdx, kpw,
 ):  # fmt: skip
     """Linearly implicit Euler step of every wire's fractions over h into ``xs`` = wk[WK_XS]
-    (MODEL.md §6.5; cf. :func:`.solver._predict_coupled`): the wires of :func:`_active_wires`
+    (MODEL.md §6.5; cf. :func:`planar.solver._predict_coupled`): the wires of :func:`_active_wires`
     through the coupled system, whose LU factors stay in ``lu``, ``piv`` = wk[WK_LU], wk[WK_PIV] for
     the error estimate, the quiet ones by the frozen-rate step. The other arrays are the work
     arrays of the same names in :func:`make_work` (wk[WK_X0], wk[WK_RT], wk[WK_ACT], wk[WK_JNUM],
@@ -1103,7 +1102,7 @@ def _predict_coupled(
 
 @hot
 def wire_error(h, x0p, x0m, x1p, x1m, r0, r1, t0, t1, sig0, sig1, j_num, kp):
-    """One wire's share of the coupled step's error estimate (cf. :func:`.solver._coupled_error`).
+    """One wire's share of the coupled step's error estimate (cf. :func:`planar.solver._coupled_error`).
 
     Returns (the larger of ½ h |F₁ − F₀| of each fraction and ½ h |Ṫ₁ − Ṫ₀| / T_PER_FRACTION, and the
     residual h F₁ − Δx of x₊ and x₋ of the exact implicit Euler equations), F = kinetics §3.5.
@@ -1185,7 +1184,7 @@ def _end_rates(sig, temp, kpw, kw, back, rt, rt1):
 
 @hot
 def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt, wk):
-    """One accepted sub-step of the coupled scheme (default), as :func:`.solver._substep_coupled`
+    """One accepted sub-step of the coupled scheme (default), as :func:`planar.solver._substep_coupled`
     for every wire: the linearly implicit Euler step with the rates at the end-of-step stress
     (through the composite equilibrium's dσ/dx) and temperature, a local error estimate against
     tol_x, rejection and retry shorter, the next step proposed as h · 0.9 (tol/err)^½ (kept in
@@ -1203,7 +1202,7 @@ def _substep_coupled(state, mw, omega, sens, wb, vforce, kp, ks, kw, km, rem, dt
         back[i] = state[i]
     passes = 0
     while True:
-        hh = _last_h(rem, dt, h)
+        hh = last_h(rem, dt, h)
         if not _predict_coupled(
             omega, sens, xp, xm, temp, sig, kp, kw, km, hh, wk[WK_X0], wk[WK_XS], wk[WK_RT], wk[WK_ACT],
             wk[WK_JNUM], wk[WK_XA], wk[WK_RTA], wk[WK_SA], wk[WK_AT], wk[WK_BT], wk[WK_LU], wk[WK_PIV], wk[WK_VEC],
@@ -1293,10 +1292,10 @@ def _store_rates(state, kp, kw, km, ns, rt):
 
 @jit
 def advance(state, kp, ks, kw, km, volts, vforce, dt, resolve=True):
-    """Advance one spatial spine by one output step ``dt`` (MODEL.md §6.1, §6.5; cf. solver.advance).
+    """Advance one spatial spine by one output step ``dt`` (MODEL.md §6.1, §6.5; cf. planar.solver.advance).
 
     Args:
-        state: spatial state (see :mod:`.spatial_layout`), updated in place.
+        state: spatial state (see :mod:`.columns`), updated in place.
         kp, ks: material constants and solver options.
         kw, km: wire-group and module tables.
         volts: (W,) voltage on each wire of every group [V].
@@ -1319,7 +1318,7 @@ def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
 
     The sub-steps are those of the option ``scheme``: :func:`_substep_coupled` (default) or
     :func:`_substep_frozen`. Under loads that might buckle the spine
-    (:func:`.spatial_stability.needs_stability_check`) the re-solve and the shape the step ends on
+    (:func:`.stability.needs_stability_check`) the re-solve and the shape the step ends on
     are checked for stability, as in the planar core; an unstable equilibrium ends the step with
     ERR_BUCKLING.
     """
@@ -1330,7 +1329,7 @@ def advance_in(state, kp, ks, kw, km, volts, vforce, dt, resolve, wk):
 @jit
 def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
     """Advance by ``n_out`` output steps of ``dt`` with the inputs held, in one span, as
-    :func:`.solver.advance_held`: the sub-steps cross the output points (MODEL.md §6.5,
+    :func:`planar.solver.advance_held`: the sub-steps cross the output points (MODEL.md §6.5,
     :mod:`.dense`) and the :func:`record` of output j = 1 … n_out goes to ``out[row0 + j − 1]``,
     from the state linearly interpolated within the sub-step that contains it.
 
@@ -1343,7 +1342,7 @@ def advance_held_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk
 @hot
 def _complete_outputs(state, start, mid, kp, kw, km, frames, chords, out, row0, dt, n_out, done, sub):
     """Complete the outputs done + 1, … that the sub-step ``sub`` = (e0, e1, ends the span)
-    reached, as :func:`.solver._complete_outputs`. Only the recorded head of the state (up to S)
+    reached, as :func:`planar.solver._complete_outputs`. Only the recorded head of the state (up to S)
     is interpolated, and the record gets its work arrays (frames, chords), not the work tuple;
     after the span's first output it reuses the previous row's shape columns where ω did not
     change (:func:`_record`). Returns the outputs completed."""
@@ -1442,7 +1441,7 @@ def _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, 
             _store_rates(state, kp, kw, km, ns, wk[WK_RT])
         if output_fraction(done + 1, n_out, dt, sub[0], sub[1], sub[2]) >= 0.0:
             # h. the sub-step reached an output: stability of the shape it ends on (once per output
-            # step at most, as solver.advance)
+            # step at most, as planar.solver.advance)
             if check and solved and is_buckled_in(omega, mw, xp, xm, vforce, kp, kw, km, wk[WK_STAB]):
                 return ERR_BUCKLING, done, nsub, passes
             done = _complete_outputs(
@@ -1458,7 +1457,7 @@ def init_state(state, kp, ks, kw, km, vforce):
     """Initial state (MODEL.md §3.10) of every wire, straight spine, solved under ``vforce``.
 
     The sensitivity S starts, column by column, as the response of a full shape solve from the
-    straight spine to a probe moment INIT_DM on that unknown (cf. solver.init_state).
+    straight spine to a probe moment INIT_DM on that unknown (cf. planar.solver.init_state).
 
     Returns:
         status of the mechanical solve.
@@ -1584,7 +1583,7 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
     """Integrate one spatial spine over ``volts.shape[0]`` output steps, recording every step.
 
     Consecutive output steps with equal inputs are one span of :func:`advance_held_in` (MODEL.md
-    §6.5, :mod:`.dense`) unless the option ``dense_output`` is off, as :func:`.batch.run`.
+    §6.5, :mod:`.dense`) unless the option ``dense_output`` is off, as :func:`planar.batch.run`.
 
     Args:
         state: initial state, advanced in place.
@@ -1618,33 +1617,3 @@ def run(state, kp, ks, kw, km, volts, loads, dt, out):
             return st, k + done, nsub, npass
         k += m
     return OK, n, nsub, npass
-
-
-def _advance_many(states, kps, ks, kw, km, volts, loads, dt, n_steps, status):
-    """Advance each spatial spine i by ``n_steps`` output steps of ``dt`` (cf. batch.advance_many).
-
-    Args:
-        states: (B, state size) spatial states, advanced in place.
-        kps: (B, KP_SIZE) material constants per spine (e.g. randomised).
-        kw, km: the layout tables, shared by the batch.
-        volts: (B, W) voltages [V]; loads: (B, N, 3) vertex forces [N].
-        status: (B,) output, the first failure of each spine (a failed spine stops there).
-    """
-    b = states.shape[0]
-    nw, nm, ns = sizes(kw, km)
-    todo = counter()
-    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
-        i = take(todo, b)
-        while i >= 0:
-            status[i] = OK
-            wk = make_work(nw, nm, ns)
-            for _step in range(n_steps):
-                st, _a, _c = advance_in(states[i], kps[i], ks, kw, km, volts[i], loads[i], dt, True, wk)
-                if st != OK:
-                    status[i] = st
-                    break
-            i = take(todo, b)
-
-
-advance_many = pjit(_advance_many)
-advance_many_serial = jit(_advance_many)

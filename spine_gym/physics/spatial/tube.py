@@ -15,8 +15,8 @@ R(k, Δθ/2) t as §2 states (the integral of the arc's tangent). b is computed 
 ½ (sin(Δθ/2)/(Δθ/2))², free of cancellation. a, b and f are even in Δθ: below 0.5 rad they come
 from their series in Δθ² (:func:`rot_coeffs`), which needs no square root, sine or cosine.
 
-Indexing as the planar core (:mod:`.tube`): segment 0 is the top one, vertex 0 the tip, and the
-loads ``vforce[j]`` (global x, y, z) [N] act at vertex j. Module tables: :mod:`.spatial_layout`.
+Indexing as the planar core (:mod:`.planar.tube`): segment 0 is the top one, vertex 0 the tip, and the
+loads ``vforce[j]`` (global x, y, z) [N] act at vertex j. Module tables: :mod:`.columns`.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .layout import ERR_SHAPE, K_EI, K_G, OK
-from .spatial_layout import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_L0, W_MOD
+from .._jit import hot, jit
+from ..columns import ERR_SHAPE, K_EI, K_G, OK
+from .columns import M_LS, M_MDISK, M_MSEG, M_NSEG, M_SEG0, W_A, W_EX, W_EY, W_L0, W_MOD
 
 SERIES_TH2 = 0.25  # [rad²] below this (Δθ < 0.5 rad) the rotation coefficients use their series
 _TWELFTH = 1.0 / 12.0  # products with constants in the loops: a division costs several times more
@@ -222,7 +222,8 @@ def shape_pass(omega, mw, vforce, kp, km, frames, chords, out):
 
 @hot
 def solve_shape(omega, mw, vforce, kp, km, tol, max_iter, frames, chords, new):
-    """Fixed-point shape iteration for given wire moments, in place on ``omega`` (cf. tube.solve_shape).
+    """Fixed-point shape iteration for given wire moments, in place on ``omega`` (cf.
+    planar.tube.solve_shape).
 
     Warm-started from the incoming ``omega``; under-relaxes (ω halved) when the update grows.
 
@@ -384,7 +385,7 @@ def straight_load_factor(km: np.ndarray, ei: float, g: float) -> float:
     contraction ratio of the plain shape iteration. Plain numpy (called once per layout).
 
     Args:
-        km: module table (:mod:`.spatial_layout`).
+        km: module table (:mod:`.columns`).
         ei: tube bending stiffness E_t I [N m^2].
         g: gravity [m/s^2].
     """

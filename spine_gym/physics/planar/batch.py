@@ -1,23 +1,18 @@
-"""Loops over many spines, compiled serial and parallel from one body (MODEL.md §6, STYLE.md).
+"""The recorded time loop of one planar spine (MODEL.md §6): :func:`run`, used by :func:`spine_gym.simulate`.
 
-The per-spine physics is :func:`spine_gym.physics.solver.advance`; nothing here repeats an
-equation. ``run`` records one spine's trajectory (used by :func:`spine_gym.simulate`);
-``advance_many`` steps a batch of spines by one control period (used by the vector environment and
-the design sweeps), in parallel across cores with ``prange`` (the spines dealt out to the threads one
-at a time, :mod:`._deal`).
+The per-spine physics is :func:`spine_gym.physics.planar.solver.advance_held`; nothing here repeats
+an equation. The envs step their spines with :mod:`spine_gym.physics.env_kernels` instead.
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from ._deal import counter, take
-from ._jit import jit, pjit
-from .dense import held_steps, span_options, spans_outputs
-from .layout import OK
+from .._jit import jit
+from ..columns import OK
+from ..dense import held_steps, span_options, spans_outputs
 from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
-from .solver import advance, advance_held
+from .solver import advance_held
 
 __all__ = [
     "OUT_ANGLE",
@@ -26,8 +21,6 @@ __all__ = [
     "OUT_SIZE",
     "OUT_TIP_X",
     "OUT_TIP_Y",
-    "advance_many",
-    "advance_many_serial",
     "empty_record",
     "record",
     "run",
@@ -77,30 +70,6 @@ def run(state, kp, ks, v_r, v_l, loads, dt, out):
             return st, k + done, nsub, npass
         k += m
     return OK, n, nsub, npass
-
-
-def _advance_many(states, kps, ks, v_r, v_l, loads, dt, n_steps, status):
-    """Advance each spine i by ``n_steps`` output steps of ``dt``; status[i] gets the first failure.
-
-    ``kps`` is (B, KP_SIZE) so that every spine may carry its own (randomised) constants. A failed
-    spine is left at its failing state and skipped afterwards.
-    """
-    b = states.shape[0]
-    todo = counter()
-    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
-        i = take(todo, b)
-        while i >= 0:
-            status[i] = OK
-            for _step in range(n_steps):
-                st, a, c = advance(states[i], kps[i], ks, v_r[i], v_l[i], loads[i], dt)
-                if st != OK:
-                    status[i] = st
-                    break
-            i = take(todo, b)
-
-
-advance_many = pjit(_advance_many)
-advance_many_serial = jit(_advance_many)
 
 
 def empty_record(n_steps: int) -> np.ndarray:

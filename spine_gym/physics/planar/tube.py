@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from ._jit import hot, jit
-from .layout import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
-from .stability import dunkerley_weight
+from .._jit import hot, jit
+from ..columns import ERR_SHAPE, K_A, K_EI, K_G, K_L0, K_LS, K_MSEG, K_MTOP, K_NSEG, OK
+from ..stability import chord_slope, dunkerley_weight
 
 SERIES_MAX = 0.3  # [rad] below this |angle| the sines and cosines of small angles are Taylor series
 # Taylor coefficients (as multiplications: a division costs several times more, on the hot loop)
@@ -202,15 +202,6 @@ def tip_position(dth, kp):
         x += c * sp
         y += c * cp
     return x, y
-
-
-@hot
-def chord_slope(dth, ls):
-    """dc/dΔθ of the chord of §4.3 [m/rad] (series −ls(Δθ/12 − Δθ³/480) near 0, no cancellation)."""
-    if abs(dth) < 1e-2:
-        return -ls * dth * (1.0 / 12.0 - dth * dth / 480.0)
-    h = 0.5 * dth
-    return ls * (math.cos(h) / dth - 2.0 * math.sin(h) / (dth * dth))
 
 
 @hot

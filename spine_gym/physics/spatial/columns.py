@@ -1,7 +1,8 @@
 """Index constants of the arrays the spatial (wire- and module-generic) kernels take (SPATIAL.md).
 
-Besides the material constants ``kp`` of :mod:`.layout` (only the material, tube-stiffness and
-gravity entries are read) and the solver options ``ks``, the spatial kernels take two tables
+Besides the material constants ``kp`` of :mod:`spine_gym.physics.columns` (only the material,
+tube-stiffness and gravity entries are read) and the solver options ``ks``, the spatial kernels
+take two tables
 built by :meth:`spine_gym.layout.SpineLayout.to_kernel`:
 
 * ``kw`` (W, KW_SIZE) — one row per wire group (n_w identical parallel wires in one pore);
@@ -32,8 +33,8 @@ kernels evaluate each wire's rates, latent heats and Joule heating with its own 
 
 from __future__ import annotations
 
-from ._jit import jit
-from .layout import RATE_KP
+from .._jit import jit
+from ..columns import RATE_KP
 
 # ---------------------------------------------------------------- kw: wire-group table columns
 (
