@@ -1,0 +1,147 @@
+"""Study: PPO's learner throughput vs its sample efficiency on the -v1 tier ids, on tuning seeds.
+
+PPO's shipped ``-v1`` entry (``spine_gym/agents/hyperparams/ppo.yml``) spends most of its wall
+time in SGD: 10 epochs of minibatch 256 over each 2 048-sample rollout are 80 gradient steps per
+rollout. This study trains each candidate override of that entry on every benchmark id
+(``spine_gym.envs.BENCHMARK_IDS``) with the tuning seeds ``--seeds`` (default 100 and 101, never the
+benchmark's seeds 0-4), validates every ``--eval-freq`` steps on the benchmark's validation
+episodes (reset seeds 500 000+, :mod:`spine_gym.agents.benchmark`; the evaluation suite is never
+touched) and reports, per candidate and id, the median training wall time and steps to the tuned
+PID's validation RMSE and the final RMSE and energy as ratios to the PID's. Each run is one
+:func:`spine_gym.agents.benchmark.run_one`, so runs are resumable (finished ones are skipped) and
+measured exactly as the benchmark measures them (validation time excluded, torch on one thread).
+
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2
+
+Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``).
+The PID's validation scores are read from the benchmark's reference cache
+(``benchmarks/results/rl_benchmark/references``), computed there if missing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import multiprocessing
+import statistics
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import torch
+
+from spine_gym.agents import benchmark_stats as stats
+from spine_gym.agents.benchmark import RunSpec, read_curve, reference_scores, run_one
+from spine_gym.agents.train import resolve_config
+from spine_gym.envs import BENCHMARK_IDS
+
+ROOT = Path(__file__).resolve().parent
+OUT = ROOT / "results" / "ppo_v1_tuning"
+REFERENCES = ROOT / "results" / "rl_benchmark"
+VAL_EPISODES = 10  # the benchmark's default
+
+# name -> overrides of the shipped -v1 entry; gradient steps per 2 048-sample rollout in the comment
+CANDIDATES = {
+    "yml": {},  # 80: the shipped entry (10 epochs x 8 minibatches of 256)
+    "epochs5": {"n_epochs": 5},  # 40
+    "batch512": {"batch_size": 512},  # 40
+    "batch512_epochs5": {"batch_size": 512, "n_epochs": 5},  # 20
+}
+
+
+def _worker_init() -> None:
+    torch.set_num_threads(1)
+
+
+def plan(names: list[str], seeds: list[int], eval_freq: int) -> list[tuple[str, RunSpec]]:
+    """Every (candidate, run) pair, seed by seed, so that a partial study covers every candidate."""
+    out = []
+    for seed in seeds:
+        for env_id in BENCHMARK_IDS:
+            n = resolve_config("ppo", env_id).n_timesteps
+            for name in names:
+                hp = dict(CANDIDATES[name])
+                out.append((name, RunSpec("ppo", env_id, seed, n, -1, eval_freq, VAL_EPISODES, {}, hp)))
+    return out
+
+
+def run(runs: list[tuple[str, RunSpec]], workers: int) -> None:
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init) as pool:
+        futures = {pool.submit(run_one, spec, OUT / name): (name, spec) for name, spec in runs}
+        for i, fut in enumerate(as_completed(futures), 1):
+            name, spec = futures[fut]
+            rec = fut.result()
+            print(f"[{i}/{len(runs)}] {name:18s} {spec.label}: {rec['wall_s']:.0f} s, "
+                  f"final RMSE {rec['final_rmse']:.2f}", flush=True)  # fmt: skip
+
+
+def summarise(runs: list[tuple[str, RunSpec]]) -> list[dict]:
+    pid = {e: reference_scores(e, ("pid",), {}, VAL_EPISODES, 5, REFERENCES)["pid"] for e in BENCHMARK_IDS}
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for name, spec in runs:
+        folder = OUT / name / spec.folder
+        if not (folder / "done.json").exists():
+            continue
+        c = read_curve(folder / "curve.csv")
+        ref = pid[spec.env_id]
+        steps, wall = stats.time_to_level(c["step"], c["train_wall_s"], c["rmse"], ref["rmse"])
+        groups.setdefault((name, spec.env_id), []).append({
+            "steps": steps, "wall": wall, "total_wall": float(c["train_wall_s"][-1]),
+            "rmse_ratio": float(c["rmse"][-1]) / ref["rmse"], "energy_ratio": float(c["energy_J"][-1]) / ref["energy_J"],
+        })  # fmt: skip
+    rows = []
+    for (name, env_id), g in groups.items():
+        reached = [r for r in g if r["wall"] is not None]
+        # a run that never reached the PID counts as infinitely slow in the median
+        walls = sorted(r["wall"] if r["wall"] is not None else float("inf") for r in g)
+        rows.append({
+            "candidate": name, "env_id": env_id, "runs": len(g), "reached": len(reached),
+            "median_wall_to_pid_s": statistics.median(walls),
+            "median_steps_to_pid": statistics.median(sorted(r["steps"] or float("inf") for r in g)),
+            "mean_total_wall_s": statistics.mean(r["total_wall"] for r in g),
+            "mean_final_rmse_ratio": statistics.mean(r["rmse_ratio"] for r in g),
+            "mean_final_energy_ratio": statistics.mean(r["energy_ratio"] for r in g),
+        })  # fmt: skip
+    return rows
+
+
+def write(rows: list[dict]) -> None:
+    if not rows:
+        return
+    with open(OUT / "summary.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    lines = [
+        "| candidate | env id | reached PID | median wall to PID | median steps to PID | "
+        "total wall (mean) | final RMSE / PID | final energy / PID |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in sorted(rows, key=lambda r: (r["env_id"], r["candidate"])):
+        lines.append(
+            f"| {r['candidate']} | {r['env_id']} | {r['reached']}/{r['runs']} | {r['median_wall_to_pid_s']:.1f} s | "
+            f"{r['median_steps_to_pid']:,.0f} | {r['mean_total_wall_s']:.0f} s | {r['mean_final_rmse_ratio']:.2f} | "
+            f"{r['mean_final_energy_ratio']:.2f} |"
+        )  # fmt: skip
+    (OUT / "summary.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--candidates", nargs="+", choices=list(CANDIDATES), default=list(CANDIDATES))
+    p.add_argument("--seeds", nargs="+", type=int, default=[100, 101], help="tuning seeds (not 0-4)")
+    p.add_argument("--eval-freq", type=int, default=10_000, help="env steps between validations")
+    p.add_argument("--workers", type=int, default=2, help="runs in parallel processes")
+    p.add_argument("--summary-only", action="store_true", help="train nothing; summarise finished runs")
+    args = p.parse_args()
+    if any(0 <= s < 5 for s in args.seeds):
+        p.error(f"--seeds must avoid the benchmark's seeds 0-4, got {args.seeds}")
+    runs = plan(args.candidates, args.seeds, args.eval_freq)
+    if not args.summary_only:
+        run(runs, args.workers)
+    write(summarise(runs))
+
+
+if __name__ == "__main__":
+    main()
