@@ -202,6 +202,13 @@ def test_a_run_validates_on_schedule_and_resume_skips_it(tmp_path):
     with pytest.raises(ValueError, match="n_timesteps=128, now 256"):
         bm.check_finished([_tiny_spec(n_timesteps=256)], tmp_path)
     bm.check_finished([spec], tmp_path)
+    # a run finished with another YAML entry (the file edited since) is not taken for a current one
+    done = folder / bm.DONE
+    stored = json.loads(done.read_text())
+    stored["settings"]["entry"]["gamma"] = 0.5
+    done.write_text(json.dumps(stored))
+    with pytest.raises(ValueError, match="finished with entry="):
+        bm.check_finished([spec], tmp_path)
 
 
 def test_an_interrupted_run_starts_over(tmp_path):

@@ -87,7 +87,7 @@ from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
 
 from . import benchmark_stats as stats
-from .common import ALGOS
+from .common import ALGOS, load_hyperparams
 from .evaluate import write_csv
 from .registry import registry_for
 from .runtime import (
@@ -168,7 +168,11 @@ class RunSpec:
         return f"{self.algo} {self.env_id} seed {self.seed}"
 
     def settings(self) -> dict:
-        return json.loads(json.dumps(asdict(self)))  # JSON-normalised (tuples -> lists), as stored
+        """The spec as stored with a finished run, JSON-normalised (tuples -> lists), with ``entry``:
+        the hyperparameter entry the run trains with (the YAML's, as it is now, with the spec's
+        overrides), so that a run finished before the YAML changed is not taken for a current one."""
+        entry = load_hyperparams(self.algo, self.env_id) | self.hyperparams
+        return json.loads(json.dumps({**asdict(self), "entry": entry}))
 
 
 # --------------------------------------------------------------------------- one run
