@@ -85,8 +85,9 @@ def summarise(runs: list[tuple[str, RunSpec]]) -> list[dict]:
         c = read_curve(folder / "curve.csv")
         ref = pid[spec.env_id]
         steps, wall = stats.time_to_level(c["step"], c["train_wall_s"], c["rmse"], ref["rmse"])
+        _, cpu = stats.time_to_level(c["step"], c["train_cpu_s"], c["rmse"], ref["rmse"])
         groups.setdefault((name, spec.env_id), []).append({
-            "steps": steps, "wall": wall, "total_wall": float(c["train_wall_s"][-1]),
+            "steps": steps, "wall": wall, "cpu": cpu, "total_wall": float(c["train_wall_s"][-1]),
             "rmse_ratio": float(c["rmse"][-1]) / ref["rmse"], "energy_ratio": float(c["energy_J"][-1]) / ref["energy_J"],
         })  # fmt: skip
     rows = []
@@ -94,9 +95,11 @@ def summarise(runs: list[tuple[str, RunSpec]]) -> list[dict]:
         reached = [r for r in g if r["wall"] is not None]
         # a run that never reached the PID counts as infinitely slow in the median
         walls = sorted(r["wall"] if r["wall"] is not None else float("inf") for r in g)
+        cpus = sorted(r["cpu"] if r["cpu"] is not None else float("inf") for r in g)
         rows.append({
             "candidate": name, "env_id": env_id, "runs": len(g), "reached": len(reached),
             "median_wall_to_pid_s": statistics.median(walls),
+            "median_cpu_to_pid_s": statistics.median(cpus),
             "median_steps_to_pid": statistics.median(sorted(r["steps"] or float("inf") for r in g)),
             "mean_total_wall_s": statistics.mean(r["total_wall"] for r in g),
             "mean_final_rmse_ratio": statistics.mean(r["rmse_ratio"] for r in g),
@@ -113,13 +116,13 @@ def write(rows: list[dict]) -> None:
         w.writeheader()
         w.writerows(rows)
     lines = [
-        "| candidate | env id | reached PID | median wall to PID | median steps to PID | "
+        "| candidate | env id | reached PID | median wall to PID | median CPU to PID | median steps to PID | "
         "total wall (mean) | final RMSE / PID | final energy / PID |",
-        "|---|---|---:|---:|---:|---:|---:|---:|",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in sorted(rows, key=lambda r: (r["env_id"], r["candidate"])):
         lines.append(
-            f"| {r['candidate']} | {r['env_id']} | {r['reached']}/{r['runs']} | {r['median_wall_to_pid_s']:.1f} s | "
+            f"| {r['candidate']} | {r['env_id']} | {r['reached']}/{r['runs']} | {r['median_wall_to_pid_s']:.1f} s | {r['median_cpu_to_pid_s']:.1f} s | "
             f"{r['median_steps_to_pid']:,.0f} | {r['mean_total_wall_s']:.0f} s | {r['mean_final_rmse_ratio']:.2f} | "
             f"{r['mean_final_energy_ratio']:.2f} |"
         )  # fmt: skip
