@@ -73,10 +73,10 @@ import numpy as np
 from spine_gym import ModelParams, SolverOptions, SpineLayout, simulate
 from spine_gym.capacity import capacity_metrics
 from spine_gym.experiments import (
-    _CAPACITY_FIELDS,
     ALTERNATE_REFERENCE,
     ALTERNATE_SWING_TIMES,
     ANGLE_TOL_DEG,
+    CAPACITY_FIELDS,
     CAPACITY_REFERENCE,
     SWING_TOL_DEG,
     alternate_voltages,
@@ -204,7 +204,7 @@ def _gates(solver: SolverOptions) -> dict:
     rows = {}
     for case, (changes, ref) in CAPACITY_REFERENCE.items():
         m = capacity_metrics(ModelParams(**changes), solver=solver)
-        for key, field, _label, _unit, tol, rel in _CAPACITY_FIELDS:
+        for key, field, _label, _unit, tol, rel in CAPACITY_FIELDS:
             got = getattr(m, field)
             dev = abs(got - ref[key]) / (tol * abs(ref[key]) if rel else tol)
             rows[f"{case}: {key}"] = float(got)
