@@ -76,12 +76,12 @@ from spine_gym.experiments import (
     ALTERNATE_REFERENCE,
     ALTERNATE_SWING_TIMES,
     ANGLE_TOL_DEG,
-    CAPACITY_FIELDS,
     CAPACITY_REFERENCE,
     SWING_TOL_DEG,
     alternate_voltages,
     hysteresis_voltages,
 )
+from spine_gym.experiments.references import CAPACITY_FIELDS
 from spine_gym.params import FINE_REFERENCE
 from spine_gym.plotting import plot_timings
 

@@ -36,14 +36,7 @@ from .references import (
     run_alternate,
     run_hysteresis,
 )
-from .tables import (
-    Section,
-    capacity_cases,
-    compare_alternate,
-    compare_capacity,
-    compare_hysteresis,
-    format_section,
-)
+from .tables import Section, capacity_cases, compare_experiments, format_section
 
 __all__ = ["Reproduction", "build_parser", "main", "reproduce"]
 
@@ -180,7 +173,7 @@ def reproduce(
             params = ModelParams().replace(**CAPACITY_REFERENCE[case][0])
             capacity[case] = capacity_metrics(params, protocol, solver)
             bar.update()
-        sections = [compare_hysteresis(hyst), compare_alternate(alt), compare_capacity(capacity)]
+        sections = compare_experiments(hyst, alt, capacity)
         rep = Reproduction(sections, hyst, alt, capacity)
         if out is not None and plots:
             rep.files += _write_plots(rep, out, dpi=70 if quick else 120, bar=bar)

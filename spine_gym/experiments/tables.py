@@ -33,6 +33,7 @@ __all__ = [
     "capacity_cases",
     "compare_alternate",
     "compare_capacity",
+    "compare_experiments",
     "compare_hysteresis",
     "format_section",
 ]
@@ -182,6 +183,14 @@ def compare_capacity(metrics: dict[str, CapacityMetrics]) -> Section:
         "120 s; ability = 1/|Θ(150 s) − Θ(120 s)|; tolerances: 0.5 deg, 0.3 s, 0.1 deg, 3 % (ours)"
     )
     return sec
+
+
+
+def compare_experiments(
+    hysteresis: SimulationResult, alternate: SimulationResult, capacity: dict[str, CapacityMetrics]
+) -> list[Section]:
+    """The sections of the whole reproduction: §10.2, §10.3 and §10.4, in that order."""
+    return [compare_hysteresis(hysteresis), compare_alternate(alternate), compare_capacity(capacity)]
 
 
 # ------------------------------------------------------------------------------- formatting
