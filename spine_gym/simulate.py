@@ -7,13 +7,12 @@ and wraps the record in a :class:`SimulationResult`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
+from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, output_steps, vertex_loads
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import columns as L
@@ -164,11 +163,7 @@ def simulate(
         raise ValueError(f"params must be a ModelParams, got {type(params).__name__}")
     if not isinstance(solver, SolverOptions):
         raise ValueError(f"solver must be a SolverOptions, got {type(solver).__name__}")
-    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
-        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
-        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
-    n = max(1, int(round(duration / dt)))
+    n = output_steps(duration, dt)
     v_r = as_series("voltage_right", voltage_right, n, dt, ())
     v_l = as_series("voltage_left", voltage_left, n, dt, ())
     for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
