@@ -90,6 +90,25 @@ def initial_state(params: ModelParams, solver: SolverOptions | None = None, load
     return state
 
 
+def _check_voltages(series: dict[str, np.ndarray]) -> None:
+    """ValueError naming the first of the voltage ``series`` [V] with a value outside [0, 100] V."""
+    for name, v in series.items():
+        if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
+            raise ValueError(
+                f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]"
+            )
+
+
+def _start_state(state, params: ModelParams, solver: SolverOptions, loads: np.ndarray) -> np.ndarray:
+    """A copy of the given ``state`` (shape checked), or the §3.10 initial state under ``loads``."""
+    if state is None:
+        return initial_state(params, solver, loads)
+    state = np.array(state, dtype=float)
+    if state.shape != (PL.state_size(params.n_seg),):
+        raise ValueError(f"state must have shape ({PL.state_size(params.n_seg)},), got {state.shape}")
+    return state
+
+
 def simulate(
     duration: float,
     voltage_right: float | np.ndarray | Callable[[float], float],
@@ -114,6 +133,8 @@ def simulate(
     Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold). Where they
     stay the same over consecutive output steps, the sub-steps run across the output points and
     the outputs in between are interpolated (``SolverOptions.dense_output``, MODEL.md §6.5).
+    (This function is long for its docstring; the body is the spatial hand-off, the input checks
+    and one kernel call.)
 
     Args:
         duration: simulated time [s], > 0; rounded to a whole number of steps.
@@ -166,20 +187,11 @@ def simulate(
     n = output_steps(duration, dt)
     v_r = as_series("voltage_right", voltage_right, n, dt, ())
     v_l = as_series("voltage_left", voltage_left, n, dt, ())
-    for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
-        if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
-            raise ValueError(
-                f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]"
-            )
+    _check_voltages({"voltage_right": v_r, "voltage_left": v_l})
     loads = build_loads(params.n_seg, n, dt, tip_force, vertex_forces)
     kp = params.to_kernel()
     ks = solver.to_kernel()
-    if state is None:
-        state = initial_state(params, solver, loads[0])
-    else:
-        state = np.array(state, dtype=float)
-        if state.shape != (PL.state_size(params.n_seg),):
-            raise ValueError(f"state must have shape ({PL.state_size(params.n_seg)},), got {state.shape}")
+    state = _start_state(state, params, solver, loads[0])
     t0 = state[PL.X_TIME]
     out = batch.empty_record(n)
     st, k, nsub, npass = batch.run(state, kp, ks, v_r, v_l, loads, dt, out)

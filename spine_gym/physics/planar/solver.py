@@ -258,7 +258,9 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
     """Bracketed composite solve (MODEL.md §5.2): bisection (seed) or Illinois regula falsi.
 
     The bracket is [min, max](M_prev, G(M_prev)); for a non-increasing G the root lies inside.
-    ``new`` (N,) is the shape solves' scratch.
+    ``new`` (N,) is the shape solves' scratch. One kernel of ~80 lines: the bracket search and the
+    bisection/Illinois loop share their bracket state, and splitting them would change the compiled
+    kernel that the seed's results (``method="bisect"``) are checked against.
 
     Returns:
         (status, M, passes): ``dth`` holds the converged shape for M.
