@@ -1,4 +1,4 @@
-"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.planar.solver`.
+"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.planar.stability`.
 
 The spatial shape is the fixed point ω = f(ω, G(ω)) of :func:`.tube.shape_pass` with the
 module wire moments G following the shape through the wire lengths (SPATIAL.md §3–§4). As in the
