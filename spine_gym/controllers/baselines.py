@@ -88,8 +88,10 @@ def observation_batch(observation, need: int, layout: str = "") -> tuple[np.ndar
     if single:
         obs = obs[None, :]
     if obs.ndim != 2 or obs.shape[1] < need or obs.shape[0] < 1:
-        shape = np.shape(observation)
-        raise ValueError(f"observation must have shape (d,) or (n_envs, d) with d >= {need}{layout}, got {shape}")
+        raise ValueError(
+            f"observation must have shape (d,) or (n_envs, d) with d >= {need}{layout}, "
+            f"got {np.shape(observation)}"
+        )
     return obs, single
 
 
