@@ -73,7 +73,6 @@ import numpy as np
 from spine_gym import ModelParams, SolverOptions, SpineLayout, simulate
 from spine_gym.capacity import capacity_metrics
 from spine_gym.experiments import (
-    _CAPACITY_FIELDS,
     ALTERNATE_REFERENCE,
     ALTERNATE_SWING_TIMES,
     ANGLE_TOL_DEG,
@@ -82,6 +81,7 @@ from spine_gym.experiments import (
     alternate_voltages,
     hysteresis_voltages,
 )
+from spine_gym.experiments.references import CAPACITY_FIELDS
 from spine_gym.params import FINE_REFERENCE
 from spine_gym.plotting import plot_timings
 
@@ -204,7 +204,7 @@ def _gates(solver: SolverOptions) -> dict:
     rows = {}
     for case, (changes, ref) in CAPACITY_REFERENCE.items():
         m = capacity_metrics(ModelParams(**changes), solver=solver)
-        for key, field, _label, _unit, tol, rel in _CAPACITY_FIELDS:
+        for key, field, _label, _unit, tol, rel in CAPACITY_FIELDS:
             got = getattr(m, field)
             dev = abs(got - ref[key]) / (tol * abs(ref[key]) if rel else tol)
             rows[f"{case}: {key}"] = float(got)

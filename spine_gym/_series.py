@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .physics import columns as L
@@ -16,6 +18,16 @@ class SimulationError(RuntimeError):
         self.status = int(status)
         self.time = float(time)
         super().__init__(f"simulation failed at t = {time:.4f} s: {L.STATUS_TEXT.get(status, status)}")
+
+
+def output_steps(duration, dt) -> int:
+    """Output steps of a run of ``duration`` seconds at ``dt`` (at least one); ValueError unless
+    ``dt`` is in (0, 1] s and ``duration`` a finite number > 0 s."""
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
+        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
+    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
+        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
+    return max(1, int(round(duration / dt)))
 
 
 def as_series(name: str, value, n: int, dt: float, shape: tuple[int, ...]) -> np.ndarray:

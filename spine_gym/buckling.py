@@ -26,7 +26,7 @@ import numpy as np
 from .params import ModelParams, SolverOptions
 from .physics import columns as L
 from .physics.planar import columns as PL
-from .physics.planar.solver import equilibrium_jacobian
+from .physics.planar.stability import equilibrium_jacobian
 from .physics.planar.tube import shape_jacobian
 from .physics.stability import euler_critical_load, unstable_modes
 from .simulate import SimulationError, initial_state

@@ -224,6 +224,23 @@ def _metric(m: Any, name: str) -> float:
     return math.nan if v is None else float(v)
 
 
+def _plot_with_inf(ax, xs: np.ndarray, ys: np.ndarray, style: str, color: str, label: str) -> None:
+    """``ys`` against ``xs`` on ``ax``; its ``inf`` values as ``^`` markers on the panel's top edge."""
+    fin = np.isfinite(ys)
+    ax.plot(xs[fin], ys[fin], style, color=color, ms=5, label=label)
+    if np.isinf(ys).any():
+        ax.plot(
+            xs[np.isinf(ys)],
+            np.ones(int(np.isinf(ys).sum())),
+            "^",
+            color=color,
+            ms=8,
+            clip_on=False,
+            transform=ax.get_xaxis_transform(),
+            label=f"{label}: never reached (inf)",
+        )
+
+
 def plot_capacity(
     x: Sequence[float],
     metrics: Sequence[Any],
@@ -277,19 +294,7 @@ def plot_capacity(
             series.append(("responding_time_swing_s", "s--", "model, 90 % of swing"))
         for j, (key, style, lab) in enumerate(series):
             ys = np.array([_metric(metrics[i], key) for i in order])
-            fin = np.isfinite(ys)
-            ax.plot(xs[fin], ys[fin], style, color=f"C{j}", ms=5, label=lab)
-            if np.isinf(ys).any():
-                ax.plot(
-                    xs[np.isinf(ys)],
-                    np.ones(int(np.isinf(ys).sum())),
-                    "^",
-                    color=f"C{j}",
-                    ms=8,
-                    clip_on=False,
-                    transform=ax.get_xaxis_transform(),
-                    label=f"{lab}: never reached (inf)",
-                )
+            _plot_with_inf(ax, xs, ys, style, f"C{j}", lab)
             if reference is not None:
                 rs = np.array([_metric(reference[i], key) for i in order])
                 ok = np.isfinite(rs)

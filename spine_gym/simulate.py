@@ -7,13 +7,12 @@ and wraps the record in a :class:`SimulationResult`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
+from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, output_steps, vertex_loads
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import columns as L
@@ -91,6 +90,25 @@ def initial_state(params: ModelParams, solver: SolverOptions | None = None, load
     return state
 
 
+def _check_voltages(series: dict[str, np.ndarray]) -> None:
+    """ValueError naming the first of the voltage ``series`` [V] with a value outside [0, 100] V."""
+    for name, v in series.items():
+        if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
+            raise ValueError(
+                f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]"
+            )
+
+
+def _start_state(state, params: ModelParams, solver: SolverOptions, loads: np.ndarray) -> np.ndarray:
+    """A copy of the given ``state`` (shape checked), or the §3.10 initial state under ``loads``."""
+    if state is None:
+        return initial_state(params, solver, loads)
+    state = np.array(state, dtype=float)
+    if state.shape != (PL.state_size(params.n_seg),):
+        raise ValueError(f"state must have shape ({PL.state_size(params.n_seg)},), got {state.shape}")
+    return state
+
+
 def simulate(
     duration: float,
     voltage_right: float | np.ndarray | Callable[[float], float],
@@ -115,6 +133,8 @@ def simulate(
     Inputs are held constant over each output step [t_k, t_k + dt) (zero-order hold). Where they
     stay the same over consecutive output steps, the sub-steps run across the output points and
     the outputs in between are interpolated (``SolverOptions.dense_output``, MODEL.md §6.5).
+    (This function is long for its docstring; the body is the spatial hand-off, the input checks
+    and one kernel call.)
 
     Args:
         duration: simulated time [s], > 0; rounded to a whole number of steps.
@@ -164,27 +184,14 @@ def simulate(
         raise ValueError(f"params must be a ModelParams, got {type(params).__name__}")
     if not isinstance(solver, SolverOptions):
         raise ValueError(f"solver must be a SolverOptions, got {type(solver).__name__}")
-    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
-        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
-        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
-    n = max(1, int(round(duration / dt)))
+    n = output_steps(duration, dt)
     v_r = as_series("voltage_right", voltage_right, n, dt, ())
     v_l = as_series("voltage_left", voltage_left, n, dt, ())
-    for name, v in (("voltage_right", v_r), ("voltage_left", v_l)):
-        if v.min() < 0.0 or v.max() > V_MAX_ALLOWED:
-            raise ValueError(
-                f"{name} must be in [0, {V_MAX_ALLOWED:g}] V, got values in [{v.min():g}, {v.max():g}]"
-            )
+    _check_voltages({"voltage_right": v_r, "voltage_left": v_l})
     loads = build_loads(params.n_seg, n, dt, tip_force, vertex_forces)
     kp = params.to_kernel()
     ks = solver.to_kernel()
-    if state is None:
-        state = initial_state(params, solver, loads[0])
-    else:
-        state = np.array(state, dtype=float)
-        if state.shape != (PL.state_size(params.n_seg),):
-            raise ValueError(f"state must have shape ({PL.state_size(params.n_seg)},), got {state.shape}")
+    state = _start_state(state, params, solver, loads[0])
     t0 = state[PL.X_TIME]
     out = batch.empty_record(n)
     st, k, nsub, npass = batch.run(state, kp, ks, v_r, v_l, loads, dt, out)

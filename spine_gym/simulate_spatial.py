@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, vertex_loads
+from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, output_steps, vertex_loads
 from .layout import SpineLayout
 from .params import SolverOptions
 from .physics import columns as L
@@ -142,11 +142,7 @@ def simulate_spatial(
         raise ValueError(f"solver must be a SolverOptions, got {type(solver).__name__}")
     if solver.method != "newton":
         raise ValueError(f"solver.method must be 'newton' for a spatial layout, got {solver.method!r}")
-    if not (isinstance(dt, int | float) and math.isfinite(dt) and 0.0 < dt <= 1.0):
-        raise ValueError(f"dt must be in (0, 1] s, got {dt!r}")
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0.0):
-        raise ValueError(f"duration must be a finite number > 0 s, got {duration!r}")
-    n = max(1, int(round(duration / dt)))
+    n = output_steps(duration, dt)
     nw = layout.n_wires
     volts = as_series("voltages", voltages, n, dt, (nw,))
     if volts.min(initial=0.0) < 0.0 or volts.max(initial=0.0) > V_MAX_ALLOWED:

@@ -22,7 +22,7 @@ from spine_gym.envs.task import LoadSchedule
 from spine_gym.layout import SpineLayout
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL
-from spine_gym.physics.planar.solver import equilibrium_jacobian
+from spine_gym.physics.planar.stability import equilibrium_jacobian
 from spine_gym.physics.planar.tube import load_ratio, shape_jacobian, shape_pass
 from spine_gym.physics.spatial import columns as SL
 from spine_gym.physics.spatial.stability import load_ratio as spatial_load_ratio

@@ -23,6 +23,7 @@ import csv
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 
@@ -125,12 +126,40 @@ def write_table(path: Path, cols: dict[str, np.ndarray]) -> Path:
 class Samples:
     """Validation shared by the experiment kinds: a uniform time base and plausible columns.
 
-    Subclasses are frozen dataclasses with ``name`` and ``rows`` fields and a ``time`` array, and
-    define :meth:`column_table` ({column: (unit, plausible range, hint)}).
+    Subclasses are frozen dataclasses with ``name``, ``noise``, ``weight`` and ``rows`` fields and a
+    ``time`` array, and define :meth:`column_table` ({column: (unit, plausible range, hint)}) and
+    their CSV layout (:meth:`_csv_fields`, :meth:`_csv_columns`).
     """
 
     def column_table(self) -> dict:
         raise NotImplementedError
+
+    @classmethod
+    def _csv_fields(cls, path: Path) -> dict:
+        """The fields of an experiment read from the CSV at ``path`` (all but name, noise, weight, rows)."""
+        raise NotImplementedError
+
+    def _csv_columns(self) -> dict[str, np.ndarray]:
+        """{column: values} of the CSV layout :meth:`_csv_fields` reads."""
+        raise NotImplementedError
+
+    @classmethod
+    def from_csv(
+        cls,
+        path: str | Path,
+        *,
+        noise: Mapping[str, float] | None = None,
+        weight: float = 1.0,
+        name: str | None = None,
+    ) -> Self:
+        """Read a CSV with the columns of the module table (header names exactly as listed)."""
+        path = Path(path)
+        fields = cls._csv_fields(path)
+        return cls(name=name or str(path), **fields, noise=noise or {}, weight=weight, rows="line")
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the experiment in the CSV layout :meth:`from_csv` reads."""
+        return write_table(Path(path), self._csv_columns())
 
     def unit(self, channel: str) -> str:
         """Unit of a measured channel."""
@@ -259,37 +288,22 @@ class Experiment(Samples):
 
     # ------------------------------------------------------------------ I/O
     @classmethod
-    def from_csv(
-        cls,
-        path: str | Path,
-        *,
-        noise: Mapping[str, float] | None = None,
-        weight: float = 1.0,
-        name: str | None = None,
-    ) -> Experiment:
-        """Read a CSV with the columns of the module table (header names exactly as listed)."""
-        path = Path(path)
+    def _csv_fields(cls, path: Path) -> dict:
         data = read_table(path, set(CHANNELS) | set(INPUTS), REQUIRED)
         if ("tip_force_x" in data) != ("tip_force_y" in data):
             raise ValueError(f"{path}: give both tip_force_x and tip_force_y, or neither")
         tip = np.column_stack([data["tip_force_x"], data["tip_force_y"]]) if "tip_force_x" in data else None
-        return cls(
-            name=name or str(path),
+        return dict(
             time=data["time"],
             voltage_right=data["voltage_right"],
             voltage_left=data["voltage_left"],
             measured={c: data[c] for c in CHANNELS if c in data},
             tip_force=tip,
-            noise=noise or {},
-            weight=weight,
-            rows="line",
         )
 
-    def to_csv(self, path: str | Path) -> Path:
-        """Write the experiment in the CSV layout :meth:`from_csv` reads."""
-        path = Path(path)
+    def _csv_columns(self) -> dict[str, np.ndarray]:
         cols = {"time": self.time, "voltage_right": self.voltage_right, "voltage_left": self.voltage_left}
         cols.update(self.measured)
         if self.tip_force is not None:
             cols.update(tip_force_x=self.tip_force[:, 0], tip_force_y=self.tip_force[:, 1])
-        return write_table(path, cols)
+        return cols

@@ -265,6 +265,9 @@ def fit(
 
     Returns:
         A :class:`~spine_gym.calibrate.result.FitResult`.
+
+    Long for its 18 options (signature, docstring and the settings it records); the stages run in
+    one ``try`` so that an interrupt (Ctrl-C) in any of them still returns the best point seen.
     """
     single = isinstance(experiments, Experiment | SpatialExperiment)
     experiments = (experiments,) if single else tuple(experiments)

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import CHANNELS, INPUTS, Samples, noise_levels, read_table, write_table
+from .data import CHANNELS, INPUTS, Samples, noise_levels, read_table
 
 __all__ = ["SpatialExperiment", "SPATIAL_DEFAULT_NOISE", "spatial_channels"]
 
@@ -155,39 +155,25 @@ class SpatialExperiment(Samples):
 
     # ------------------------------------------------------------------ I/O
     @classmethod
-    def from_csv(
-        cls,
-        path: str | Path,
-        *,
-        noise: Mapping[str, float] | None = None,
-        weight: float = 1.0,
-        name: str | None = None,
-    ) -> SpatialExperiment:
-        """Read a CSV with the columns of the module table (header names exactly as listed)."""
-        path = Path(path)
+    def _csv_fields(cls, path: Path) -> dict:
         nw = _wire_count(path)
         data = read_table(path, set(spatial_channels(nw)) | set(_inputs(nw)), ("time", "voltage_0"))
         got = [c for c in FORCE if c in data]
         if got and len(got) != 3:
             raise ValueError(f"{path}: give all of {list(FORCE)}, or none")
-        return cls(
-            name=name or str(path),
+        return dict(
             time=data["time"],
             voltages=np.column_stack([data[f"voltage_{j}"] for j in range(nw)]),
             measured={c: data[c] for c in spatial_channels(nw) if c in data},
             tip_force=np.column_stack([data[c] for c in FORCE]) if got else None,
-            noise=noise or {},
-            weight=weight,
-            rows="line",
         )
 
-    def to_csv(self, path: str | Path) -> Path:
-        """Write the experiment in the CSV layout :meth:`from_csv` reads."""
+    def _csv_columns(self) -> dict[str, np.ndarray]:
         cols = {"time": self.time, **{f"voltage_{j}": self.voltages[:, j] for j in range(self.n_wires)}}
         cols.update(self.measured)
         if self.tip_force is not None:
             cols.update(zip(FORCE, self.tip_force.T, strict=True))
-        return write_table(Path(path), cols)
+        return cols
 
 
 def _wire_count(path: Path) -> int:

@@ -59,7 +59,7 @@ OBS_TEMP_L = OBS_TEMP_R + 1
 N_FIXED_OBS = 1 + max(OBS_ANGLE, OBS_TARGET, OBS_TEMP_L)
 
 
-def _check_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False) -> float:
+def check_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False) -> float:
     """Return ``float(value)`` or raise ValueError naming ``name``, the allowed range and the value."""
     try:
         v = float(value)
@@ -69,6 +69,30 @@ def _check_range(name: str, value, lo: float, hi: float, *, lo_open: bool = Fals
     if bad:
         raise ValueError(f"{name} must be in {'(' if lo_open else '['}{lo:g}, {hi:g}], got {value!r}")
     return v
+
+
+def observation_batch(observation, need: int, layout: str = "") -> tuple[np.ndarray, bool]:
+    """``observation`` as a float (n_envs, d) array and whether it was a single (d,) one.
+
+    Raises ValueError unless it is numeric of shape (d,) or (n_envs, d) with d >= ``need``; ``layout``
+    (e.g. " (angle, target, ... first)") is added to the shape message.
+    """
+    try:
+        obs = np.asarray(observation, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"observation must be a numeric array of shape (d,) or (n_envs, d) with d >= {need}, "
+            f"got {type(observation).__name__}"
+        ) from None
+    single = obs.ndim == 1
+    if single:
+        obs = obs[None, :]
+    if obs.ndim != 2 or obs.shape[1] < need or obs.shape[0] < 1:
+        raise ValueError(
+            f"observation must have shape (d,) or (n_envs, d) with d >= {need}{layout}, "
+            f"got {np.shape(observation)}"
+        )
+    return obs, single
 
 
 def volts_to_action(volts: np.ndarray, v_max: float) -> np.ndarray:
@@ -156,10 +180,10 @@ def steady_state_map(
     params = params or ModelParams()
     if not isinstance(params, ModelParams):
         raise ValueError(f"params must be a ModelParams, got {type(params).__name__}")
-    v_max = _check_range("v_max", v_max, 0.0, 100.0, lo_open=True)
+    v_max = check_range("v_max", v_max, 0.0, 100.0, lo_open=True)
     if not isinstance(n_points, int | np.integer) or not 3 <= n_points <= 1000:
         raise ValueError(f"n_points must be an integer in [3, 1000], got {n_points!r}")
-    settle_time = _check_range("settle_time", settle_time, 1.0, 1000.0)
+    settle_time = check_range("settle_time", settle_time, 1.0, 1000.0)
     return _steady_state_map_cached(params, v_max, int(n_points), settle_time)
 
 
@@ -182,12 +206,12 @@ class BaseController:
     name = "controller"
 
     def __init__(self, *, v_max: float = 5.0, dt: float = 0.1, temperature_limit: float | None = None):
-        self.v_max = _check_range("v_max", v_max, 0.0, 100.0, lo_open=True)
-        self.dt = _check_range("dt", dt, 0.0, 10.0, lo_open=True)
+        self.v_max = check_range("v_max", v_max, 0.0, 100.0, lo_open=True)
+        self.dt = check_range("dt", dt, 0.0, 10.0, lo_open=True)
         self.temperature_limit = (
             None
             if temperature_limit is None
-            else _check_range("temperature_limit", temperature_limit, 200.0, 2000.0)
+            else check_range("temperature_limit", temperature_limit, 200.0, 2000.0)
         )
         self._memory: np.ndarray | None = None
 
@@ -268,21 +292,7 @@ class BaseController:
         return volts_to_action(volts, self.v_max)
 
     def _check_obs(self, observation) -> tuple[np.ndarray, bool]:
-        try:
-            obs = np.asarray(observation, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"observation must be a numeric array of shape (d,) or (n_envs, d) with d >= {N_FIXED_OBS}, "
-                f"got {type(observation).__name__}"
-            ) from None
-        single = obs.ndim == 1
-        if single:
-            obs = obs[None, :]
-        if obs.ndim != 2 or obs.shape[1] < N_FIXED_OBS or obs.shape[0] < 1:
-            raise ValueError(
-                f"observation must have shape (d,) or (n_envs, d) with d >= {N_FIXED_OBS} "
-                f"(angle, target, T_right, T_left first), got {np.shape(observation)}"
-            )
+        obs, single = observation_batch(observation, N_FIXED_OBS, " (angle, target, T_right, T_left first)")
         if not np.all(np.isfinite(obs[:, :N_FIXED_OBS])):
             raise ValueError("observation must be finite, got NaN or inf in entries 0..3")
         return obs, single
@@ -331,6 +341,25 @@ class StepVoltageController(BaseController):
 
 
 # --------------------------------------------------------------------------- bang-bang
+def checked_relay(v_on, band, release, v_hold, v_max: float) -> tuple[float, float, float, float]:
+    """The settings of a three-level relay (both bang-bang controllers), each checked against its
+    range: (v_on, band, release, v_hold)."""
+    v_on = check_range("v_on", v_on, 0.0, v_max, lo_open=True)
+    band = check_range("band", band, 0.0, 90.0)
+    release = check_range("release", release, -band, 90.0)
+    return v_on, band, release, check_range("v_hold", v_hold, 0.0, v_max)
+
+
+def relay_config(controller) -> dict:
+    """The relay settings of a bang-bang controller, for its :meth:`~BaseController.config`."""
+    return {
+        "v_on": controller.v_on,
+        "band": controller.band,
+        "release": controller.release,
+        "v_hold": controller.v_hold,
+    }
+
+
 class BangBangController(BaseController):
     """Three-level relay with a hysteresis band on the tracking error e = target − angle [deg].
 
@@ -354,10 +383,8 @@ class BangBangController(BaseController):
         self, v_on: float = 3.5, band: float = 1.0, release: float = 0.0, v_hold: float = 0.0, **kwargs
     ):
         super().__init__(**kwargs)
-        self.v_on = _check_range("v_on", v_on, 0.0, self.v_max, lo_open=True)
-        self.band = _check_range("band", band, 0.0, 90.0)
-        self.release = _check_range("release", release, -self.band, 90.0)
-        self.v_hold = _check_range("v_hold", v_hold, 0.0, self.v_max)
+        relay = checked_relay(v_on, band, release, v_hold, self.v_max)
+        self.v_on, self.band, self.release, self.v_hold = relay
 
     def _volts(self, obs, mem):
         e = obs[:, OBS_TARGET] - obs[:, OBS_ANGLE]
@@ -372,13 +399,7 @@ class BangBangController(BaseController):
         return np.stack([vr, vl], axis=1)
 
     def config(self) -> dict:
-        return {
-            "v_on": self.v_on,
-            "band": self.band,
-            "release": self.release,
-            "v_hold": self.v_hold,
-            **super().config(),
-        }
+        return {**relay_config(self), **super().config()}
 
 
 # --------------------------------------------------------------------------- PID
@@ -405,6 +426,20 @@ class PIDGains:
     kaw: float = 1.0
     feedforward: float = 0.0
     preview: float = 0.0
+
+    @classmethod
+    def checked(cls, kp, ki, kd, tau_d, bias, kaw, feedforward, preview, *, v_max: float) -> PIDGains:
+        """The gains, each checked against its range (ValueError naming the first one out of range)."""
+        return cls(
+            kp=check_range("kp", kp, 0.0, 1e3),
+            ki=check_range("ki", ki, 0.0, 1e3),
+            kd=check_range("kd", kd, 0.0, 1e3),
+            tau_d=check_range("tau_d", tau_d, 0.0, 100.0),
+            bias=check_range("bias", bias, 0.0, v_max),
+            kaw=check_range("kaw", kaw, 0.0, 1e3),
+            feedforward=check_range("feedforward", feedforward, 0.0, 1.0),
+            preview=check_range("preview", preview, 0.0, 1.0),
+        )
 
 
 class PIDController(BaseController):
@@ -448,16 +483,7 @@ class PIDController(BaseController):
         **kwargs,
     ):
         super().__init__(**kwargs)
-        self.gains = PIDGains(
-            kp=_check_range("kp", kp, 0.0, 1e3),
-            ki=_check_range("ki", ki, 0.0, 1e3),
-            kd=_check_range("kd", kd, 0.0, 1e3),
-            tau_d=_check_range("tau_d", tau_d, 0.0, 100.0),
-            bias=_check_range("bias", bias, 0.0, self.v_max),
-            kaw=_check_range("kaw", kaw, 0.0, 1e3),
-            feedforward=_check_range("feedforward", feedforward, 0.0, 1.0),
-            preview=_check_range("preview", preview, 0.0, 1.0),
-        )
+        self.gains = PIDGains.checked(kp, ki, kd, tau_d, bias, kaw, feedforward, preview, v_max=self.v_max)
         if (
             isinstance(preview_index, bool)
             or not isinstance(preview_index, int | np.integer)

@@ -58,7 +58,8 @@ from ..envs.core import OBS_NAMES, EnvConfig, planar_obs_index
 from ..envs.spatial import SpatialConfig
 from ..physics import columns as L
 from ..physics.planar import columns as PL
-from ..physics.planar.solver import advance, composite, init_state, needs_stability_check
+from ..physics.planar.solver import advance, composite, init_state
+from ..physics.planar.stability import needs_stability_check
 from ..physics.spatial import columns as SL
 from ..physics.spatial import solver as sps
 from ..physics.spatial.stability import needs_stability_check as spatial_needs_check

@@ -61,7 +61,7 @@ from ..params import SolverOptions
 from ..physics import columns as L
 from ..physics.planar import columns as PL
 from ..physics.rollout import rollout_many, rollout_many_serial
-from .baselines import BaseController, _check_range
+from .baselines import BaseController, check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
 
 __all__ = [
@@ -169,20 +169,20 @@ class MPPIConfig:
             or not 1 <= self.iterations <= 100
         ):
             raise ValueError(f"iterations must be an integer in [1, 100], got {self.iterations!r}")
-        _check_range("horizon", self.horizon, 0.0, 60.0, lo_open=True)
-        _check_range("knot_period", self.knot_period, 0.0, 60.0, lo_open=True)
-        _check_range("noise_std", self.noise_std, 0.0, 100.0, lo_open=True)
-        _check_range("temperature", self.temperature, 0.0, 100.0, lo_open=True)
+        check_range("horizon", self.horizon, 0.0, 60.0, lo_open=True)
+        check_range("knot_period", self.knot_period, 0.0, 60.0, lo_open=True)
+        check_range("noise_std", self.noise_std, 0.0, 100.0, lo_open=True)
+        check_range("temperature", self.temperature, 0.0, 100.0, lo_open=True)
         for name in ("w_track", "w_energy", "w_temp"):
-            _check_range(name, getattr(self, name), 0.0, 1e9)
-        _check_range("temp_margin", self.temp_margin, 0.0, 100.0)
+            check_range(name, getattr(self, name), 0.0, 1e9)
+        check_range("temp_margin", self.temp_margin, 0.0, 100.0)
         if self.plan_physics_dt is not None:
-            _check_range("plan_physics_dt", self.plan_physics_dt, 0.0, 10.0, lo_open=True)
+            check_range("plan_physics_dt", self.plan_physics_dt, 0.0, 10.0, lo_open=True)
         if self.plan_step_c is not None:
-            _check_range("plan_step_c", self.plan_step_c, 0.0, 1.0, lo_open=True)
+            check_range("plan_step_c", self.plan_step_c, 0.0, 1.0, lo_open=True)
         if self.plan_h_min is not None:
             hi = 10.0 if self.plan_physics_dt is None else self.plan_physics_dt
-            _check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
+            check_range("plan_h_min", self.plan_h_min, 0.0, hi, lo_open=True)
         if self.disturbance is not None and not isinstance(self.disturbance, DisturbanceConfig):
             raise ValueError(
                 f"disturbance must be a DisturbanceConfig or None, got {type(self.disturbance).__name__}"

@@ -48,7 +48,10 @@ from .baselines import (
     BaseController,
     PIDGains,
     SteadyStateMap,
-    _check_range,
+    check_range,
+    checked_relay,
+    observation_batch,
+    relay_config,
     steady_state_map,
     volts_to_action,
 )
@@ -221,19 +224,7 @@ class SpatialController(BaseController):
 
     # ---- observation and references
     def _check_obs(self, observation) -> tuple[np.ndarray, bool]:
-        need = self.signals.max_index + 1
-        try:
-            obs = np.asarray(observation, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"observation must be a numeric array of shape (d,) or (n_envs, d) with d >= {need}, "
-                f"got {type(observation).__name__}"
-            ) from None
-        single = obs.ndim == 1
-        obs = obs[None, :] if single else obs
-        if obs.ndim != 2 or obs.shape[0] < 1 or obs.shape[1] < need:
-            shape = np.shape(observation)
-            raise ValueError(f"observation must have shape (d,) or (n_envs, d) with d >= {need}, got {shape}")
+        obs, single = observation_batch(observation, self.signals.max_index + 1)
         if not np.all(np.isfinite(obs)):
             raise ValueError("observation must be finite, got NaN or inf")
         return obs, single
@@ -336,10 +327,8 @@ class SpatialBangBangController(SpatialController):
         **kwargs,
     ):
         super().__init__(signals, **kwargs)
-        self.v_on = _check_range("v_on", v_on, 0.0, self.v_max, lo_open=True)
-        self.band = _check_range("band", band, 0.0, 90.0)
-        self.release = _check_range("release", release, -self.band, 90.0)
-        self.v_hold = _check_range("v_hold", v_hold, 0.0, self.v_max)
+        relay = checked_relay(v_on, band, release, v_hold, self.v_max)
+        self.v_on, self.band, self.release, self.v_hold = relay
         same = self._mod[:, None] == self._mod[None, :]
         self._antagonist = same & (self._dir @ self._dir.T < -0.5)  # (W, W)
         self.state_size = signals.layout.n_wires
@@ -353,13 +342,7 @@ class SpatialBangBangController(SpatialController):
         return np.where(on > 0, self.v_on, np.where(opposed, 0.0, self.v_hold))
 
     def config(self) -> dict:
-        return {
-            "v_on": self.v_on,
-            "band": self.band,
-            "release": self.release,
-            "v_hold": self.v_hold,
-            **super().config(),
-        }
+        return {**relay_config(self), **super().config()}
 
 
 # --------------------------------------------------------------------------- PID
@@ -401,17 +384,8 @@ class SpatialPIDController(SpatialController):
         **kwargs,
     ):
         super().__init__(signals, **kwargs)
-        self.gains = PIDGains(
-            kp=_check_range("kp", kp, 0.0, 1e3),
-            ki=_check_range("ki", ki, 0.0, 1e3),
-            kd=_check_range("kd", kd, 0.0, 1e3),
-            tau_d=_check_range("tau_d", tau_d, 0.0, 100.0),
-            bias=_check_range("bias", bias, 0.0, self.v_max),
-            kaw=_check_range("kaw", kaw, 0.0, 1e3),
-            feedforward=_check_range("feedforward", feedforward, 0.0, 1.0),
-            preview=_check_range("preview", preview, 0.0, 1.0),
-        )
-        self.tip_ki = _check_range("tip_ki", tip_ki, 0.0, 10.0)
+        self.gains = PIDGains.checked(kp, ki, kd, tau_d, bias, kaw, feedforward, preview, v_max=self.v_max)
+        self.tip_ki = check_range("tip_ki", tip_ki, 0.0, 10.0)
         if self.gains.preview > 0.0 and signals.preview is None:
             raise ValueError("preview > 0 needs a target preview in the observation (signals.preview)")
         if self.tip_ki > 0.0 and signals.tip_position is None:

@@ -292,21 +292,17 @@ EXAMPLES = {
 }
 
 
-def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentParser:
-    parser = Parser(
-        prog=prog,
-        description="Design studies of the SMA spine: capacity sweeps, constrained optimisation "
-        "(Optuna), scale-out on a shared study. Guide: docs/design.md",
-        examples=[e for group in EXAMPLES.values() for e in group],
-    )
-    sub = parser.add_subparsers(dest="cmd", required=True, metavar="{params,sweep,optimize,best}")
-
+def _add_params_parser(sub) -> None:
+    """The ``params`` subcommand."""
     p = sub.add_parser(
         "params", help="list the design parameters, their base values and ranges",
         description="The design parameters, their base values and allowed ranges.", examples=EXAMPLES["params"],
     )  # fmt: skip
     p.add_argument("--preset", choices=sorted(PRESETS), default="baseline", help="base parameter set")
 
+
+def _add_sweep_parser(sub) -> None:
+    """The ``sweep`` subcommand."""
     p = sub.add_parser(
         "sweep",
         help="capacity metrics over a grid (CSV + PNG)",
@@ -336,6 +332,9 @@ def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentP
     )
     p.add_argument("--no-plots", action="store_true")
 
+
+def _add_optimize_parser(sub) -> None:
+    """The ``optimize`` (``optimise``) subcommand."""
     p = sub.add_parser(
         "optimize",
         aliases=["optimise"],
@@ -378,6 +377,9 @@ def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentP
     p.add_argument("--timeout", type=float, default=None, help="per-worker time limit [s]")
     _add_common(p)
 
+
+def _add_best_parser(sub) -> None:
+    """The ``best`` subcommand."""
     p = sub.add_parser(
         "best", help="print the best design of a stored study",
         description="The best design of a stored study.", examples=EXAMPLES["best"],
@@ -385,6 +387,21 @@ def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentP
     p.add_argument("--storage", required=True)
     p.add_argument("--study-name", default="spine-design")
     p.add_argument("--json", action="store_true", help="also print the full summary as JSON")
+
+
+def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentParser:
+    parser = Parser(
+        prog=prog,
+        description="Design studies of the SMA spine: capacity sweeps, constrained optimisation "
+        "(Optuna), scale-out on a shared study. Guide: docs/design.md",
+        examples=[e for group in EXAMPLES.values() for e in group],
+    )
+    sub = parser.add_subparsers(dest="cmd", required=True, metavar="{params,sweep,optimize,best}")
+
+    _add_params_parser(sub)
+    _add_sweep_parser(sub)
+    _add_optimize_parser(sub)
+    _add_best_parser(sub)
     return parser
 
 

@@ -524,20 +524,8 @@ def optimize(
     import optuna
     from tqdm.auto import tqdm
 
-    if isinstance(n_trials, bool) or int(n_trials) != n_trials or n_trials < 1:
-        raise ValueError(f"n_trials must be an integer >= 1, got {n_trials!r}")
-    n_workers = resolve_workers(n_workers)
-    if sampler not in SAMPLERS:
-        raise ValueError(f"sampler must be one of {SAMPLERS}, got {sampler!r}")
-    if mp_context not in MP_CONTEXTS:
-        raise ValueError(f"mp_context must be one of {MP_CONTEXTS}, got {mp_context!r}")
-    if n_workers > 1 and storage is None:
-        raise ValueError("n_workers > 1 needs a shared storage (a journal file path or an RDB URL)")
-    if max_total_trials is not None and max_total_trials < 1:
-        raise ValueError(f"max_total_trials must be >= 1, got {max_total_trials!r}")
+    n_workers = _checked_workers(n_trials, n_workers, sampler, mp_context, storage, max_total_trials)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    n_workers = min(n_workers, int(n_trials))
-    shares = [n_trials // n_workers + (i < n_trials % n_workers) for i in range(n_workers)]
 
     storage_obj = make_storage(storage)
     study = _open_study(problem, storage_obj, study_name)  # validates/records the problem once
@@ -561,28 +549,53 @@ def optimize(
 
             _worker(n_trials=n_trials, seed=seed, worker_index=0, study=study, callbacks=(_tick,), **common)
         else:
-            ctx = multiprocessing.get_context(mp_context)
-            with ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx) as ex:
-                futs = [
-                    ex.submit(
-                        _worker,
-                        n_trials=shares[i],
-                        seed=None if seed is None else seed + i,
-                        worker_index=i,
-                        **common,
-                    )
-                    for i in range(n_workers)
-                ]
-                while not all(f.done() for f in futs):
-                    time.sleep(0.5)
-                    done = len(study.get_trials(deepcopy=False, states=fin)) - n_before
-                    bar.update(max(0, min(done, n_trials) - bar.n))
-                for f in futs:
-                    f.result()  # re-raise a worker's error
-            done = len(study.get_trials(deepcopy=False, states=fin)) - n_before
-            bar.update(max(0, min(done, n_trials) - bar.n))
+            _run_workers(study, (fin, n_before), n_trials, n_workers, seed, mp_context, bar, common)
     elapsed = time.perf_counter() - t0
     return _summarise(study, problem, storage, elapsed)
+
+
+def _checked_workers(n_trials, n_workers, sampler, mp_context, storage, max_total_trials) -> int:
+    """The worker processes :func:`optimize` starts, after checking its run options (ValueError)."""
+    if isinstance(n_trials, bool) or int(n_trials) != n_trials or n_trials < 1:
+        raise ValueError(f"n_trials must be an integer >= 1, got {n_trials!r}")
+    n_workers = resolve_workers(n_workers)
+    if sampler not in SAMPLERS:
+        raise ValueError(f"sampler must be one of {SAMPLERS}, got {sampler!r}")
+    if mp_context not in MP_CONTEXTS:
+        raise ValueError(f"mp_context must be one of {MP_CONTEXTS}, got {mp_context!r}")
+    if n_workers > 1 and storage is None:
+        raise ValueError("n_workers > 1 needs a shared storage (a journal file path or an RDB URL)")
+    if max_total_trials is not None and max_total_trials < 1:
+        raise ValueError(f"max_total_trials must be >= 1, got {max_total_trials!r}")
+    return min(n_workers, int(n_trials))
+
+
+def _run_workers(study, finished, n_trials, n_workers, seed, mp_context, bar, common) -> None:
+    """The trials of :func:`optimize` on ``n_workers`` processes (``n_trials`` split evenly, worker
+    i seeded ``seed + i``); ``bar`` follows the study's trials in the states ``finished[0]`` beyond
+    the ``finished[1]`` it held at the start."""
+    states, n_before = finished
+    shares = [n_trials // n_workers + (i < n_trials % n_workers) for i in range(n_workers)]
+    ctx = multiprocessing.get_context(mp_context)
+    with ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx) as ex:
+        futs = [
+            ex.submit(
+                _worker,
+                n_trials=shares[i],
+                seed=None if seed is None else seed + i,
+                worker_index=i,
+                **common,
+            )
+            for i in range(n_workers)
+        ]
+        while not all(f.done() for f in futs):
+            time.sleep(0.5)
+            done = len(study.get_trials(deepcopy=False, states=states)) - n_before
+            bar.update(max(0, min(done, n_trials) - bar.n))
+        for f in futs:
+            f.result()  # re-raise a worker's error
+    done = len(study.get_trials(deepcopy=False, states=states)) - n_before
+    bar.update(max(0, min(done, n_trials) - bar.n))
 
 
 def load_result(storage: str, study_name: str = "spine-design") -> OptimizationResult:

@@ -85,6 +85,25 @@ def _new_figure(n_panels: int, width: float = 4.2, height: float = 3.4) -> tuple
     return fig, list(axs)
 
 
+def _edge_markers(ax, xs: np.ndarray, edge: float, marker: str, color: str, label, **style) -> bool:
+    """Markers at ``xs`` on the bottom (``edge`` 0) or top (1) edge of the panel, for values a line
+    cannot show (inf, failed runs); returns whether there were any."""
+    if not xs.size:
+        return False
+    ax.plot(
+        xs,
+        np.full(xs.size, edge),
+        marker,
+        color=color,
+        ms=8,
+        clip_on=False,
+        transform=ax.get_xaxis_transform(),
+        label=label,
+        **style,
+    )
+    return True
+
+
 def plot_curves(
     result: SweepResult,
     x: str,
@@ -118,32 +137,10 @@ def plot_curves(
             fin = np.isfinite(ys)
             label = ", ".join(_fmt_value(k, v) for k, v in zip(others, key, strict=True)) or None
             ax.plot(xs[fin], ys[fin], "o-", color=color, ms=4, label=label)
-            inf = np.isinf(ys)
-            if inf.any():
-                ax.plot(
-                    xs[inf],
-                    np.ones(inf.sum()),
-                    "^",
-                    color=color,
-                    ms=8,
-                    mfc="none",
-                    clip_on=False,
-                    transform=ax.get_xaxis_transform(),
-                    label="never reached (inf)" if inf_label else None,
-                )
+            inf_text = "never reached (inf)" if inf_label else None
+            if _edge_markers(ax, xs[np.isinf(ys)], 1.0, "^", color, inf_text, mfc="none"):
                 inf_label = False
-            nan = np.isnan(ys)
-            if nan.any():
-                ax.plot(
-                    xs[nan],
-                    np.zeros(nan.sum()),
-                    "x",
-                    color=color,
-                    ms=8,
-                    clip_on=False,
-                    transform=ax.get_xaxis_transform(),
-                    label="failed run" if nan_label else None,
-                )
+            if _edge_markers(ax, xs[np.isnan(ys)], 0.0, "x", color, "failed run" if nan_label else None):
                 nan_label = False
         ax.set_xlabel(axis_label(x))
         ax.set_ylabel(METRICS[metric])

@@ -185,6 +185,27 @@ def _check_values_in_range(name: str, values) -> None:
             raise ValueError(f"{name} must be in [{lo:g}, {hi:g}], got {v!r}")
 
 
+def _range_fields(name: str, rhs: str, what: str, n_fields: int, forms: str) -> tuple[list[str], bool]:
+    """The ``:``-separated fields of the range ``rhs`` without its optional ``:log``, and whether it had
+    one; ValueError naming the allowed ``forms`` unless there are ``n_fields``."""
+    parts = rhs.split(":")
+    log = parts[-1].strip().lower() == "log"
+    if log:
+        parts = parts[:-1]
+    if len(parts) != n_fields:
+        raise ValueError(f"{what} for {name!r} must be {forms}, got {rhs!r}")
+    return parts, log
+
+
+def _check_value_list(name: str, values, what: str, kind: str) -> None:
+    """ValueError unless ``values`` (the ``kind`` of a ``what``) are some, distinct and in range."""
+    if not values:
+        raise ValueError(f"{what} for {name!r} has no values")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name}: {kind} must be distinct, got {values}")
+    _check_values_in_range(name, values)
+
+
 def parse_sweep_spec(spec: str) -> tuple[str, list[float | int]]:
     """Parse one sweep axis ``name=lo:hi:n[:log]``, ``name=v1,v2,...`` or ``name=v``.
 
@@ -197,12 +218,7 @@ def parse_sweep_spec(spec: str) -> tuple[str, list[float | int]]:
     """
     name, rhs = _split(spec, "sweep spec")
     if ":" in rhs:
-        parts = rhs.split(":")
-        log = parts[-1].strip().lower() == "log"
-        if log:
-            parts = parts[:-1]
-        if len(parts) != 3:
-            raise ValueError(f"sweep spec for {name!r} must be lo:hi:n or lo:hi:n:log, got {rhs!r}")
+        parts, log = _range_fields(name, rhs, "sweep spec", 3, "lo:hi:n or lo:hi:n:log")
         lo, hi = _number(name, parts[0]), _number(name, parts[1])
         try:
             n = int(parts[2])
@@ -221,11 +237,7 @@ def parse_sweep_spec(spec: str) -> tuple[str, list[float | int]]:
         values = _as_param_values(name, raw)
     else:
         values = _as_param_values(name, [_number(name, t) for t in rhs.split(",") if t.strip()])
-    if not values:
-        raise ValueError(f"sweep spec for {name!r} has no values")
-    if len(set(values)) != len(values):
-        raise ValueError(f"{name}: sweep values must be distinct, got {values}")
-    _check_values_in_range(name, values)
+    _check_value_list(name, values, "sweep spec", "sweep values")
     return name, values
 
 
@@ -266,12 +278,7 @@ def parse_search_spec(spec: str) -> SearchDim:
     """Parse one search dimension ``name=lo:hi[:log]`` or ``name=v1,v2,...`` (categorical)."""
     name, rhs = _split(spec, "search spec")
     if ":" in rhs:
-        parts = rhs.split(":")
-        log = parts[-1].strip().lower() == "log"
-        if log:
-            parts = parts[:-1]
-        if len(parts) != 2:
-            raise ValueError(f"search spec for {name!r} must be lo:hi or lo:hi:log, got {rhs!r}")
+        parts, log = _range_fields(name, rhs, "search spec", 2, "lo:hi or lo:hi:log")
         lo, hi = _as_param_values(name, [_number(name, parts[0]), _number(name, parts[1])])
         if not lo < hi:
             raise ValueError(f"{name}: search range needs lo < hi, got {lo!r}:{hi!r}")
@@ -280,11 +287,7 @@ def parse_search_spec(spec: str) -> SearchDim:
         _check_values_in_range(name, (lo, hi))
         return SearchDim(name, low=lo, high=hi, log=log)
     values = _as_param_values(name, [_number(name, t) for t in rhs.split(",") if t.strip()])
-    if not values:
-        raise ValueError(f"search spec for {name!r} has no values")
-    if len(set(values)) != len(values):
-        raise ValueError(f"{name}: categorical choices must be distinct, got {values}")
-    _check_values_in_range(name, values)
+    _check_value_list(name, values, "search spec", "categorical choices")
     return SearchDim(name, choices=tuple(values))
 
 

@@ -4,9 +4,9 @@ Two cores, each a subpackage with the same module names, and the modules both sh
 
 * :mod:`.planar` — one planar spine with two antagonistic wires (MODEL.md):
   :mod:`.planar.columns` (state vector), :mod:`.planar.tube` (segmented-line bending, §4),
-  :mod:`.planar.solver` (composite solve, stability check and time integration, §5, §6),
-  :mod:`.planar.record` (the output row), :mod:`.planar.batch` (the recorded time loop of
-  :func:`spine_gym.simulate`);
+  :mod:`.planar.solver` (composite solve and time integration, §5, §6), :mod:`.planar.stability`
+  (is an equilibrium stable, §4.9), :mod:`.planar.record` (the output row), :mod:`.planar.batch`
+  (the recorded time loop of :func:`spine_gym.simulate`);
 * :mod:`.spatial` — any number of wires and modules in 3-D (SPATIAL.md):
   :mod:`.spatial.columns` (wire and module tables, state offsets), :mod:`.spatial.tube`,
   :mod:`.spatial.solver`, :mod:`.spatial.stability`;

@@ -77,7 +77,6 @@ from ..coupled import (
 )
 from ..dense import interpolate, last_h, output_fraction
 from ..sma import (
-    SLACK_TOL,
     clip_fractions,
     compliance,
     latent_heats,
@@ -87,7 +86,7 @@ from ..sma import (
     resistivity,
     stress,
 )
-from ..stability import BUCKLING_SCREEN, chord_slope, lu_factor, lu_solve, solve_in_place, unstable_modes
+from ..stability import lu_factor, lu_solve, solve_in_place
 from .columns import (
     X_EL,
     X_ER,
@@ -112,15 +111,8 @@ from .columns import (
     X_TR,
 )
 from .record import record
-from .tube import (
-    load_ratio,
-    segment_lengths,
-    shape_jacobian,
-    shape_pass,
-    solve_shape,
-    solve_shape_in,
-    wire_lengths,
-)
+from .stability import equilibrium_jacobian, is_buckled_in, needs_stability_check
+from .tube import segment_lengths, shape_pass, solve_shape, solve_shape_in, wire_lengths
 
 NEWTON_HALVINGS = 30  # step halvings of the whole-shape Newton before it takes the last one
 
@@ -253,75 +245,6 @@ def stress_sensitivity(dth, s, sr, sl, xpr, xmr, xpl, xml, kp, out):
 
 
 @hot
-def _tangent_moduli(er, el, xpr, xmr, xpl, xml, kp):
-    """Tangent moduli dσ/dε [Pa] of the right and left wire for the stability check (§3.6).
-
-    A taut wire (ε above its stress-free strain ε_T (x₊ − x₋)) has 1/compliance, a slack one 0.
-    A wire exactly at its stress-free strain (within ``SLACK_TOL``, e.g. the initial straight
-    spine of §3.10) resists bending only in the direction that stretches it. If the other wire is
-    taut or slack, the weaker direction is the one in which it does not count; if both sit at the
-    threshold, each direction is resisted by one of them and the weaker is the softer wire.
-    """
-    ex_r = er - kp[K_EPST] * (xpr - xmr)
-    ex_l = el - kp[K_EPST] * (xpl - xml)
-    kr = 1.0 / compliance(xpr, xmr, kp) if ex_r > SLACK_TOL else 0.0
-    kl = 1.0 / compliance(xpl, xml, kp) if ex_l > SLACK_TOL else 0.0
-    if abs(ex_r) <= SLACK_TOL and abs(ex_l) <= SLACK_TOL:
-        kr_t = 1.0 / compliance(xpr, xmr, kp)
-        kl_t = 1.0 / compliance(xpl, xml, kp)
-        if kr_t <= kl_t:
-            kr = kr_t
-        else:
-            kl = kl_t
-    return kr, kl
-
-
-@hot
-def equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, jac):
-    """Jacobian of the coupled shape map Δθ ↦ f(Δθ, G(Δθ)) (MODEL.md §4.9 with §5), into ``jac``.
-
-    The tube part (wire moment fixed) is :func:`tube.shape_jacobian`. The wire moment G = n_w A_w a
-    (σ_R − σ_L) follows the shape through the wire lengths (§4.8): ∂ε_R/∂Δθ_n = (c'_n − a cos(Δθ_n/2))
-    / L_ref, ∂ε_L/∂Δθ_n = (c'_n + a cos(Δθ_n/2)) / L_ref, and enters every segment angle with
-    ∂f_i/∂M_w = ls/(E I). A rank-one term: the wires stiffen the modes that turn the top disk.
-    """
-    shape_jacobian(dth, vforce, kp, jac)
-    lr, ll = wire_lengths(dth, kp)
-    lref = kp[K_LREF]
-    kr, kl = _tangent_moduli(lr / lref - 1.0, ll / lref - 1.0, xpr, xmr, xpl, xml, kp)
-    if kr == 0.0 and kl == 0.0:
-        return
-    a = kp[K_A]
-    ls = kp[K_LS]
-    pref = kp[K_NW] * kp[K_AW] * a / lref * ls / kp[K_EI]
-    n = dth.shape[0]
-    for j in range(n):
-        cs = chord_slope(dth[j], ls)
-        lever = a * math.cos(0.5 * dth[j])
-        col = pref * (kr * (cs - lever) - kl * (cs + lever))
-        for i in range(n):
-            jac[i, j] += col
-
-
-@jit
-def is_buckled(dth, xpr, xmr, xpl, xml, vforce, kp):
-    """True if the equilibrium ``dth`` under ``vforce`` is unstable (a load past buckling).
-
-    See :mod:`.stability` for the criterion; O(N³), so callers screen with
-    :func:`needs_stability_check` first.
-    """
-    n = dth.shape[0]
-    return is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, np.empty((2, n, n)))
-
-
-@hot
-def is_buckled_in(dth, xpr, xmr, xpl, xml, vforce, kp, mats):
-    """:func:`is_buckled` with the scratch ``mats`` (2, N, N) (no allocation: the sub-step kernels)."""
-    equilibrium_jacobian(dth, xpr, xmr, xpl, xml, vforce, kp, mats[0])
-    return unstable_modes(mats[0], mats[1]) > 0
-
-
-@hot
 def _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new):
     """g(M) = G(M) − M with a full (warm-started) shape solve at M (scratch ``new`` (N,));
     returns (status, passes, g)."""
@@ -335,7 +258,9 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
     """Bracketed composite solve (MODEL.md §5.2): bisection (seed) or Illinois regula falsi.
 
     The bracket is [min, max](M_prev, G(M_prev)); for a non-increasing G the root lies inside.
-    ``new`` (N,) is the shape solves' scratch.
+    ``new`` (N,) is the shape solves' scratch. One kernel of ~80 lines: the bracket search and the
+    bisection/Illinois loop share their bracket state, and splitting them would change the compiled
+    kernel that the seed's results (``method="bisect"``) are checked against.
 
     Returns:
         (status, M, passes): ``dth`` holds the converged shape for M.
@@ -451,8 +376,8 @@ def composite_full_newton(dth, xpr, xmr, xpl, xml, vforce, kp, ks, work, mats, v
 
     The fallback of the coupled Newton near buckling, where the fixed-point shape iteration
     contracts only by ≈ (load / critical load) per pass and runs out of iterations. J is
-    :func:`equilibrium_jacobian`; each iteration costs O(N³). Scratch: ``mats`` (2, N, N) and
-    ``vecs`` (3, N) (the first two rows).
+    :func:`stability.equilibrium_jacobian`; each iteration costs O(N³). Scratch: ``mats``
+    (2, N, N) and ``vecs`` (3, N) (the first two rows).
 
     Returns:
         (status, M, iterations, ε_R, ε_L, σ_R, σ_L) with ``dth`` the converged shape.
@@ -551,15 +476,15 @@ def composite(state, vforce, kp, ks, work, saved, check):
 def composite_in(state, vforce, kp, ks, work, saved, check, mats, vecs):
     """Solve the composite module for the state's fractions and the loads ``vforce``, in place.
 
-    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. Default solver:
-    the coupled Newton, then :func:`_fallbacks`. With ``check`` (loads that might buckle the
-    spine, see :func:`needs_stability_check`) both the starting shape (the last equilibrium, under
-    the new loads and fractions) and the converged one are tested for stability, and ERR_BUCKLING
-    is returned, state untouched, if either is unstable: the load path has passed a stability
-    limit, even if the solver would find a distant post-buckled equilibrium (a snap the
-    quasi-static model cannot follow). A solve that fails is reported as ERR_BUCKLING if its
-    starting shape is unstable, else with the solver's own status; Δθ is left at the starting
-    shape. Scratch (no allocation): ``work``, ``saved`` (N,), ``mats`` (2, N, N), ``vecs`` (3, N).
+    Updates Δθ, M, ε_w, σ_w in ``state``; ``saved`` receives the starting shape. Default solver: the
+    coupled Newton, then :func:`_fallbacks`. With ``check`` (loads that might buckle the spine, see
+    :func:`stability.needs_stability_check`) both the starting shape (the last equilibrium, under the new
+    loads and fractions) and the converged one are tested for stability, and ERR_BUCKLING is returned,
+    state untouched, if either is unstable: the load path has passed a stability limit, even if the solver
+    would find a distant post-buckled equilibrium (a snap the quasi-static model cannot follow). A solve
+    that fails is reported as ERR_BUCKLING if its starting shape is unstable, else with the solver's own
+    status; Δθ is left at the starting shape. Scratch (no allocation): ``work``, ``saved`` (N,), ``mats``
+    (2, N, N), ``vecs`` (3, N).
 
     Returns:
         (status, shape passes used).
@@ -599,17 +524,6 @@ def composite_in(state, vforce, kp, ks, work, saved, check, mats, vecs):
     state[X_SR] = sr
     state[X_SL] = sl
     return OK, passes
-
-
-@hot
-def needs_stability_check(vforce, kp):
-    """False when the loads cannot buckle the spine in any shape (Dunkerley screen, §4.9).
-
-    The screen :func:`tube.load_ratio` is a lower bound for the bare tube (the wires only add
-    stiffness); below ``BUCKLING_SCREEN`` the O(N³) stability test of :func:`composite` is skipped,
-    so the unloaded and lightly loaded spine (the §10 runs, the env's default loads) pay nothing.
-    """
-    return load_ratio(vforce, kp) > BUCKLING_SCREEN
 
 
 @hot
@@ -924,10 +838,10 @@ def advance(state, kp, ks, v_r, v_l, vforce, dt, resolve=True):
             callers that know the loads are unchanged pass False to save a solve).
 
     The sub-steps are those of the option ``scheme``: :func:`_substep_coupled` (default) or
-    :func:`_substep_frozen`. Under loads that might buckle the spine (:func:`needs_stability_check`)
-    the re-solve is checked for stability and so is the shape the step ends on; a sub-step whose
-    solve fails is classified by :func:`composite`. An unstable equilibrium ends the step with
-    ERR_BUCKLING.
+    :func:`_substep_frozen`. Under loads that might buckle the spine
+    (:func:`stability.needs_stability_check`) the re-solve is checked for stability and so is the shape
+    the step ends on; a sub-step whose solve fails is classified by :func:`composite`. An unstable
+    equilibrium ends the step with ERR_BUCKLING.
 
     Returns:
         (status, sub-steps, shape passes).

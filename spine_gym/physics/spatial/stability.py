@@ -1,4 +1,4 @@
-"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.planar.solver`.
+"""Stability of a spatial equilibrium (SPATIAL.md §8.3; MODEL.md §4.9 in 3-D), cf. :mod:`.planar.stability`.
 
 The spatial shape is the fixed point ω = f(ω, G(ω)) of :func:`.tube.shape_pass` with the
 module wire moments G following the shape through the wire lengths (SPATIAL.md §3–§4). As in the
@@ -22,7 +22,7 @@ Q_k(u) = Σ_j d_j (e_j·u)² [e_j·u < 0], d_j = n_w,j A_w a_j² E_j / L_ref,j. 
 the quadratic form Σ over antiparallel pairs (j, q) of such wires of min(d_j, d_q) (e_j·u)²
 (whichever way u points, one wire of the pair is stretched); an unpaired one counts for nothing.
 This is exact for the seed's four equal wires (Q isotropic) and is i14's planar rule of
-:func:`planar.solver._tangent_moduli` in a planar layout: a threshold wire opposite a taut or slack one
+:func:`planar.stability._tangent_moduli` in a planar layout: a threshold wire opposite a taut or slack one
 adds nothing, two at the threshold add the softer one. "At the threshold" means a strain excess
 over the stress-free strain within [−(SLACK_TOL + 2 s_k / L_ref), SLACK_TOL], s_k = Σ ls Δθ²/24 the
 second-order shortening of the module's chords: a wire perpendicular to an in-plane bend goes
