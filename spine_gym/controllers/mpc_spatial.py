@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..envs import _bookkeeping as bk
-from ..envs.core import EnvConfig
+from ..envs import readout as bk
+from ..envs.loads import LoadSchedule
+from ..envs.planar import EnvConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
-from ..envs.task import LoadSchedule
 from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from ..physics.spatial import columns as SL
 from ..physics.spatial.solver import make_work, record, record_size
@@ -68,7 +68,7 @@ SPATIAL_PLAN_FIELDS = (*PLAN_FIELDS, "layout", "error_scale")
 
 
 class SpatialReadings:
-    """The env's readings of spatial record rows: its probe (:func:`._bookkeeping.spatial_probe`)
+    """The env's readings of spatial record rows: its probe (:func:`.readout.spatial_probe`)
     with the record columns of its batch, and where the tracked entry, the temperatures and the
     Joule heat sit in a probe row (from the env's table).
 

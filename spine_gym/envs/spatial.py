@@ -2,8 +2,8 @@
 
 The physics is the wire- and module-generic core of ``spine_gym.physics.spatial.solver``
 (SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_spine_spatial`, stepped with the
-bookkeeping in one call (:func:`._step_kernels.spatial_step`); the bookkeeping
-is the table-driven writer every env shares (:class:`.table_batch.TableBatch`). The env classes
+bookkeeping in one call (:func:`.step_kernels.spatial_step`); the bookkeeping
+is the table-driven writer every env shares (:class:`.batch.TableBatch`). The env classes
 (their docstrings are the documentation pages) are in :mod:`.spatial_env`.
 """
 
@@ -21,13 +21,13 @@ from ..physics import env_kernels
 from ..physics.spatial import columns as SL
 from ..physics.spatial.solver import init_state, record_size
 from ..uncertainty import ParameterUncertainty
-from . import _bookkeeping as bk
-from . import _step_kernels as sk
-from .core import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
+from . import readout as ro
+from . import step_kernels as sk
+from .batch import TableBatch
+from .config import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
 from .table import Entry, Table
-from .table_batch import TableBatch
-from .task import ANGLE_LIMIT
-from .task_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
+from .targets import ANGLE_LIMIT
+from .targets_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
 
 __all__ = [
     "SpatialConfig",
@@ -424,13 +424,13 @@ class SpatialBatch(TableBatch):
         self.kms = np.tile(km, (b, 1, 1))
         nw, nm, ns = lay.n_wires, lay.n_modules, lay.n_seg
         head = SL.sens_offset(nw, nm, ns)
-        cols = np.zeros(bk.N_R, dtype=np.int64)
-        cols[bk.R_MODB] = head
-        cols[bk.R_TIPB] = head + 2 * nm
-        cols[bk.R_TIPP] = head + 2 * nm + 2
-        cols[bk.R_RHO] = head + 2 * nm + 2 + 3 + 9
-        cols[bk.R_TEMP] = SL.wire_offset(SL.F_T, nw)
-        cols[bk.R_QJ] = SL.wire_offset(SL.F_QJ, nw)
+        cols = np.zeros(ro.N_R, dtype=np.int64)
+        cols[ro.R_MODB] = head
+        cols[ro.R_TIPB] = head + 2 * nm
+        cols[ro.R_TIPP] = head + 2 * nm + 2
+        cols[ro.R_RHO] = head + 2 * nm + 2 + 3 + 9
+        cols[ro.R_TEMP] = SL.wire_offset(SL.F_T, nw)
+        cols[ro.R_QJ] = SL.wire_offset(SL.F_QJ, nw)
         self.record_cols = cols
         self._record_size = record_size(nw, nm, ns)
 
@@ -481,7 +481,7 @@ class SpatialBatch(TableBatch):
         env_kernels.record_many_spatial(self.states, self.kps, self.kws, self.kms, rows, self.meas)
 
     def _probe(self, rows: np.ndarray) -> None:
-        bk.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)
+        ro.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)
 
     # ------------------------------------------------------------------ rendering
     def state_summary(self, i: int) -> dict:
@@ -496,7 +496,7 @@ class SpatialBatch(TableBatch):
             "kw": self.kws[i].copy(),
             "km": self.kms[i].copy(),
             "temperature": self.probe[
-                i, self.probe_cols[bk.PB_TEMP] : self.probe_cols[bk.PB_TEMP] + nw
+                i, self.probe_cols[ro.PB_TEMP] : self.probe_cols[ro.PB_TEMP] + nw
             ].copy(),
             "ambient": float(params.T_E),
             "target": self.targets[i, min(k, self.targets.shape[1] - 1)].copy(),

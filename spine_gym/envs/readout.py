@@ -2,7 +2,7 @@
 
 After the plant's physics (:func:`spine_gym.physics.env_kernels.step_spine` for the planar
 spine, :func:`~spine_gym.physics.env_kernels.step_spine_spatial` for the spatial ones) has advanced
-the spines and recorded them (all in the one call of :mod:`._step_kernels`), a probe
+the spines and recorded them (all in the one call of :mod:`.step_kernels`), a probe
 (:func:`planar_probe`, :func:`spatial_probe`) converts each record into the common probe row
 (degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns it into what the environment
 returns: the step's electrical energy from the model's Joule-heat
