@@ -51,6 +51,7 @@ COMMON_ARRAYS = (
     "last_row",  # the table row of the last step or reset (true values)
     *ro.Memory._fields,
 )
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))  # action dtypes the kernels take as they are
 # entries of a plant tuple that come from the configuration (the others are batch attributes)
 _CFG_PLANT = ("physics_dt", "n_sub")
 
@@ -107,15 +108,20 @@ class TableBatch:
             ``n_wires``, ``n_seg``, ``force_dim``, ``volt_coef``, ``energy_reference``).
         num_envs: B.
         parallel: step with the ``prange`` kernel (else its serial twin).
+        action_shape: the shape of the actions the env takes, (B, W) by default (a single env's
+            is (W,)); :meth:`check_actions` names it in its errors.
     """
 
     PLANT_ARRAYS: tuple[str, ...] = ()
     PLANT: tuple[str, ...] = ()  # the plant tuple of its step kernel (step_kernels.*_PLANT)
     RECORD_SIZE: int = 0
 
-    def __init__(self, cfg: BaseEnvConfig, num_envs: int, parallel: bool):
+    def __init__(
+        self, cfg: BaseEnvConfig, num_envs: int, parallel: bool, action_shape: tuple[int, ...] | None = None
+    ):
         self.cfg = cfg
         self.num_envs = b = int(num_envs)
+        self.action_shape = (b, cfg.n_wires) if action_shape is None else tuple(action_shape)
         self.parallel = bool(parallel)
         self.table: Table = cfg.table()
         self.obs_names = self.table.obs_names
@@ -176,7 +182,7 @@ class TableBatch:
         self.obs = np.zeros((b, self.table.obs_dim), dtype=np.float32)  # last observation
         self.terminated = np.zeros(b, dtype=np.bool_)
         self.truncated = np.zeros(b, dtype=np.bool_)
-        self.act = np.zeros((b, nw))  # clipped actions of the step
+        self.clipped = np.zeros((b, nw))  # clipped actions of the step
         self.resolve = np.zeros(b, dtype=np.bool_)
         self.noise = np.zeros((b, self.table.n_channels))  # stays 0 without sensor noise
         self._coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (nw,)).copy()
@@ -188,7 +194,7 @@ class TableBatch:
         self._mem = tuple(self.mem)
         inputs = (self.probe, self.status)
         tail = (self.volts, self.loads, self.targets, self.noise)
-        self._step_in = (*inputs, self.act, *tail)  # ro.Step of a step
+        self._step_in = (*inputs, self.clipped, *tail)  # ro.Step of a step
         self._reset_in = (*inputs, self._fresh_actions, *tail)  # ro.Step of a reset
         self._drive = (self._coef, self.forces, self.resolve_plan, self.resolve)
         self._plant = tuple(getattr(cfg, k) if k in _CFG_PLANT else getattr(self, k) for k in self.PLANT)
@@ -334,30 +340,41 @@ class TableBatch:
         return info
 
     # ------------------------------------------------------------------ step
+    def check_actions(self, actions) -> np.ndarray:
+        """``actions`` (of :attr:`action_shape`) as a (B, W) float32 or float64 array, a view if it is
+        one already; ValueError (:func:`.config.validate_actions`) on a wrong shape or a non-number
+        (not finite actions are left to :meth:`advance`)."""
+        if not (
+            isinstance(actions, np.ndarray) and actions.dtype in _FLOATS and actions.shape == self.action_shape
+        ):
+            actions = validate_actions(actions, self.action_shape)
+        return actions.reshape(self.num_envs, -1)
+
     def advance(
-        self, actions: np.ndarray, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
+        self, actions, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
     ) -> np.ndarray:
         """Advance the environments ``rows`` (default all) by one control period, in place.
 
         Writes the buffers :attr:`obs`, :attr:`last_row` (the step rows: reward, info), :attr:`status`,
         :attr:`terminated` and :attr:`truncated` at ``rows`` and leaves the other rows as they are:
-        one jitted call (inputs, physics, probe, bookkeeping: :mod:`.step_kernels`) and no NumPy
+        one jitted call (inputs, physics, probe, readout: :mod:`.step_kernels`) and no NumPy
         temporaries (with sensor noise, the noise is drawn first, per environment).
 
         Args:
-            actions: (B, W) float32 or float64; clipped to [-1, 1] (ValueError if not finite; the
-                caller checks the shape).
+            actions: of :attr:`action_shape`, checked (:meth:`check_actions`) and clipped to
+                [-1, 1]; ValueError if not finite.
             rngs: per-environment generators (only used for sensor noise).
             rows: (n,) int64 environments to step, ascending (default all).
 
         Returns:
             ``rows``.
         """
+        given, actions = actions, self.check_actions(actions)
         if rows is None:
             rows = self.row_ids
         if self.noisy:  # drawn per environment from its own generator, only for a valid step
             if not np.isfinite(actions).all():
-                validate_actions(actions, actions.shape)  # raises the documented ValueError
+                validate_actions(given, self.action_shape)  # raises the documented ValueError
             c = self.table.n_channels
             for i in rows:
                 self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
@@ -365,7 +382,7 @@ class TableBatch:
         if not kernel(
             rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out
         ):
-            validate_actions(actions, actions.shape)  # raises the documented ValueError
+            validate_actions(given, self.action_shape)  # raises the documented ValueError
         return rows
 
     def step(

@@ -378,6 +378,48 @@ class BaseEnvConfig:
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
 
+    def wire_entries(self, names: tuple[str, ...], resistance_doc: str) -> tuple[Entry, Entry, Entry]:
+        """The (temperature, previous action, resistance) entries, one component per wire (group)
+        ``names``; the resistance entry's documentation is ``resistance_doc``."""
+        return (
+            Entry(
+                "temperature",
+                "temperature",
+                "K",
+                "wire temperature",
+                tuple(f"temperature_{n}" for n in names),
+                (0.0, TEMP_OBS_HIGH),
+                noise="temperature",
+            ),
+            Entry(
+                "previous_action",
+                "action",
+                "-",
+                "previous action (after clipping)",
+                tuple(f"previous_action_{n}" for n in names),
+                (-1.0, 1.0),
+                info=False,
+            ),
+            Entry(
+                "resistance",
+                "resistance",
+                "Ohm",
+                resistance_doc,
+                tuple(f"resistance_{n}" for n in names),
+                (0.0, self.resistance_bound()),
+                noise="resistance",
+            ),
+        )
+
+    @staticmethod
+    def reward_entries() -> tuple[Entry, Entry, Entry]:
+        """The reward (returned by ``step``, not in the info) and its two terms (in the info)."""
+        return (
+            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
+            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
+            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+        )
+
     def error_entries(self, unit: str, names: tuple[str, ...], bound: float) -> tuple[Entry, ...]:
         """The observed tracking errors (``observe_errors``): target − measured tracked entry and
         target preview − measured tracked entry, components ``names``, bounds ±``bound``; () if off.

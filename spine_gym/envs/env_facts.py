@@ -45,6 +45,11 @@ def make_renderer(cfg: BaseEnvConfig):
     return render.make_renderer(cfg)
 
 
+def _setting(name: str, doc: str) -> property:
+    """A read-only property giving the configuration's ``name``."""
+    return property(lambda self: getattr(self.config, name), doc=doc)
+
+
 class EnvFacts:
     """Read-only facts, the table and the frames of an env with a ``config`` and a batch ``_core``."""
 
@@ -52,25 +57,13 @@ class EnvFacts:
     _core: TableBatch
     _renderer: Any = None
 
-    @property
-    def v_max(self) -> float:
-        """Voltage of action +1 [V]."""
-        return self.config.v_max
-
-    @property
-    def control_period(self) -> float:
-        """Time per step [s]."""
-        return self.config.control_period
-
-    @property
-    def episode_duration(self) -> float:
-        """Episode length [s] (a vector env truncates earlier if ``max_episode_steps`` is smaller)."""
-        return self.config.episode_duration
-
-    @property
-    def temperature_limit(self) -> float:
-        """Threshold of ``info["cost"]`` [K]."""
-        return self.config.temperature_limit
+    v_max = _setting("v_max", "Voltage of action +1 [V].")
+    control_period = _setting("control_period", "Time per step [s].")
+    episode_duration = _setting(
+        "episode_duration",
+        "Episode length [s] (a vector env truncates earlier if ``max_episode_steps`` is smaller).",
+    )
+    temperature_limit = _setting("temperature_limit", 'Threshold of ``info["cost"]`` [K].')
 
     @property
     def observation_names(self) -> tuple[str, ...]:

@@ -26,7 +26,7 @@ from ..uncertainty import ParameterUncertainty
 from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
-from .config import ANGLE_OBS_LIMIT, RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _pair
+from .config import ANGLE_OBS_LIMIT, RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _pair
 from .table import Entry, Table
 from .targets import ANGLE_LIMIT, TARGET_KINDS, TargetProfile
 
@@ -100,6 +100,7 @@ class EnvConfig(BaseEnvConfig):
         """The declarative observation/info table of ``SmaSpine-v0`` (one place per entry)."""
         lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
         rl = ("right", "left")
+        temp, prev, res = self.wire_entries(rl, "wire resistance (one wire)")
         entries = (
             Entry(
                 "voltage", "voltage", "V", "applied voltage [right, left]", ("voltage_right", "voltage_left")
@@ -118,15 +119,7 @@ class EnvConfig(BaseEnvConfig):
             Entry("energy_J", "energy", "J", "electrical energy of the step (both sides)", ("energy",)),
             Entry("power_W", "power", "W", "mean electrical power per side", ("power_right", "power_left")),
             Entry("cost", "cost", "K", "Σ over both wires of max(0, T − temperature_limit)", ("cost",)),
-            Entry(
-                "temperature",
-                "temperature",
-                "K",
-                "wire temperature",
-                tuple(f"temperature_{w}" for w in rl),
-                (0.0, TEMP_OBS_HIGH),
-                noise="temperature",
-            ),
+            temp,
             Entry(
                 "angle_rate",
                 "rate",
@@ -145,24 +138,8 @@ class EnvConfig(BaseEnvConfig):
                 lim,
                 info=False,
             ),
-            Entry(
-                "previous_action",
-                "action",
-                "-",
-                "previous action (after clipping)",
-                tuple(f"previous_action_{w}" for w in rl),
-                (-1.0, 1.0),
-                info=False,
-            ),
-            Entry(
-                "resistance",
-                "resistance",
-                "Ohm",
-                "wire resistance (one wire)",
-                tuple(f"resistance_{w}" for w in rl),
-                (0.0, self.resistance_bound()),
-                noise="resistance",
-            ),
+            prev,
+            res,
             Entry("time", "time", "s", "time at the end of the step", ("time",)),
             Entry(
                 "tip_force",
@@ -171,9 +148,7 @@ class EnvConfig(BaseEnvConfig):
                 "force on the top disk (events + payload weight), global x/y",
                 ("fx", "fy"),
             ),
-            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
-            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+            *self.reward_entries(),
             *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "angle_deg", self.noise_sigma)

@@ -17,7 +17,6 @@ from gymnasium import spaces
 
 from ..params import ModelParams
 from .batch import SpineSnapshot
-from .config import validate_actions
 from .env_facts import EnvFacts, make_config, settings_signature
 from .planar import EnvConfig, PlanarBatch
 
@@ -217,8 +216,8 @@ class SmaSpineEnv(EnvFacts, gym.Env):
             )
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": 1.0 / config.control_period}
-        self._core = self.BATCH(self.config, 1, parallel=False)
         self.action_space = spaces.Box(-1.0, 1.0, (config.n_wires,), np.float32)
+        self._core = self.BATCH(config, 1, parallel=False, action_shape=self.action_space.shape)
         self.observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
         self._renderer = None
         self._needs_reset = True
@@ -274,14 +273,14 @@ class SmaSpineEnv(EnvFacts, gym.Env):
         """One control period; returns ``(obs, reward, terminated, truncated, info)``."""
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
-        a = validate_actions(action, self.action_space.shape)
+        core = self._core
+        actions = core.check_actions(action)
         if self._done:
             gym.logger.warn(
                 "step() called after the episode ended (terminated or truncated); call reset(). "
                 "The model keeps running with the last target and loads."
             )
-        core = self._core
-        core.advance(a[None, :], (self.np_random,))
+        core.advance(actions, (self.np_random,))
         term, trunc = bool(core.terminated[0]), bool(core.truncated[0])
         self._done = self._done or term or trunc
         return core.obs[0].copy(), float(core.last_row[0, core.reward_col]), term, trunc, self._info()

@@ -24,7 +24,7 @@ from ..uncertainty import ParameterUncertainty
 from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
-from .config import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
+from .config import RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _int, _pair, _real
 from .table import Entry, Table
 from .targets import ANGLE_LIMIT
 from .targets_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
@@ -173,39 +173,6 @@ class SpatialConfig(BaseEnvConfig):
         r = max(max(p.lam_A, p.lam_M) * p.L0 * l0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.noise_sigma["resistance"])
 
-    def _wire_entries(self) -> tuple[Entry, Entry, Entry]:
-        """(temperature, previous action, resistance) entries, one component per wire group."""
-        names = self.wire_names
-        return (
-            Entry(
-                "temperature",
-                "temperature",
-                "K",
-                "wire temperature",
-                tuple(f"temperature_{n}" for n in names),
-                (0.0, TEMP_OBS_HIGH),
-                noise="temperature",
-            ),
-            Entry(
-                "previous_action",
-                "action",
-                "-",
-                "previous action (after clipping)",
-                tuple(f"previous_action_{n}" for n in names),
-                (-1.0, 1.0),
-                info=False,
-            ),
-            Entry(
-                "resistance",
-                "resistance",
-                "Ohm",
-                "wire resistance (one wire of the group)",
-                tuple(f"resistance_{n}" for n in names),
-                (0.0, self.resistance_bound()),
-                noise="resistance",
-            ),
-        )
-
     def _step_entries(self, unit: str, error_doc: str, dim: int) -> tuple[Entry, ...]:
         """The info-only entries every spatial env has (voltages, energy, reward terms, ...)."""
         names = self.wire_names
@@ -235,9 +202,7 @@ class SpatialConfig(BaseEnvConfig):
                 "force on the top disk (events + payload weight), global x/y/z",
                 ("fx", "fy", "fz"),
             ),
-            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
-            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+            *self.reward_entries(),
         )
 
     def table(self) -> Table:
@@ -256,7 +221,7 @@ class Spine3DConfig(SpatialConfig):
 
     def table(self) -> Table:
         """The declarative observation/info table of ``SmaSpine3D-v0`` (one place per entry)."""
-        temp, prev, res = self._wire_entries()
+        temp, prev, res = self.wire_entries(self.wire_names, "wire resistance (one wire of the group)")
         lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
         entries = (
             Entry(
@@ -329,7 +294,7 @@ class ChainConfig(SpatialConfig):
 
     def table(self) -> Table:
         """The declarative observation/info table of ``SmaSpineChain-v0`` (one place per entry)."""
-        temp, prev, res = self._wire_entries()
+        temp, prev, res = self.wire_entries(self.wire_names, "wire resistance (one wire of the group)")
         lp = (-self.length_mm, self.length_mm)
         xyz = ("x", "y", "z")
         mod = tuple(f"module{k}_bending_{c}" for k in range(self.n_modules) for c in ("x", "y"))

@@ -1,6 +1,6 @@
 """One env step in one jitted call: inputs, physics, readings and bookkeeping.
 
-A step of every env id is four jitted pieces — :func:`.readout.begin_step` (clipped actions,
+A step of every env id is four jitted pieces — :func:`begin_step` (clipped actions,
 voltages, loads, resolve flags), the plant's per-spine control period
 (:func:`spine_gym.physics.env_kernels.step_spine` or its spatial twin), the plant's probe
 (:func:`.readout.planar_probe`, :func:`.readout.spatial_probe`) and the table-driven
@@ -12,7 +12,7 @@ calls (``scripts/rollout_digest.py`` gives the same digests).
 The argument groups are plain tuples built once per batch (numba types a plain tuple of arrays on
 its fast C path; :class:`.batch.TableBatch` holds them):
 
-* ``drive``: ``(coef, forces, plan, resolve)``, as :func:`.readout.begin_step` takes them;
+* ``drive``: ``(coef, forces, plan, resolve)``, as :func:`begin_step` takes them;
 * ``plant``: the plant's arrays, :data:`PLANAR_PLANT` / :data:`SPATIAL_PLANT` order;
 * ``step``, ``mem``, ``spec``, ``out``: :data:`.readout.Step`, ``Memory``, ``Spec``, ``Out``.
 
@@ -31,6 +31,8 @@ documented ValueError).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -40,6 +42,7 @@ from ..physics.env_kernels import step_spine, step_spine_spatial
 from . import readout as ro
 
 __all__ = [
+    "begin_step",
     "PLANAR_PLANT",
     "SPATIAL_PLANT",
     "planar_step",
@@ -53,6 +56,39 @@ PLANAR_PLANT = ("states", "backup", "kps", "ks", "ohm", "wvol", "meas", "physics
 SPATIAL_PLANT = (
     "states", "backup", "kps", "ks", "kws", "kms", "record_cols", "ohm", "wvol", "meas", "physics_dt", "n_sub"
 )  # fmt: skip
+
+
+@jit
+def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, resolve):
+    """Inputs of one step: clip the actions, set the voltages and the loads of step k.
+
+    Every row gets its clipped action ``clipped`` (B, W) (float64, from float32 or float64
+    ``actions``) and its wire voltages ``volts = (clipped + 1) coef``; each environment of
+    ``rows`` gets the vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at
+    the last step after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
+    ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
+    then; the caller raises).
+    """
+    b, w = clipped.shape
+    for i in range(b):
+        for q in range(w):
+            if not math.isfinite(actions[i, q]):
+                return False
+    n_steps = forces.shape[1]
+    for i in range(b):
+        resolve[i] = False
+        for q in range(w):
+            clip = min(max(np.float64(actions[i, q]), -1.0), 1.0)
+            clipped[i, q] = clip
+            volts[i, q] = (clip + 1.0) * coef[q]
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        k0 = k[i]
+        kk = min(k0, n_steps - 1)
+        for q in range(loads.shape[2]):
+            loads[i, 0, q] = forces[i, kk, q]
+        resolve[i] = plan[i, kk] and k0 < n_steps
+    return True
 
 
 def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
@@ -69,7 +105,7 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
     states, backup, kps, ks, ohm, wvol, meas, dt, n_sub = plant
-    if not ro.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+    if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each
@@ -102,7 +138,7 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
     states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
-    if not ro.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+    if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
     scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each

@@ -28,7 +28,7 @@ from gymnasium.vector.utils import batch_space
 from ._infos import row_infos, status_texts, vector_info, vector_info_keys
 from ._kernel_choice import KernelChoice, launch_threads
 from .batch import SpineSnapshot
-from .config import EPISODE_ATTRS, RESET_OPTION_KEYS, validate_actions
+from .config import EPISODE_ATTRS, RESET_OPTION_KEYS
 from .env_facts import EnvFacts, make_config
 from .planar import EnvConfig, PlanarBatch
 
@@ -36,7 +36,6 @@ __all__ = ["SmaSpineVectorEnv", "StepArrays", "FinalArrays", "PARALLEL_MIN_ENVS"
 
 # fewest sub-envs for which the default (parallel=None) chooses the kernel online, serial below it
 PARALLEL_MIN_ENVS = 64
-_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 
 # a vector step as fresh arrays (SmaSpineVectorEnv.step_arrays); ``rows`` (n, width) the table rows
 StepArrays = namedtuple("StepArrays", ["obs", "reward", "terminated", "truncated", "rows", "status", "final"])
@@ -301,7 +300,7 @@ class SmaSpineVectorEnv(EnvFacts, VectorEnv):
         observations, rows and status (``final``, else None)."""
         if not self._ever_reset:
             raise RuntimeError("call reset() before step()")
-        a = self._actions(actions)
+        actions = self._core.check_actions(actions)
         core = self._core
         rows = None
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
@@ -309,7 +308,7 @@ class SmaSpineVectorEnv(EnvFacts, VectorEnv):
             rows = np.flatnonzero(~self._autoreset)
             self._reset_rows(reset_rows, self._no_seeds, {})
         if rows is None or rows.size:
-            self._advance(a, rows)
+            self._advance(actions, rows)
         terminated, truncated = core.terminated.copy(), core.truncated.copy()
         reward = core.last_row[:, core.reward_col].copy()
         self._autoreset = terminated | truncated
@@ -337,16 +336,6 @@ class SmaSpineVectorEnv(EnvFacts, VectorEnv):
         if truncated is None:
             return self._core.row_infos(rows, status)
         return row_infos(self._core.table, rows, status, truncated)
-
-    def _actions(self, actions) -> np.ndarray:
-        """The actions as a float array of the batch's shape (the batch checks finiteness)."""
-        if (
-            isinstance(actions, np.ndarray)
-            and actions.dtype in _FLOATS
-            and actions.shape == self.action_space.shape
-        ):
-            return actions
-        return validate_actions(actions, self.action_space.shape)
 
     def _info_arrays(self, rows: np.ndarray, status: np.ndarray) -> dict[str, np.ndarray]:
         """The table's info arrays (views of ``rows``) and ``status``."""
