@@ -151,30 +151,7 @@ class TableBatch:
             prev_task=np.zeros((b, d)),
             prev_action=np.full((b, nw), -1.0),
         )
-        maps = self.table.spec_arrays({pb: int(self.probe_cols[pb]) for pb in range(ro.N_PB)})
-        self.noise_sigma = maps["sigma"]
-        self.noisy = bool(self.noise_sigma.any())
-        settings = np.zeros(ro.N_SETTINGS)
-        settings[ro.S_PERIOD] = cfg.control_period
-        settings[ro.S_ERROR_SCALE] = cfg.error_scale
-        settings[ro.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
-        settings[ro.S_COST_WEIGHT] = cfg.cost_weight
-        settings[ro.S_T_LIMIT] = cfg.temperature_limit
-        counts = np.zeros(ro.N_COUNTS, dtype=np.int64)
-        counts[ro.C_PREVIEW] = cfg.preview_steps
-        counts[ro.C_MAX_STEPS] = cfg.n_steps
-        self.spec = ro.Spec(
-            qcol=maps["qcol"],
-            probe_cols=self.probe_cols,
-            chan_src=maps["chan_src"],
-            chan_dst=maps["chan_dst"],
-            obs_cols=maps["obs_cols"],
-            task=maps["task"],
-            low=self.table.low.astype(np.float64),
-            high=self.table.high.astype(np.float64),
-            settings=settings,
-            counts=counts,
-        )
+        self.spec = self._spec_of(cfg)
         self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
         self.reward_col = self.table.cols["reward"].start
         self.row_ids = np.arange(b)
@@ -198,6 +175,34 @@ class TableBatch:
         self._reset_in = (*inputs, self._fresh_actions, *tail)  # ro.Step of a reset
         self._drive = (self._coef, self.forces, self.resolve_plan, self.resolve)
         self._plant = tuple(getattr(cfg, k) if k in _CFG_PLANT else getattr(self, k) for k in self.PLANT)
+
+    def _spec_of(self, cfg: BaseEnvConfig) -> ro.Spec:
+        """The readout's maps and settings (:data:`.readout.Spec`) from the table and ``cfg``; sets
+        :attr:`noise_sigma` and :attr:`noisy`."""
+        maps = self.table.spec_arrays({pb: int(self.probe_cols[pb]) for pb in range(ro.N_PB)})
+        self.noise_sigma = maps["sigma"]
+        self.noisy = bool(self.noise_sigma.any())
+        settings = np.zeros(ro.N_SETTINGS)
+        settings[ro.S_PERIOD] = cfg.control_period
+        settings[ro.S_ERROR_SCALE] = cfg.error_scale
+        settings[ro.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
+        settings[ro.S_COST_WEIGHT] = cfg.cost_weight
+        settings[ro.S_T_LIMIT] = cfg.temperature_limit
+        counts = np.zeros(ro.N_COUNTS, dtype=np.int64)
+        counts[ro.C_PREVIEW] = cfg.preview_steps
+        counts[ro.C_MAX_STEPS] = cfg.n_steps
+        return ro.Spec(
+            qcol=maps["qcol"],
+            probe_cols=self.probe_cols,
+            chan_src=maps["chan_src"],
+            chan_dst=maps["chan_dst"],
+            obs_cols=maps["obs_cols"],
+            task=maps["task"],
+            low=self.table.low.astype(np.float64),
+            high=self.table.high.astype(np.float64),
+            settings=settings,
+            counts=counts,
+        )
 
     # ------------------------------------------------------------------ plant hooks
     def _alloc_plant(self, b: int) -> None:
