@@ -226,6 +226,17 @@ class BaseEnvConfig:
     def _check_task(self) -> None:
         """Validate the task's own fields (subclasses)."""
 
+    def _check_kinds(self, kinds: tuple[str, ...], period_name: str) -> None:
+        """Validate ``target_kinds`` (one of ``kinds`` or a non-empty subset of them, held as a tuple)
+        and the (low, high) period range ``period_name`` of periodic targets (>= 2 control periods)."""
+        s = object.__setattr__
+        given = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
+        if not given or any(k not in kinds for k in given):
+            raise ValueError(f"target_kinds must be a non-empty subset of {kinds}, got {self.target_kinds!r}")
+        s(self, "target_kinds", given)
+        periods = _pair(period_name, getattr(self, period_name), 2.0 * self.control_period, 1e6)
+        s(self, period_name, periods)
+
     # ------------------------------------------------------------------ resets that can be held
     def initial_status(self, params: ModelParams, payload: float) -> int:
         """Status (``layout.OK`` or an error code) of the initial state (MODEL.md §3.10) of an

@@ -44,17 +44,7 @@ class EnvConfig(BaseEnvConfig):
     def _check_task(self) -> None:
         s = object.__setattr__
         s(self, "target_range", _pair("target_range", self.target_range, -TARGET_REACH, TARGET_REACH))
-        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
-        if not kinds or any(k not in TARGET_KINDS for k in kinds):
-            raise ValueError(
-                f"target_kinds must be a non-empty subset of {TARGET_KINDS}, got {self.target_kinds!r}"
-            )
-        s(self, "target_kinds", kinds)
-        s(
-            self,
-            "sine_period_range",
-            _pair("sine_period_range", self.sine_period_range, 2.0 * self.control_period, 1e6),
-        )
+        self._check_kinds(TARGET_KINDS, "sine_period_range")
 
     @property
     def energy_reference(self) -> float:

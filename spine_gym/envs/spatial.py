@@ -56,17 +56,7 @@ class SpatialConfig(BaseEnvConfig):
     def _check_task(self) -> None:
         s = object.__setattr__
         s(self, "wire_values", self._check_wire_values())
-        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
-        if not kinds or any(k not in BEND_KINDS for k in kinds):
-            raise ValueError(
-                f"target_kinds must be a non-empty subset of {BEND_KINDS}, got {self.target_kinds!r}"
-            )
-        s(self, "target_kinds", kinds)
-        s(
-            self,
-            "target_period_range",
-            _pair("target_period_range", self.target_period_range, 2.0 * self.control_period, 1e6),
-        )
+        self._check_kinds(BEND_KINDS, "target_period_range")
         s(self, "_layout", self.layout_for(self.params))
 
     def _check_wire_values(self) -> tuple | None:

@@ -134,7 +134,11 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
 
 
 def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
-    """:func:`_planar_step` for spatial or chained spines (``actions`` (B, W))."""
+    """:func:`_planar_step` for spatial or chained spines (``actions`` (B, W)).
+
+    A body of its own rather than one shared with :func:`_planar_step`: the plant tuples, the
+    physics call and the probe differ in their numba types, and a body that took them as arguments
+    would change what the parallel loop compiles to."""
     st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
     states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
