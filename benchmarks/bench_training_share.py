@@ -66,7 +66,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling bench_en
 from bench_env import SEED, machine  # noqa: E402
 
 import spine_gym  # noqa: E402, F401 - registers the env ids
-from spine_gym.envs import readout as bk  # noqa: E402
+from spine_gym.envs import readout as ro  # noqa: E402
 from spine_gym.envs import step_kernels as sk  # noqa: E402
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
 from spine_gym.physics import env_kernels  # noqa: E402
@@ -230,7 +230,7 @@ def physics_call(fn, args) -> tuple:
     ``env_kernels.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
     flags that call computed, on the same arrays; per-call inputs copied."""
     rows, _, drive, plant, step, _, _, _ = args
-    st = bk.Step(*step)
+    st = ro.Step(*step)
     active = np.zeros(st.status.shape[0], dtype=np.bool_)
     active[rows] = True
     resolve = drive[3].copy()

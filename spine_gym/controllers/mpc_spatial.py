@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..envs import readout as bk
+from ..envs import readout as ro
 from ..envs.loads import LoadSchedule
 from ..envs.planar import EnvConfig
 from ..envs.spatial import SpatialConfig
@@ -89,8 +89,8 @@ class SpatialReadings:
             int(self.probe_cols[SENSOR_SOURCES[task.source]]) + task.size,
         )
         nw = lay.n_wires
-        self.temp = slice(int(self.probe_cols[bk.PB_TEMP]), int(self.probe_cols[bk.PB_TEMP]) + nw)
-        self.joule = slice(int(self.probe_cols[bk.PB_JOULE]), int(self.probe_cols[bk.PB_JOULE]) + nw)
+        self.temp = slice(int(self.probe_cols[ro.PB_TEMP]), int(self.probe_cols[ro.PB_TEMP]) + nw)
+        self.joule = slice(int(self.probe_cols[ro.PB_JOULE]), int(self.probe_cols[ro.PB_JOULE]) + nw)
         # nominal per-wire constants (L0 / A_w, wire volume) of an unloaded nominal episode
         batch.reset_env(
             0, np.random.default_rng(0), {"params": cfg.params, "loads": LoadSchedule(dim=cfg.force_dim)}
@@ -103,7 +103,7 @@ class SpatialReadings:
         m = rec.shape[0]
         probe = np.empty((m, int(self.probe_cols[-1])))
         rows = np.arange(m, dtype=np.int64)
-        bk.spatial_probe(
+        ro.spatial_probe(
             rows,
             rec,
             self.record_cols,
