@@ -366,20 +366,19 @@ class TableBatch:
         temporaries (with sensor noise, the noise is drawn first, per environment).
 
         Args:
-            actions: of :attr:`action_shape`, checked (:meth:`check_actions`) and clipped to
-                [-1, 1]; ValueError if not finite.
+            actions: (B, W) float32 or float64 from :meth:`check_actions`; clipped to [-1, 1]
+                (ValueError if not finite).
             rngs: per-environment generators (only used for sensor noise).
             rows: (n,) int64 environments to step, ascending (default all).
 
         Returns:
             ``rows``.
         """
-        given, actions = actions, self.check_actions(actions)
         if rows is None:
             rows = self.row_ids
         if self.noisy:  # drawn per environment from its own generator, only for a valid step
             if not np.isfinite(actions).all():
-                validate_actions(given, self.action_shape)  # raises the documented ValueError
+                self._refuse(actions)
             c = self.table.n_channels
             for i in rows:
                 self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
@@ -387,8 +386,12 @@ class TableBatch:
         if not kernel(
             rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out
         ):
-            validate_actions(given, self.action_shape)  # raises the documented ValueError
+            self._refuse(actions)
         return rows
+
+    def _refuse(self, actions: np.ndarray) -> None:
+        """Raise the documented ValueError of actions that are not finite, in the env's shape."""
+        validate_actions(actions.reshape(self.action_shape), self.action_shape)
 
     def step(
         self, actions: np.ndarray, rngs: Sequence[np.random.Generator], active: np.ndarray | None = None
