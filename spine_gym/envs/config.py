@@ -389,6 +389,17 @@ class BaseEnvConfig:
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
 
+    def extreme_params(self) -> list[ModelParams]:
+        """The nominal parameters and the extremes of the randomised ones (each field at its low
+        and its high end, or a fit's extremes): what the bounds of the resistance entries cover."""
+        cands = [self.params]
+        if isinstance(self.domain_randomization, ParameterUncertainty):
+            cands += self.domain_randomization.extremes(self.params)
+        else:
+            for name, lo, hi in self.domain_randomization:
+                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        return cands
+
     def wire_entries(self, names: tuple[str, ...], resistance_doc: str) -> tuple[Entry, Entry, Entry]:
         """The (temperature, previous action, resistance) entries, one component per wire (group)
         ``names``; the resistance entry's documentation is ``resistance_doc``."""

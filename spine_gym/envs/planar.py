@@ -22,7 +22,6 @@ from ..physics import env_kernels
 from ..physics.planar import batch
 from ..physics.planar import columns as PL
 from ..physics.planar.solver import init_state
-from ..uncertainty import ParameterUncertainty
 from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
@@ -63,12 +62,7 @@ class EnvConfig(BaseEnvConfig):
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters (values above it are clipped)."""
-        cands = [self.params]
-        if isinstance(self.domain_randomization, ParameterUncertainty):
-            cands += self.domain_randomization.extremes(self.params)
-        else:
-            for name, lo, hi in self.domain_randomization:
-                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        cands = self.extreme_params()
         r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.sensor_noise[2])
 

@@ -152,12 +152,7 @@ class SpatialConfig(BaseEnvConfig):
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters, plus 10 standard deviations of resistance noise."""
-        cands = [self.params]
-        if isinstance(self.domain_randomization, ParameterUncertainty):
-            cands += self.domain_randomization.extremes(self.params)
-        else:
-            for name, lo, hi in self.domain_randomization:
-                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        cands = self.extreme_params()
         l0 = max(m.L0 for m in self._layout.modules) / self.params.L0  # wire length / the params' L0
         l0 *= self._max_lam_scale()
         r = max(max(p.lam_A, p.lam_M) * p.L0 * l0 / p.wire_area for p in cands)
