@@ -8,7 +8,7 @@ and 1 → 2 numba threads. One command prints all three against their targets.
    (no change to the library): the outermost ``step_wait`` that PPO calls (``VecNormalize`` →
    ``VecMonitor`` → adapter), the adapter's ``step_wait`` (:class:`spine_gym.envs.sb3.SmaSpineSB3VecEnv`),
    the vector env's ``step_arrays`` and the one jitted call of a step inside it (physics and
-   bookkeeping, :mod:`spine_gym.envs._step_kernels`), plus PPO's ``collect_rollouts`` and
+   bookkeeping, :mod:`spine_gym.envs.step_kernels`), plus PPO's ``collect_rollouts`` and
    ``train``. **The env share the target means is the adapter's ``step_wait`` over the wall time
    of ``learn``** (the env's own step: physics, bookkeeping, the
    per-env info dicts); the share including SB3's ``VecMonitor`` and ``VecNormalize`` (their
@@ -66,8 +66,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling bench_en
 from bench_env import SEED, machine  # noqa: E402
 
 import spine_gym  # noqa: E402, F401 - registers the env ids
-from spine_gym.envs import _bookkeeping as bk  # noqa: E402
-from spine_gym.envs import _step_kernels as sk  # noqa: E402
+from spine_gym.envs import readout as ro  # noqa: E402
+from spine_gym.envs import step_kernels as sk  # noqa: E402
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
 from spine_gym.physics import env_kernels  # noqa: E402
 
@@ -116,7 +116,7 @@ def _breakdown(sec: dict, total: float) -> dict:
 
 
 class Patch:
-    """Replace the env's step kernels (``_step_kernels`` attributes, looked up at call time) by
+    """Replace the env's step kernels (``step_kernels`` attributes, looked up at call time) by
     ``wrap(kernel)``."""
 
     def __init__(self, wrap) -> None:
@@ -230,7 +230,7 @@ def physics_call(fn, args) -> tuple:
     ``env_kernels.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
     flags that call computed, on the same arrays; per-call inputs copied."""
     rows, _, drive, plant, step, _, _, _ = args
-    st = bk.Step(*step)
+    st = ro.Step(*step)
     active = np.zeros(st.status.shape[0], dtype=np.bool_)
     active[rows] = True
     resolve = drive[3].copy()

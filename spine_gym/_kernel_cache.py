@@ -18,7 +18,7 @@ __all__ = ["KERNEL_CACHE_DIRS", "KERNEL_SOURCES", "STAMP_NAME", "clear_stale_cac
 
 _PACKAGE = Path(__file__).resolve().parent
 # every file that defines kernels: the cache must go when any of them changes
-KERNEL_SOURCES = (*sorted((_PACKAGE / "physics").rglob("*.py")), _PACKAGE / "envs" / "_bookkeeping.py")
+KERNEL_SOURCES = (*sorted((_PACKAGE / "physics").rglob("*.py")), _PACKAGE / "envs" / "readout.py")
 # the stamp lives in the first; physics/planar and physics/spatial hold the cores' kernels
 KERNEL_CACHE_DIRS = (
     *(_PACKAGE / "physics" / d / "__pycache__" for d in (".", "planar", "spatial")),

@@ -402,7 +402,7 @@ def disturbance_windows(loads, duration: float) -> list[tuple[float, float, str,
     """The time spans of an episode's disturbances, from its load schedule.
 
     Args:
-        loads: a :class:`~spine_gym.envs.task.LoadSchedule` (or None: no disturbance): tip-force
+        loads: a :class:`~spine_gym.envs.loads.LoadSchedule` (or None: no disturbance): tip-force
             events with ``start``/``end`` [s] and ``force`` [N], ``payload`` [kg].
         duration: episode duration [s]; open-ended events are cut there.
 

@@ -17,8 +17,8 @@ from spine_gym.buckling import critical_load, euler_tip_load
 from spine_gym.capacity import CapacityProtocol
 from spine_gym.design.space import evaluate_design
 from spine_gym.envs import SmaSpineEnv
-from spine_gym.envs.core import EnvConfig
-from spine_gym.envs.task import LoadSchedule
+from spine_gym.envs.loads import LoadSchedule
+from spine_gym.envs.planar import EnvConfig
 from spine_gym.layout import SpineLayout
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL

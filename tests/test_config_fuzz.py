@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 import spine_gym  # noqa: F401 - registers the env ids
 from spine_gym.buckling import critical_load
-from spine_gym.envs.task import TARGET_KINDS
-from spine_gym.envs.task_spatial import BEND_KINDS
+from spine_gym.envs.targets import TARGET_KINDS
+from spine_gym.envs.targets_spatial import BEND_KINDS
 from spine_gym.params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL

@@ -14,7 +14,8 @@ import spine_gym
 from spine_gym import ModelParams, SolverOptions, simulate
 from spine_gym.envs import OBS_NAMES, SmaSpineEnv, default_randomization
 from spine_gym.envs.render import SpineRenderer
-from spine_gym.envs.task import LoadSchedule, TargetProfile, TipForceEvent
+from spine_gym.envs.loads import LoadSchedule, TipForceEvent
+from spine_gym.envs.targets import TargetProfile
 from spine_gym.params import FINE_REFERENCE
 from spine_gym.physics import columns as L
 
@@ -47,7 +48,7 @@ def random_actions(n, seed=0):
 def test_registration_and_make():
     spec = gym.spec("SmaSpine-v0")
     assert spec.max_episode_steps == 600
-    assert spec.entry_point == "spine_gym.envs.spine_env:SmaSpineEnv"
+    assert spec.entry_point == "spine_gym.envs.single_env:SmaSpineEnv"
     assert spec.vector_entry_point == "spine_gym.envs.vector_env:SmaSpineVectorEnv"
     for env_id in ("SmaSpine-v0", "spine_gym:SmaSpine-v0"):
         env = gym.make(env_id)

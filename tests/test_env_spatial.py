@@ -20,7 +20,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import spine_gym  # noqa: F401  (registers the ids)
 from spine_gym import ModelParams, simulate
 from spine_gym.envs import BendTarget, ChainTarget, LoadSchedule, SmaSpine3DEnv, SmaSpineChainEnv
-from spine_gym.envs.core import OBS_NAMES
+from spine_gym.envs.loads import TipForceEvent
+from spine_gym.envs.planar import OBS_NAMES
 from spine_gym.envs.reach import REACH_3D, REACH_CHAIN, hold
 from spine_gym.envs.sb3 import make_sb3_vec_env
 from spine_gym.envs.spatial import (
@@ -31,8 +32,7 @@ from spine_gym.envs.spatial import (
     workspace_radius_mm,
 )
 from spine_gym.envs.table import Entry, Table
-from spine_gym.envs.task import TipForceEvent
-from spine_gym.envs.task_spatial import arc_tip_position
+from spine_gym.envs.targets_spatial import arc_tip_position
 from spine_gym.layout import SpineLayout
 from spine_gym.physics import columns as L
 from spine_gym.simulate_spatial import simulate_spatial

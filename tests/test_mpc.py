@@ -15,7 +15,8 @@ from spine_gym.controllers import (
     PIDController,
     austenite_from_resistance,
 )
-from spine_gym.envs.task import LoadSchedule, TargetProfile
+from spine_gym.envs.loads import LoadSchedule
+from spine_gym.envs.targets import TargetProfile
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL
 from spine_gym.physics.rollout import rollout_many, rollout_many_serial

@@ -10,8 +10,8 @@ from spine_gym.agents.common import CHAIN_ENV_ID, SPATIAL_ENV_ID
 from spine_gym.agents.runtime import build_controller, make_env, run_episode
 from spine_gym.controllers import MPPIConfig, SpatialMPPIController, SpatialPhaseEstimator
 from spine_gym.controllers.mpc_spatial import SpatialReadings, drive_patterns
-from spine_gym.envs.task import LoadSchedule
-from spine_gym.envs.task_spatial import BendTarget
+from spine_gym.envs.loads import LoadSchedule
+from spine_gym.envs.targets_spatial import BendTarget
 from spine_gym.physics import columns as L
 from spine_gym.physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from spine_gym.physics.spatial import columns as SL

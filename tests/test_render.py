@@ -13,7 +13,7 @@ from spine_gym.agents import evaluate as ev
 from spine_gym.agents.metrics import Trajectory
 from spine_gym.agents.scenarios import get_suite
 from spine_gym.envs.render import FRAME_SIZE, wire_color
-from spine_gym.envs.task import LoadSchedule, TipForceEvent
+from spine_gym.envs.loads import LoadSchedule, TipForceEvent
 from spine_gym.plotting import PAYLOAD_LABEL, PUSH_LABEL, disturbance_windows, episode_figure, plot_episodes
 
 IDS = ["SmaSpine-v1", "SmaSpine3D-v1", "SmaSpineChain-v1"]

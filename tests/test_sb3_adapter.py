@@ -13,7 +13,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormali
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.envs import SmaSpineEnv
 from spine_gym.envs.sb3 import SmaSpineSB3VecEnv, make_sb3_vec_env
-from spine_gym.envs.task import LoadSchedule
+from spine_gym.envs.loads import LoadSchedule
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0, "domain_randomization": True, "sensor_noise": {"angle": 0.1}}

@@ -111,8 +111,8 @@ def test_bad_observations_and_gains_raise():
 
 # --------------------------------------------------------------------------- on the envs
 def _rollout(env, ctrl, target, seconds):
-    from spine_gym.envs.task import LoadSchedule
-    from spine_gym.envs.task_spatial import BendTarget
+    from spine_gym.envs.loads import LoadSchedule
+    from spine_gym.envs.targets_spatial import BendTarget
 
     obs, _ = env.reset(seed=0, options={"target": BendTarget.polar(*target), "loads": LoadSchedule(dim=3)})
     ctrl.reset()

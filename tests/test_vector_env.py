@@ -11,7 +11,8 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv, VectorEnv
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.envs import SmaSpineEnv, SmaSpineVectorEnv
-from spine_gym.envs.task import LoadSchedule, TargetProfile
+from spine_gym.envs.loads import LoadSchedule
+from spine_gym.envs.targets import TargetProfile
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
 from spine_gym.physics import columns as L
 

@@ -42,11 +42,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from spine_gym.envs.task_spatial import BendTarget, ChainTarget
+from spine_gym.envs.targets_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
 from spine_gym.envs import ENV_SPECS, base_id, default_randomization
-from spine_gym.envs.task import LoadSchedule, TargetProfile
+from spine_gym.envs.loads import LoadSchedule
+from spine_gym.envs.targets import TargetProfile
 
 from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 

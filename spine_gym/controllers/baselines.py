@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.core import planar_obs_index
+from ..envs.planar import planar_obs_index
 from ..params import ModelParams
 from ..simulate import simulate
 

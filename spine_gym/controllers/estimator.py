@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.core import OBS_NAMES, EnvConfig, planar_obs_index
+from ..envs.planar import OBS_NAMES, EnvConfig, planar_obs_index
 from ..envs.spatial import SpatialConfig
 from ..physics import columns as L
 from ..physics.planar import columns as PL

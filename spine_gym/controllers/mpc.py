@@ -55,8 +55,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.core import EnvConfig, planar_obs_index
-from ..envs.task import ANGLE_LIMIT
+from ..envs.planar import EnvConfig, planar_obs_index
+from ..envs.targets import ANGLE_LIMIT
 from ..params import SolverOptions
 from ..physics import columns as L
 from ..physics.planar import columns as PL

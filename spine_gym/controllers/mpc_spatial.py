@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..envs import _bookkeeping as bk
-from ..envs.core import EnvConfig
+from ..envs import readout as ro
+from ..envs.loads import LoadSchedule
+from ..envs.planar import EnvConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
-from ..envs.task import LoadSchedule
 from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from ..physics.spatial import columns as SL
 from ..physics.spatial.solver import make_work, record, record_size
@@ -68,7 +68,7 @@ SPATIAL_PLAN_FIELDS = (*PLAN_FIELDS, "layout", "error_scale")
 
 
 class SpatialReadings:
-    """The env's readings of spatial record rows: its probe (:func:`._bookkeeping.spatial_probe`)
+    """The env's readings of spatial record rows: its probe (:func:`.readout.spatial_probe`)
     with the record columns of its batch, and where the tracked entry, the temperatures and the
     Joule heat sit in a probe row (from the env's table).
 
@@ -89,8 +89,8 @@ class SpatialReadings:
             int(self.probe_cols[SENSOR_SOURCES[task.source]]) + task.size,
         )
         nw = lay.n_wires
-        self.temp = slice(int(self.probe_cols[bk.PB_TEMP]), int(self.probe_cols[bk.PB_TEMP]) + nw)
-        self.joule = slice(int(self.probe_cols[bk.PB_JOULE]), int(self.probe_cols[bk.PB_JOULE]) + nw)
+        self.temp = slice(int(self.probe_cols[ro.PB_TEMP]), int(self.probe_cols[ro.PB_TEMP]) + nw)
+        self.joule = slice(int(self.probe_cols[ro.PB_JOULE]), int(self.probe_cols[ro.PB_JOULE]) + nw)
         # nominal per-wire constants (L0 / A_w, wire volume) of an unloaded nominal episode
         batch.reset_env(
             0, np.random.default_rng(0), {"params": cfg.params, "loads": LoadSchedule(dim=cfg.force_dim)}
@@ -103,7 +103,7 @@ class SpatialReadings:
         m = rec.shape[0]
         probe = np.empty((m, int(self.probe_cols[-1])))
         rows = np.arange(m, dtype=np.int64)
-        bk.spatial_probe(
+        ro.spatial_probe(
             rows,
             rec,
             self.record_cols,

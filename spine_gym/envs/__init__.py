@@ -10,7 +10,9 @@ versions (observed tracking errors, rewards of order one) and the ``Easy``/``Har
   environments stepped by one numba loop over the same code (from 64 envs serial or parallel,
   whichever runs faster).
 * :mod:`spine_gym.envs.table` — the declarative observation/info table every env is built from.
-* :mod:`spine_gym.envs.task` — :class:`TargetProfile`, :class:`LoadSchedule`, :class:`TipForceEvent`.
+* :mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.targets_spatial` — :class:`TargetProfile`,
+  :class:`BendTarget`, :class:`ChainTarget`; :mod:`spine_gym.envs.loads` — :class:`LoadSchedule`,
+  :class:`TipForceEvent`.
 * :mod:`spine_gym.envs.sb3` — a Stable-Baselines3 ``VecEnv`` over the vector env (imports SB3).
 """
 
@@ -18,12 +20,14 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-from .core import OBS_NAMES, OBS_UNITS, EnvConfig, default_randomization
+from .config import default_randomization
 from .ids import BENCHMARK_IDS, ENV_SPECS, base_id, family_of, tier_of
+from .loads import LoadSchedule, TipForceEvent
+from .planar import OBS_NAMES, OBS_UNITS, EnvConfig
+from .single_env import SmaSpineEnv
 from .spatial_env import SmaSpine3DEnv, SmaSpine3DVectorEnv, SmaSpineChainEnv, SmaSpineChainVectorEnv
-from .spine_env import SmaSpineEnv
-from .task import LoadSchedule, TargetProfile, TipForceEvent
-from .task_spatial import BendTarget, ChainTarget
+from .targets import TargetProfile
+from .targets_spatial import BendTarget, ChainTarget
 from .vector_env import SmaSpineVectorEnv
 
 __all__ = [

@@ -28,9 +28,36 @@ from typing import NamedTuple
 import numpy as np
 
 from ..physics import columns as L
-from .core import status_text
 
-__all__ = ["LazyDict", "RowInfo", "VectorInfoKeys", "row_infos", "vector_info", "vector_info_keys"]
+__all__ = [
+    "LazyDict",
+    "RowInfo",
+    "VectorInfoKeys",
+    "row_infos",
+    "status_text",
+    "status_texts",
+    "vector_info",
+    "vector_info_keys",
+]
+
+
+def status_text(code: int) -> str:
+    """``info["status_text"]`` of a step with status ``code`` (from ``layout.STATUS_TEXT``)."""
+    return L.STATUS_TEXT.get(int(code), str(int(code)))
+
+
+def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
+    :func:`status_text` as an object array)."""
+    if not status.any():  # L.OK == 0: the common case, no failure
+        return _NO_ROWS, _NO_TEXTS
+    failed = np.flatnonzero(status != L.OK)
+    return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
+
+
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_TEXTS = np.zeros(0, dtype=object)
+
 
 
 class LazyDict(dict):

@@ -1,6 +1,6 @@
 """Online choice between a batch's serial and parallel step kernel, by their measured step times.
 
-The two kernels of a vector env (:mod:`._step_kernels`, ``*_serial`` and ``prange``) give the same
+The two kernels of a vector env (:mod:`.step_kernels`, ``*_serial`` and ``prange``) give the same
 results bit for bit, so which one runs a step changes nothing but its speed, and that depends on
 what else the machine runs: on idle cores the parallel kernel on 2 threads runs ~1.8x the serial
 one at 256 envs, beside one CPU-bound process it can drop far below it (each parallel step waits at

@@ -14,7 +14,7 @@ One family per spine (``SmaSpine``: the planar pair, ``SmaSpine3D``: one four-wi
   * ``<Family>Easy-v1`` — the nominal plant without loads, noise or delay; targets within ±30°
     (planar), 30° (3-D), 15° per module (chain);
   * ``<Family>Hard-v1`` — a payload, one to three tip pushes, the randomised plant
-    (:func:`.core.default_randomization`), sensor noise and a one-period sensor delay.
+    (:func:`.config.default_randomization`), sensor noise and a one-period sensor delay.
 
 Everything an id sets is a keyword argument of its class, passed by the registration
 (``gym.make(id)`` needs none; any of them can still be overridden). :data:`ENV_SPECS` is the one
@@ -42,7 +42,7 @@ __all__ = [
 FAMILIES = ("SmaSpine", "SmaSpine3D", "SmaSpineChain")
 TIERS = ("easy", "default", "hard")
 _ENTRY = {
-    "SmaSpine": ("spine_env:SmaSpineEnv", "vector_env:SmaSpineVectorEnv"),
+    "SmaSpine": ("single_env:SmaSpineEnv", "vector_env:SmaSpineVectorEnv"),
     "SmaSpine3D": ("spatial_env:SmaSpine3DEnv", "spatial_env:SmaSpine3DVectorEnv"),
     "SmaSpineChain": ("spatial_env:SmaSpineChainEnv", "spatial_env:SmaSpineChainVectorEnv"),
 }

@@ -1,14 +1,18 @@
-"""The planar plant of ``SmaSpine-v0``: :class:`TableBatch` over the planar kernel (MODEL.md).
+"""``SmaSpine-v0``'s plant: its configuration, its declarative table and its batch.
 
-The planar pair keeps its specialised kernel (:func:`spine_gym.physics.env_kernels.step_spine`,
+:class:`EnvConfig` adds the planar task (target angles) to :class:`.config.BaseEnvConfig` and
+declares the observation/info table (:meth:`EnvConfig.table`, see :mod:`.table`);
+:data:`OBS_NAMES`, :data:`OBS_UNITS` and :func:`planar_obs_index` give its layout to controllers.
+:class:`PlanarBatch` is :class:`.batch.TableBatch` over the planar kernel (MODEL.md): the
+planar pair keeps its specialised kernel (:func:`spine_gym.physics.env_kernels.step_spine`,
 proven equal to the spatial core in the planar case, SPATIAL.md §7.1), stepped with the env's
-bookkeeping in one call (:func:`._step_kernels.planar_step`); everything above the
-physics — sensors, observation, reward, info, snapshots — is the table-driven layer every env
-shares.
+readout in one call (:func:`.step_kernels.planar_step`); everything above the physics — sensors,
+observation, reward, info, snapshots — is the table-driven layer every env shares.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,12 +22,120 @@ from ..physics import env_kernels
 from ..physics.planar import batch
 from ..physics.planar import columns as PL
 from ..physics.planar.solver import init_state
-from . import _bookkeeping as bk
-from . import _step_kernels as sk
-from .table_batch import TableBatch
-from .task import TargetProfile
+from . import readout as ro
+from . import step_kernels as sk
+from .batch import TableBatch
+from .config import ANGLE_OBS_LIMIT, RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _pair
+from .table import Entry, Table
+from .targets import ANGLE_LIMIT, TARGET_KINDS, TargetProfile
 
-__all__ = ["PlanarBatch"]
+__all__ = ["EnvConfig", "PlanarBatch", "OBS_NAMES", "OBS_UNITS", "planar_obs_index"]
+
+
+@dataclass(frozen=True)
+class EnvConfig(BaseEnvConfig):
+    """Validated arguments of ``SmaSpine-v0`` (see :class:`spine_gym.envs.SmaSpineEnv` for meanings)."""
+
+    target_range: tuple[float, float] = (-45.0, 45.0)
+    target_kinds: tuple[str, ...] = TARGET_KINDS
+    sine_period_range: tuple[float, float] = (20.0, 60.0)
+
+    def _check_task(self) -> None:
+        s = object.__setattr__
+        s(self, "target_range", _pair("target_range", self.target_range, -TARGET_REACH, TARGET_REACH))
+        self._check_kinds(TARGET_KINDS, "sine_period_range")
+
+    @property
+    def energy_reference(self) -> float:
+        """Largest electrical energy of one control period [J]: both sides at v_max, nominal
+        martensite/austenite resistivity, whichever is lower (the normaliser of the energy term)."""
+        p = self.params
+        r_min = min(p.lam_A, p.lam_M) * p.L0 / p.wire_area  # [Ω] one wire
+        return 2.0 * p.n_w * self.v_max**2 / r_min * self.control_period
+
+    def initial_status(self, params: ModelParams, payload: float) -> int:
+        state = np.zeros(PL.state_size(params.n_seg))
+        return init_state(
+            state, params.to_kernel(), self.solver.to_kernel(), self.initial_loads(params, payload)
+        )
+
+    def resistance_bound(self) -> float:
+        """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
+        nominal and randomised parameters (values above it are clipped)."""
+        cands = self.extreme_params()
+        r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
+        return float(2.0 * r + 10.0 * self.sensor_noise[2])
+
+    # ------------------------------------------------------------------ the plant and the table
+    n_wires = 2  # right, left
+    n_modules = 1
+    force_dim = 2  # global (x, y)
+
+    @property
+    def n_seg(self) -> int:
+        return self.params.n_seg
+
+    @property
+    def volt_coef(self) -> float:
+        """Volts per unit of (action + 1)."""
+        return 0.5 * self.v_max
+
+    def table(self) -> Table:
+        """The declarative observation/info table of ``SmaSpine-v0`` (one place per entry)."""
+        lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
+        rl = ("right", "left")
+        temp, prev, res = self.wire_entries(rl, "wire resistance (one wire)")
+        entries = (
+            Entry(
+                "voltage", "voltage", "V", "applied voltage [right, left]", ("voltage_right", "voltage_left")
+            ),
+            Entry(
+                "angle_deg",
+                "angle",
+                "deg",
+                "bending angle θ (sum of segment angles)",
+                ("angle",),
+                (-ANGLE_OBS_LIMIT, ANGLE_OBS_LIMIT),
+                noise="angle",
+            ),
+            Entry("target_deg", "target", "deg", "current target θ*(t)", ("target",), lim),
+            Entry("tracking_error_deg", "error", "deg", "target − angle", ("tracking_error",)),
+            Entry("energy_J", "energy", "J", "electrical energy of the step (both sides)", ("energy",)),
+            Entry("power_W", "power", "W", "mean electrical power per side", ("power_right", "power_left")),
+            Entry("cost", "cost", "K", "Σ over both wires of max(0, T − temperature_limit)", ("cost",)),
+            temp,
+            Entry(
+                "angle_rate",
+                "rate",
+                "deg/s",
+                "angle rate (difference of measured angles)",
+                ("angle_rate",),
+                (-RATE_OBS_LIMIT, RATE_OBS_LIMIT),
+                info=False,
+            ),
+            Entry(
+                "target_preview",
+                "preview",
+                "deg",
+                "target preview θ*(t + target_preview)",
+                ("target_preview",),
+                lim,
+                info=False,
+            ),
+            prev,
+            res,
+            Entry("time", "time", "s", "time at the end of the step", ("time",)),
+            Entry(
+                "tip_force",
+                "force",
+                "N",
+                "force on the top disk (events + payload weight), global x/y",
+                ("fx", "fy"),
+            ),
+            *self.reward_entries(),
+            *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
+        )
+        return Table(entries, "angle_deg", self.noise_sigma)
 
 
 class PlanarBatch(TableBatch):
@@ -76,7 +188,7 @@ class PlanarBatch(TableBatch):
         env_kernels.record_many(self.states, self.kps, rows, self.meas)
 
     def _probe(self, rows: np.ndarray) -> None:
-        bk.planar_probe(rows, self.meas, self.ohm, self.wvol, self.probe_cols, self.probe)
+        ro.planar_probe(rows, self.meas, self.ohm, self.wvol, self.probe_cols, self.probe)
 
     def state_summary(self, i: int) -> dict[str, Any]:
         """What the renderer needs for environment ``i``."""
@@ -94,3 +206,16 @@ class PlanarBatch(TableBatch):
             "time": k * self.cfg.control_period,
             "voltage": (self.mem.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,
         }
+
+
+# the planar observation layout, from its table (units and names of the default configuration)
+_PLANAR_TABLE = EnvConfig().table()
+OBS_NAMES = _PLANAR_TABLE.obs_names
+OBS_UNITS = tuple(e.unit for e in _PLANAR_TABLE.entries if e.obs is not None for _ in e.names)
+
+
+def planar_obs_index(key: str) -> int:
+    """Observation index of the first component of ``SmaSpine-v0``'s table entry ``key`` (e.g.
+    ``"angle_deg"``, ``"target_deg"``, ``"target_preview"``, ``"temperature"``, ``"previous_action"``,
+    ``"resistance"``); controllers derive their indices from it."""
+    return _PLANAR_TABLE.obs_index(key).start

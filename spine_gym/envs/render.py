@@ -38,7 +38,7 @@ from ..physics import columns as L
 from ..physics.planar.tube import vertices
 from ..physics.spatial import columns as SL
 from ..physics.spatial.tube import kinematics, positions
-from .task_spatial import arc_positions
+from .targets_spatial import arc_positions
 
 FRAME_SIZE = (480, 480)  # [px] width, height
 CMAP = "coolwarm"  # wire colour: blue at ambient, red at the temperature limit

@@ -40,7 +40,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from . import ENV_ID
-from .core import RESET_OPTION_KEYS
+from .config import RESET_OPTION_KEYS
 from .ids import ENV_SPECS
 from .spatial_env import SmaSpine3DVectorEnv, SmaSpineChainVectorEnv
 from .vector_env import SmaSpineVectorEnv

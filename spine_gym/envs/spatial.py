@@ -2,8 +2,8 @@
 
 The physics is the wire- and module-generic core of ``spine_gym.physics.spatial.solver``
 (SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_spine_spatial`, stepped with the
-bookkeeping in one call (:func:`._step_kernels.spatial_step`); the bookkeeping
-is the table-driven writer every env shares (:class:`.table_batch.TableBatch`). The env classes
+bookkeeping in one call (:func:`.step_kernels.spatial_step`); the bookkeeping
+is the table-driven writer every env shares (:class:`.batch.TableBatch`). The env classes
 (their docstrings are the documentation pages) are in :mod:`.spatial_env`.
 """
 
@@ -21,13 +21,13 @@ from ..physics import env_kernels
 from ..physics.spatial import columns as SL
 from ..physics.spatial.solver import init_state, record_size
 from ..uncertainty import ParameterUncertainty
-from . import _bookkeeping as bk
-from . import _step_kernels as sk
-from .core import RATE_OBS_LIMIT, TARGET_REACH, TEMP_OBS_HIGH, BaseEnvConfig, _int, _pair, _real
+from . import readout as ro
+from . import step_kernels as sk
+from .batch import TableBatch
+from .config import RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _int, _pair, _real
 from .table import Entry, Table
-from .table_batch import TableBatch
-from .task import ANGLE_LIMIT
-from .task_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
+from .targets import ANGLE_LIMIT
+from .targets_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
 
 __all__ = [
     "SpatialConfig",
@@ -56,17 +56,7 @@ class SpatialConfig(BaseEnvConfig):
     def _check_task(self) -> None:
         s = object.__setattr__
         s(self, "wire_values", self._check_wire_values())
-        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
-        if not kinds or any(k not in BEND_KINDS for k in kinds):
-            raise ValueError(
-                f"target_kinds must be a non-empty subset of {BEND_KINDS}, got {self.target_kinds!r}"
-            )
-        s(self, "target_kinds", kinds)
-        s(
-            self,
-            "target_period_range",
-            _pair("target_period_range", self.target_period_range, 2.0 * self.control_period, 1e6),
-        )
+        self._check_kinds(BEND_KINDS, "target_period_range")
         s(self, "_layout", self.layout_for(self.params))
 
     def _check_wire_values(self) -> tuple | None:
@@ -162,49 +152,11 @@ class SpatialConfig(BaseEnvConfig):
     def resistance_bound(self) -> float:
         """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
         nominal and randomised parameters, plus 10 standard deviations of resistance noise."""
-        cands = [self.params]
-        if isinstance(self.domain_randomization, ParameterUncertainty):
-            cands += self.domain_randomization.extremes(self.params)
-        else:
-            for name, lo, hi in self.domain_randomization:
-                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        cands = self.extreme_params()
         l0 = max(m.L0 for m in self._layout.modules) / self.params.L0  # wire length / the params' L0
         l0 *= self._max_lam_scale()
         r = max(max(p.lam_A, p.lam_M) * p.L0 * l0 / p.wire_area for p in cands)
         return float(2.0 * r + 10.0 * self.noise_sigma["resistance"])
-
-    def _wire_entries(self) -> tuple[Entry, Entry, Entry]:
-        """(temperature, previous action, resistance) entries, one component per wire group."""
-        names = self.wire_names
-        return (
-            Entry(
-                "temperature",
-                "temperature",
-                "K",
-                "wire temperature",
-                tuple(f"temperature_{n}" for n in names),
-                (0.0, TEMP_OBS_HIGH),
-                noise="temperature",
-            ),
-            Entry(
-                "previous_action",
-                "action",
-                "-",
-                "previous action (after clipping)",
-                tuple(f"previous_action_{n}" for n in names),
-                (-1.0, 1.0),
-                info=False,
-            ),
-            Entry(
-                "resistance",
-                "resistance",
-                "Ohm",
-                "wire resistance (one wire of the group)",
-                tuple(f"resistance_{n}" for n in names),
-                (0.0, self.resistance_bound()),
-                noise="resistance",
-            ),
-        )
 
     def _step_entries(self, unit: str, error_doc: str, dim: int) -> tuple[Entry, ...]:
         """The info-only entries every spatial env has (voltages, energy, reward terms, ...)."""
@@ -235,9 +187,7 @@ class SpatialConfig(BaseEnvConfig):
                 "force on the top disk (events + payload weight), global x/y/z",
                 ("fx", "fy", "fz"),
             ),
-            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
-            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+            *self.reward_entries(),
         )
 
     def table(self) -> Table:
@@ -256,7 +206,7 @@ class Spine3DConfig(SpatialConfig):
 
     def table(self) -> Table:
         """The declarative observation/info table of ``SmaSpine3D-v0`` (one place per entry)."""
-        temp, prev, res = self._wire_entries()
+        temp, prev, res = self.wire_entries(self.wire_names, "wire resistance (one wire of the group)")
         lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
         entries = (
             Entry(
@@ -329,7 +279,7 @@ class ChainConfig(SpatialConfig):
 
     def table(self) -> Table:
         """The declarative observation/info table of ``SmaSpineChain-v0`` (one place per entry)."""
-        temp, prev, res = self._wire_entries()
+        temp, prev, res = self.wire_entries(self.wire_names, "wire resistance (one wire of the group)")
         lp = (-self.length_mm, self.length_mm)
         xyz = ("x", "y", "z")
         mod = tuple(f"module{k}_bending_{c}" for k in range(self.n_modules) for c in ("x", "y"))
@@ -424,13 +374,13 @@ class SpatialBatch(TableBatch):
         self.kms = np.tile(km, (b, 1, 1))
         nw, nm, ns = lay.n_wires, lay.n_modules, lay.n_seg
         head = SL.sens_offset(nw, nm, ns)
-        cols = np.zeros(bk.N_R, dtype=np.int64)
-        cols[bk.R_MODB] = head
-        cols[bk.R_TIPB] = head + 2 * nm
-        cols[bk.R_TIPP] = head + 2 * nm + 2
-        cols[bk.R_RHO] = head + 2 * nm + 2 + 3 + 9
-        cols[bk.R_TEMP] = SL.wire_offset(SL.F_T, nw)
-        cols[bk.R_QJ] = SL.wire_offset(SL.F_QJ, nw)
+        cols = np.zeros(ro.N_R, dtype=np.int64)
+        cols[ro.R_MODB] = head
+        cols[ro.R_TIPB] = head + 2 * nm
+        cols[ro.R_TIPP] = head + 2 * nm + 2
+        cols[ro.R_RHO] = head + 2 * nm + 2 + 3 + 9
+        cols[ro.R_TEMP] = SL.wire_offset(SL.F_T, nw)
+        cols[ro.R_QJ] = SL.wire_offset(SL.F_QJ, nw)
         self.record_cols = cols
         self._record_size = record_size(nw, nm, ns)
 
@@ -481,7 +431,7 @@ class SpatialBatch(TableBatch):
         env_kernels.record_many_spatial(self.states, self.kps, self.kws, self.kms, rows, self.meas)
 
     def _probe(self, rows: np.ndarray) -> None:
-        bk.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)
+        ro.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)
 
     # ------------------------------------------------------------------ rendering
     def state_summary(self, i: int) -> dict:
@@ -496,7 +446,7 @@ class SpatialBatch(TableBatch):
             "kw": self.kws[i].copy(),
             "km": self.kms[i].copy(),
             "temperature": self.probe[
-                i, self.probe_cols[bk.PB_TEMP] : self.probe_cols[bk.PB_TEMP] + nw
+                i, self.probe_cols[ro.PB_TEMP] : self.probe_cols[ro.PB_TEMP] + nw
             ].copy(),
             "ambient": float(params.T_E),
             "target": self.targets[i, min(k, self.targets.shape[1] - 1)].copy(),

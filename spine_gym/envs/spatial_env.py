@@ -4,15 +4,13 @@ The class docstrings are the documentation pages; their observation and info tab
 generated from the envs' declarative tables (:meth:`.spatial.Spine3DConfig.table`,
 :meth:`.spatial.ChainConfig.table`), the reach tables were computed from the model by
 :mod:`spine_gym.envs.reach` (and are checked against it by the tests). Everything else is the
-one env layer of spine_gym (:class:`.spine_env.SmaSpineEnv`, :class:`.vector_env.SmaSpineVectorEnv`).
+one env layer of spine_gym (:class:`.single_env.SmaSpineEnv`, :class:`.vector_env.SmaSpineVectorEnv`).
 """
 
 from __future__ import annotations
 
-import os
-
-from ..params import ModelParams, SolverOptions
 from . import reach
+from .single_env import SmaSpineEnv
 from .spatial import (
     ChainBatch,
     ChainConfig,
@@ -21,8 +19,6 @@ from .spatial import (
     workspace_low_mm,
     workspace_radius_mm,
 )
-from .spine_env import SmaSpineEnv
-from .task_spatial import BEND_KINDS
 from .vector_env import SmaSpineVectorEnv
 
 __all__ = ["SmaSpine3DEnv", "SmaSpineChainEnv", "SmaSpine3DVectorEnv", "SmaSpineChainVectorEnv"]
@@ -99,7 +95,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
 
     A straight spine at ambient temperature with the pre-strained wires, solved under the
     episode's payload. Each reset draws from the env's seeded generator, in this order: a target
-    (:meth:`spine_gym.envs.task_spatial.BendTarget.sample`: 1-3 setpoint steps to random
+    (:meth:`spine_gym.envs.targets_spatial.BendTarget.sample`: 1-3 setpoint steps to random
     directions with magnitudes in ``target_range``, a circle of the tip direction at a polar angle
     in ``target_range``, or a figure-eight of that half-width, periods in
     ``target_period_range``), a load schedule (:meth:`LoadSchedule.sample` with ``dim=3``: events
@@ -163,62 +159,8 @@ class SmaSpine3DEnv(SmaSpineEnv):
       tiers change only the task distribution (:mod:`spine_gym.envs.ids`). ``-v0`` is unchanged.
     """
 
+    CONFIG = Spine3DConfig
     BATCH = Spine3DBatch
-
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        *,
-        v_max: float = 5.0,
-        control_period: float = 0.1,
-        physics_dt: float | None = None,
-        episode_duration: float = 60.0,
-        target_range: tuple[float, float] = (0.0, 45.0),
-        target_kinds: tuple[str, ...] = BEND_KINDS,
-        target_period_range: tuple[float, float] = (20.0, 60.0),
-        target_preview: float = 1.0,
-        tip_force_range: tuple[float, float] | None = (0.0, 0.5),
-        tip_force_count: tuple[int, int] = (0, 2),
-        tip_force_duration: tuple[float, float] = (1.0, 10.0),
-        payload_range: tuple[float, float] | None = (0.0, 0.05),
-        domain_randomization: bool | dict | str | os.PathLike = False,
-        sensor_noise: dict | None = None,
-        sensor_delay: int = 0,
-        temperature_limit: float = 423.0,
-        error_scale: float = 10.0,
-        energy_weight: float = 0.5,
-        cost_weight: float = 0.0,
-        observe_errors: bool = False,
-        params: ModelParams | None = None,
-        solver: SolverOptions | None = None,
-        wire_values: tuple | None = None,
-    ):
-        config = Spine3DConfig(
-            v_max=v_max,
-            control_period=control_period,
-            physics_dt=physics_dt,
-            episode_duration=episode_duration,
-            target_range=target_range,
-            target_kinds=target_kinds,
-            target_period_range=target_period_range,
-            target_preview=target_preview,
-            tip_force_range=tip_force_range,
-            tip_force_count=tip_force_count,
-            tip_force_duration=tip_force_duration,
-            payload_range=payload_range,
-            domain_randomization=domain_randomization,
-            sensor_noise=sensor_noise,
-            sensor_delay=sensor_delay,
-            temperature_limit=temperature_limit,
-            error_scale=error_scale,
-            energy_weight=energy_weight,
-            cost_weight=cost_weight,
-            observe_errors=observe_errors,
-            params=params,
-            solver=solver,
-            wire_values=wire_values,
-        )
-        self._setup(render_mode, config)
 
 
 class SmaSpineChainEnv(SmaSpineEnv):
@@ -306,64 +248,8 @@ class SmaSpineChainEnv(SmaSpineEnv):
       tiers change only the task distribution (:mod:`spine_gym.envs.ids`). ``-v0`` is unchanged.
     """
 
+    CONFIG = ChainConfig
     BATCH = ChainBatch
-
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        *,
-        n_modules: int = 2,
-        module_bend_limit: float = 20.0,
-        v_max: float = 5.0,
-        control_period: float = 0.1,
-        physics_dt: float | None = None,
-        episode_duration: float = 60.0,
-        target_kinds: tuple[str, ...] = BEND_KINDS,
-        target_period_range: tuple[float, float] = (20.0, 60.0),
-        target_preview: float = 1.0,
-        tip_force_range: tuple[float, float] | None = (0.0, 0.5),
-        tip_force_count: tuple[int, int] = (0, 2),
-        tip_force_duration: tuple[float, float] = (1.0, 10.0),
-        payload_range: tuple[float, float] | None = (0.0, 0.05),
-        domain_randomization: bool | dict | str | os.PathLike = False,
-        sensor_noise: dict | None = None,
-        sensor_delay: int = 0,
-        temperature_limit: float = 423.0,
-        error_scale: float = 20.0,
-        energy_weight: float = 0.5,
-        cost_weight: float = 0.0,
-        observe_errors: bool = False,
-        params: ModelParams | None = None,
-        solver: SolverOptions | None = None,
-        wire_values: tuple | None = None,
-    ):
-        config = ChainConfig(
-            n_modules=n_modules,
-            module_bend_limit=module_bend_limit,
-            v_max=v_max,
-            control_period=control_period,
-            physics_dt=physics_dt,
-            episode_duration=episode_duration,
-            target_kinds=target_kinds,
-            target_period_range=target_period_range,
-            target_preview=target_preview,
-            tip_force_range=tip_force_range,
-            tip_force_count=tip_force_count,
-            tip_force_duration=tip_force_duration,
-            payload_range=payload_range,
-            domain_randomization=domain_randomization,
-            sensor_noise=sensor_noise,
-            sensor_delay=sensor_delay,
-            temperature_limit=temperature_limit,
-            error_scale=error_scale,
-            energy_weight=energy_weight,
-            cost_weight=cost_weight,
-            observe_errors=observe_errors,
-            params=params,
-            solver=solver,
-            wire_values=wire_values,
-        )
-        self._setup(render_mode, config)
 
 
 class SmaSpine3DVectorEnv(SmaSpineVectorEnv):

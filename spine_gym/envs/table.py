@@ -3,7 +3,7 @@
 Each environment is described by one tuple of :class:`Entry` (built by a function of its
 configuration, e.g. ``spatial.table_3d``). From that table follow
 
-* the columns of the per-step quantity row the jitted writer (:func:`._bookkeeping.finish_rows`)
+* the columns of the per-step quantity row the jitted writer (:func:`.readout.finish_rows`)
   fills, and which info keys it returns (:attr:`Table.info_keys`, :meth:`Table.info_dict`);
 * the observation: names, indices (:meth:`Table.obs_index`), bounds (:attr:`Table.low`,
   :attr:`Table.high`) and the gather map the writer uses (:attr:`Table.spec`);
@@ -12,7 +12,7 @@ configuration, e.g. ``spatial.table_3d``). From that table follow
 
 Adding an observation entry is one edit: give an entry ``obs=(low, high)`` (or add a new entry
 with an existing ``source``). The ``source`` names what the writer computes (:data:`SOURCES`):
-physics readings of the probe row (``_bookkeeping.PB_*``, measured: delayed and noisy in the
+physics readings of the probe row (``readout.PB_*``, measured: delayed and noisy in the
 observation, true in the info) or step quantities (target, voltage, energy, ...).
 """
 
@@ -23,36 +23,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _bookkeeping as bk
+from . import readout as ro
 
 __all__ = ["Entry", "Table", "SOURCES", "SENSOR_SOURCES"]
 
 # source -> (writer id, kind): "probe" = a slice of the probe row (a sensor reading); else a step quantity
 SENSOR_SOURCES = {
-    "angle": bk.PB_TIPB,  # planar bending angle [deg] = component 0 of the tip bending vector
-    "tip_bending": bk.PB_TIPB,
-    "tip_position": bk.PB_TIPP,
-    "module_bending": bk.PB_MODB,
-    "temperature": bk.PB_TEMP,
-    "resistance": bk.PB_RES,
+    "angle": ro.PB_TIPB,  # planar bending angle [deg] = component 0 of the tip bending vector
+    "tip_bending": ro.PB_TIPB,
+    "tip_position": ro.PB_TIPP,
+    "module_bending": ro.PB_MODB,
+    "temperature": ro.PB_TEMP,
+    "resistance": ro.PB_RES,
 }
 STEP_SOURCES = {
-    "voltage": bk.Q_VOLT,
-    "power": bk.Q_POWER,
-    "action": bk.Q_ACTION,
-    "force": bk.Q_FORCE,
-    "target": bk.Q_TARGET,
-    "preview": bk.Q_PREVIEW,
-    "error": bk.Q_ERROR,
-    "rate": bk.Q_RATE,
-    "energy": bk.Q_ENERGY,
-    "cost": bk.Q_COST,
-    "time": bk.Q_TIME,
-    "reward": bk.Q_REWARD,
-    "reward_tracking": bk.Q_R_TRACK,
-    "reward_energy": bk.Q_R_ENERGY,
-    "measured_error": bk.Q_MERROR,
-    "measured_preview_error": bk.Q_MPREVIEW,
+    "voltage": ro.Q_VOLT,
+    "power": ro.Q_POWER,
+    "action": ro.Q_ACTION,
+    "force": ro.Q_FORCE,
+    "target": ro.Q_TARGET,
+    "preview": ro.Q_PREVIEW,
+    "error": ro.Q_ERROR,
+    "rate": ro.Q_RATE,
+    "energy": ro.Q_ENERGY,
+    "cost": ro.Q_COST,
+    "time": ro.Q_TIME,
+    "reward": ro.Q_REWARD,
+    "reward_tracking": ro.Q_R_TRACK,
+    "reward_energy": ro.Q_R_ENERGY,
+    "measured_error": ro.Q_MERROR,
+    "measured_preview_error": ro.Q_MPREVIEW,
 }
 SOURCES = (*SENSOR_SOURCES, *STEP_SOURCES)
 
@@ -179,7 +179,7 @@ class Table:
             (C,) probe column and row column of each sensor channel; ``sigma`` (C,) noise standard
             deviations; ``obs_cols``; ``task`` = [row column, channel, size] of the tracked entry.
         """
-        qcol = np.full(bk.N_Q, -1, dtype=np.int64)
+        qcol = np.full(ro.N_Q, -1, dtype=np.int64)
         for e in self.entries:
             if not e.sensor:
                 qcol[STEP_SOURCES[e.source]] = self.cols[e.key].start

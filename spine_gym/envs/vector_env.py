@@ -1,10 +1,10 @@
 """Native vector env of ``SmaSpine-v0``: N spines stepped by one numba loop (serial or parallel: the faster).
 
 ``gym.make_vec("SmaSpine-v0", num_envs=N)`` builds :class:`SmaSpineVectorEnv`. It runs the same
-:class:`~spine_gym.envs.table_batch.TableBatch` as the single env with B = N: random draws (targets, loads,
+:class:`~spine_gym.envs.batch.TableBatch` as the single env with B = N: random draws (targets, loads,
 randomised parameters, sensor noise) happen in Python from one generator per sub-env, seeded
 ``seed + i`` like ``SyncVectorEnv``; the physics and bookkeeping of all N spines is one jitted call
-per step (:mod:`spine_gym.envs._step_kernels`, serial or ``prange``: from 64 envs whichever runs faster
+per step (:mod:`spine_gym.envs.step_kernels`, serial or ``prange``: from 64 envs whichever runs faster
 now, :mod:`spine_gym.envs._kernel_choice`). Row i therefore equals
 ``gym.make("SmaSpine-v0")`` reset with ``seed + i`` and fed the same actions (tested bit for bit).
 A step writes the batch's preallocated buffers (observations, table rows, flags) and hands out
@@ -25,25 +25,17 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ._infos import row_infos, vector_info, vector_info_keys
+from ._infos import row_infos, status_texts, vector_info, vector_info_keys
 from ._kernel_choice import KernelChoice, launch_threads
-from .core import (
-    EPISODE_ATTRS,
-    RESET_OPTION_KEYS,
-    EnvConfig,
-    SpineSnapshot,
-    config_fields,
-    make_renderer,
-    status_texts,
-    validate_actions,
-)
-from .planar import PlanarBatch
+from .batch import SpineSnapshot
+from .config import EPISODE_ATTRS, RESET_OPTION_KEYS
+from .env_facts import EnvFacts, make_config
+from .planar import EnvConfig, PlanarBatch
 
 __all__ = ["SmaSpineVectorEnv", "StepArrays", "FinalArrays", "PARALLEL_MIN_ENVS"]
 
 # fewest sub-envs for which the default (parallel=None) chooses the kernel online, serial below it
 PARALLEL_MIN_ENVS = 64
-_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 
 # a vector step as fresh arrays (SmaSpineVectorEnv.step_arrays); ``rows`` (n, width) the table rows
 StepArrays = namedtuple("StepArrays", ["obs", "reward", "terminated", "truncated", "rows", "status", "final"])
@@ -51,7 +43,7 @@ StepArrays = namedtuple("StepArrays", ["obs", "reward", "terminated", "truncated
 FinalArrays = namedtuple("FinalArrays", ["env_ids", "obs", "rows", "status"])
 
 
-class SmaSpineVectorEnv(VectorEnv):
+class SmaSpineVectorEnv(EnvFacts, VectorEnv):
     """``num_envs`` copies of :class:`~spine_gym.envs.SmaSpineEnv` in one jitted loop over the spines.
 
     Action, observation, reward, info keys and arguments are those of ``SmaSpineEnv`` (its class
@@ -118,9 +110,7 @@ class SmaSpineVectorEnv(VectorEnv):
         self._renderer = None  # first: gymnasium < 1.3 closes an env whose __init__ raised
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        unknown = set(env_kwargs) - set(config_fields(self.CONFIG))
-        if unknown:
-            raise TypeError(f"SmaSpineVectorEnv got unexpected keyword argument(s) {sorted(unknown)}")
+        self.config = cfg = make_config(self.CONFIG, type(self).__name__, env_kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -135,7 +125,6 @@ class SmaSpineVectorEnv(VectorEnv):
             parallel = bool(parallel)
         elif not (parallel is None or (isinstance(parallel, str) and parallel == "auto")):
             raise ValueError(f"parallel must be True, False, None or 'auto', got {parallel!r}")
-        self.config = cfg = self.CONFIG(**env_kwargs)
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.autoreset_mode = mode
@@ -193,40 +182,6 @@ class SmaSpineVectorEnv(VectorEnv):
         choice.stop(self.num_envs if rows is None else rows.size)
 
     # ------------------------------------------------------------------ facts (as the single env)
-    @property
-    def v_max(self) -> float:
-        """Voltage of action +1 [V]."""
-        return self.config.v_max
-
-    @property
-    def control_period(self) -> float:
-        """Time per step [s]."""
-        return self.config.control_period
-
-    @property
-    def episode_duration(self) -> float:
-        """Episode length [s] (the env truncates earlier if ``max_episode_steps`` is smaller)."""
-        return self.config.episode_duration
-
-    @property
-    def temperature_limit(self) -> float:
-        """Threshold of ``info["cost"]`` [K]."""
-        return self.config.temperature_limit
-
-    @property
-    def observation_names(self) -> tuple[str, ...]:
-        """Names of the observation entries."""
-        return self._core.obs_names
-
-    @property
-    def table(self):
-        """The env's declarative observation/info table (:class:`spine_gym.envs.table.Table`)."""
-        return self._core.table
-
-    def obs_index(self, key: str) -> slice:
-        """Observation indices of the table entry ``key`` (e.g. ``"temperature"``), a slice."""
-        return self._core.table.obs_index(key)
-
     @property
     def np_randoms(self) -> list[np.random.Generator | None]:
         """The per-sub-env generators (sub-env i seeded ``seed + i``)."""
@@ -345,7 +300,7 @@ class SmaSpineVectorEnv(VectorEnv):
         observations, rows and status (``final``, else None)."""
         if not self._ever_reset:
             raise RuntimeError("call reset() before step()")
-        a = self._actions(actions)
+        actions = self._core.check_actions(actions)
         core = self._core
         rows = None
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
@@ -353,7 +308,7 @@ class SmaSpineVectorEnv(VectorEnv):
             rows = np.flatnonzero(~self._autoreset)
             self._reset_rows(reset_rows, self._no_seeds, {})
         if rows is None or rows.size:
-            self._advance(a, rows)
+            self._advance(actions, rows)
         terminated, truncated = core.terminated.copy(), core.truncated.copy()
         reward = core.last_row[:, core.reward_col].copy()
         self._autoreset = terminated | truncated
@@ -381,16 +336,6 @@ class SmaSpineVectorEnv(VectorEnv):
         if truncated is None:
             return self._core.row_infos(rows, status)
         return row_infos(self._core.table, rows, status, truncated)
-
-    def _actions(self, actions) -> np.ndarray:
-        """The actions as a float array of the batch's shape (the batch checks finiteness)."""
-        if (
-            isinstance(actions, np.ndarray)
-            and actions.dtype in _FLOATS
-            and actions.shape == self.action_space.shape
-        ):
-            return actions
-        return validate_actions(actions, self.action_space.shape)
 
     def _info_arrays(self, rows: np.ndarray, status: np.ndarray) -> dict[str, np.ndarray]:
         """The table's info arrays (views of ``rows``) and ``status``."""
@@ -469,20 +414,11 @@ class SmaSpineVectorEnv(VectorEnv):
             return None
         if not self._ever_reset:
             raise RuntimeError("call reset() before render()")
-        if self._renderer is None:
-            self._renderer = make_renderer(self.config)
-        return tuple(self._renderer.draw(self._core.state_summary(i), slot=i) for i in range(self.num_envs))
+        return tuple(self._frame(i, slot=i) for i in range(self.num_envs))
 
     def close_extras(self, **kwargs):
         """Release the renderer's figure."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-    def __getstate__(self):
-        d = self.__dict__.copy()
-        d["_renderer"] = None
-        return d
+        self._close_renderer()
 
     def __setstate__(self, d):
         self.__dict__.update(d)

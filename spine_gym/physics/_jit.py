@@ -20,7 +20,7 @@ def jit(func):
 def jit_inline(func):
     """Small serial helper inlined into its jitted callers at numba IR level (``inline="always"``):
     for helpers that take tuples of arrays and do little work per call (the env's bookkeeping,
-    ``envs/_bookkeeping.py``), where a real call (its arguments' reference counts) costs more than
+    ``envs/readout.py``), where a real call (its arguments' reference counts) costs more than
     the work. Same numerics as :func:`jit` (no ``fastmath``)."""
     return numba.njit(cache=True, nogil=True, inline="always")(func)
 

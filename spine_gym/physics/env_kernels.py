@@ -9,7 +9,7 @@ spine (solve the mechanics again only when the loads changed since the last solv
 ``planar.batch.run`` does).
 
 :func:`step_spine` is one spine's control period; the envs call it from their one jitted call per
-step (:mod:`spine_gym.envs._step_kernels`: inputs, physics, readings and bookkeeping together).
+step (:mod:`spine_gym.envs.step_kernels`: inputs, physics, readings and bookkeeping together).
 ``step_many`` is the loop of it over a batch with an ``active`` mask, in parallel with ``prange``
 (the spines dealt out to the threads one at a time, :mod:`._deal`);
 ``step_many_serial`` is its serial twin (one body compiled twice, so that the serial and the

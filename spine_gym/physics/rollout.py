@@ -7,7 +7,7 @@ loop of :func:`env_kernels.step_many`, so a rollout of the env's state with the 
 loads gives the env's trajectory bit for bit (tested). What a rollout records per control step is
 what a controller's cost needs: the bending angle Θ [rad], both wire temperatures [K] and both
 wires' accumulated Joule heat per unit volume [J/m^3] (the env's energy accounting,
-:mod:`spine_gym.envs._bookkeeping`). A rollout whose step fails (``columns`` status != OK) keeps its
+:mod:`spine_gym.envs.readout`). A rollout whose step fails (``columns`` status != OK) keeps its
 last valid values for the rest of the horizon and reports the status, so the caller can reject it.
 
 Compiled twice from one body, so that the serial twin the tests compare the parallel loop with

@@ -1,8 +1,8 @@
-"""Jitted bookkeeping of one env step: sensors, observation, reward, info (no physics here).
+"""The jitted readout of one env step: sensors, observation, reward, info (no physics here).
 
 After the plant's physics (:func:`spine_gym.physics.env_kernels.step_spine` for the planar
 spine, :func:`~spine_gym.physics.env_kernels.step_spine_spatial` for the spatial ones) has advanced
-the spines and recorded them (all in the one call of :mod:`._step_kernels`), a probe
+the spines and recorded them (all in the one call of :mod:`.step_kernels`), a probe
 (:func:`planar_probe`, :func:`spatial_probe`) converts each record into the common probe row
 (degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns it into what the environment
 returns: the step's electrical energy from the model's Joule-heat
@@ -11,7 +11,6 @@ declarative table (:mod:`spine_gym.envs.table`: which quantity goes to which col
 observed comes in as integer maps), the observation (clipped to its bounds), the reward terms, the
 over-temperature cost and the termination/truncation flags. The same code runs for every env id,
 for the single env (one row) and the vector env (all rows), so both return the same numbers.
-:func:`begin_step` prepares a step's inputs (clipped actions, voltages, loads, resolve flags).
 Outputs go into the batch's preallocated (B, ...) buffers at the rows stepped, so a step has no
 NumPy temporaries; the groups of arrays are passed as plain tuples (:func:`finish`), which numba
 types on its fast path, and the writer's helpers are inlined into it (``jit_inline``: a real call
@@ -293,39 +292,6 @@ def finish(rows, step, mem, spec, out, fresh):
     """:func:`finish_rows` with its groups passed as plain tuples (numba types a plain tuple of
     arrays on its fast C path, a namedtuple through Python: ~2x the call overhead)."""
     finish_rows(rows, Step(*step), Memory(*mem), Spec(*spec), Out(*out), fresh)
-
-
-@jit
-def begin_step(rows, actions, act, volts, coef, k, forces, plan, loads, resolve):
-    """Inputs of one step: clip the actions, set the voltages and the loads of step k.
-
-    Every row gets its clipped action ``act`` (B, W) (float64, from float32 or float64
-    ``actions``) and voltage ``volts = (act + 1) coef``; each environment of ``rows`` gets the
-    vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at the last step
-    after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
-    ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
-    then; the caller raises).
-    """
-    b, w = act.shape
-    for i in range(b):
-        for q in range(w):
-            if not math.isfinite(actions[i, q]):
-                return False
-    n_steps = forces.shape[1]
-    for i in range(b):
-        resolve[i] = False
-        for q in range(w):
-            a = min(max(np.float64(actions[i, q]), -1.0), 1.0)
-            act[i, q] = a
-            volts[i, q] = (a + 1.0) * coef[q]
-    for j in range(rows.shape[0]):
-        i = rows[j]
-        k0 = k[i]
-        kk = min(k0, n_steps - 1)
-        for q in range(loads.shape[2]):
-            loads[i, 0, q] = forces[i, kk, q]
-        resolve[i] = plan[i, kk] and k0 < n_steps
-    return True
 
 
 @jit

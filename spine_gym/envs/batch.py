@@ -3,9 +3,9 @@
 :class:`TableBatch` holds the per-environment arrays (model state, episode data, the writer's
 memory), resets one environment with its own generator and steps all active ones at once
 (:meth:`TableBatch.advance`): one jitted call of the plant's step kernel
-(:mod:`._step_kernels`: the inputs of :func:`._bookkeeping.begin_step` — actions, voltages,
+(:mod:`.step_kernels`: the inputs of :func:`.readout.begin_step` — actions, voltages,
 loads —, the physics of every spine, its probe — the physics readings in the common probe layout
-of :mod:`._bookkeeping` — and :func:`._bookkeeping.finish_rows` — sensors, observation, reward,
+of :mod:`.readout` — and :func:`.readout.finish_rows` — sensors, observation, reward,
 info, from the env's :class:`~.table.Table`), all into preallocated per-environment buffers
 (``obs``, ``last_row``, ``status``, ``terminated``, ``truncated``) that the envs copy out.
 Subclasses are the plants (:class:`spine_gym.envs.spatial.SpatialBatch`, …): they allocate the
@@ -16,7 +16,9 @@ run the same code and give the same numbers (tested bit for bit).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,12 +26,13 @@ import numpy as np
 from ..params import ModelParams
 from ..physics import columns as L
 from ..uncertainty import ParameterUncertainty
-from . import _bookkeeping as bk
-from .core import RESET_OPTION_KEYS, BaseEnvConfig, SpineSnapshot, status_text, validate_actions
+from . import readout as ro
+from ._infos import status_text
+from .config import RESET_OPTION_KEYS, BaseEnvConfig, validate_actions
+from .loads import LoadSchedule
 from .table import Table
-from .task import LoadSchedule
 
-__all__ = ["TableBatch"]
+__all__ = ["TableBatch", "SpineSnapshot"]
 
 # per-environment arrays of every batch (the plant adds its own through PLANT_ARRAYS)
 COMMON_ARRAYS = (
@@ -46,29 +49,79 @@ COMMON_ARRAYS = (
     "ohm",  # [1/m] L0/A_w of each wire group
     "wvol",  # [m^3] wire volume of each wire group
     "last_row",  # the table row of the last step or reset (true values)
-    *bk.Memory._fields,
+    *ro.Memory._fields,
 )
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))  # action dtypes the kernels take as they are
 # entries of a plant tuple that come from the configuration (the others are batch attributes)
 _CFG_PLANT = ("physics_dt", "n_sub")
+
+
+@dataclass(frozen=True, eq=False)
+class SpineSnapshot:
+    """The full state of one environment: model state, episode data, bookkeeping and RNG.
+
+    Made by ``snapshot()`` of :class:`TableBatch`, :class:`~spine_gym.envs.SmaSpineEnv` or
+    :class:`~spine_gym.envs.SmaSpineVectorEnv`; ``restore(snapshot)`` puts it back, after which the
+    env continues bit for bit as it would have from the moment of the snapshot (tested). The arrays
+    are private copies (read-only); a snapshot can be restored any number of times and into any
+    env of the same configuration.
+
+    Attributes:
+        arrays: name -> copy of the environment's row of each array of ``TableBatch.snapshot_arrays``.
+        episode: the episode's (TargetProfile, LoadSchedule, ModelParams).
+        rng_state: ``bit_generator.state`` of the env's generator (sensor noise and later resets),
+            or None if the batch alone was snapshotted.
+        extra: env-level flags (e.g. whether the episode has ended).
+    """
+
+    arrays: Mapping[str, np.ndarray]
+    episode: tuple[Any, LoadSchedule, ModelParams]  # (target, loads, params)
+    rng_state: dict | None = None
+    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The model state vector (``spine_gym.physics.planar.columns``, or
+        ``spine_gym.physics.spatial.columns`` for a spatial spine)."""
+        return self.arrays["states"]
+
+    @property
+    def kp(self) -> np.ndarray:
+        """The episode's kernel constants (``ModelParams.to_kernel``)."""
+        return self.arrays["kps"]
+
+    @property
+    def step_index(self) -> int:
+        """Control steps taken in the episode."""
+        return int(self.arrays["k"])
+
+    def with_rng(self, rng_state: dict | None, **extra) -> SpineSnapshot:
+        """A copy carrying the env's generator state and flags."""
+        return dataclasses.replace(self, rng_state=rng_state, extra={**self.extra, **extra})
 
 
 class TableBatch:
     """B spines with their episode data (see the module docstring).
 
     Args:
-        cfg: validated configuration (a :class:`~.core.BaseEnvConfig` subclass with ``table()``,
+        cfg: validated configuration (a :class:`~.config.BaseEnvConfig` subclass with ``table()``,
             ``n_wires``, ``n_seg``, ``force_dim``, ``volt_coef``, ``energy_reference``).
         num_envs: B.
         parallel: step with the ``prange`` kernel (else its serial twin).
+        action_shape: the shape of the actions the env takes, (B, W) by default (a single env's
+            is (W,)); :meth:`check_actions` names it in its errors.
     """
 
     PLANT_ARRAYS: tuple[str, ...] = ()
-    PLANT: tuple[str, ...] = ()  # the plant tuple of its step kernel (_step_kernels.*_PLANT)
+    PLANT: tuple[str, ...] = ()  # the plant tuple of its step kernel (step_kernels.*_PLANT)
     RECORD_SIZE: int = 0
 
-    def __init__(self, cfg: BaseEnvConfig, num_envs: int, parallel: bool):
+    def __init__(
+        self, cfg: BaseEnvConfig, num_envs: int, parallel: bool, action_shape: tuple[int, ...] | None = None
+    ):
         self.cfg = cfg
         self.num_envs = b = int(num_envs)
+        self.action_shape = (b, cfg.n_wires) if action_shape is None else tuple(action_shape)
         self.parallel = bool(parallel)
         self.table: Table = cfg.table()
         self.obs_names = self.table.obs_names
@@ -79,7 +132,7 @@ class TableBatch:
         self.backup = np.zeros_like(self.states)
         self.loads = np.zeros((b, n, f))
         self.meas = np.zeros((b, self.record_size()))
-        self.probe_cols = bk.probe_cols(nw, cfg.n_modules)
+        self.probe_cols = ro.probe_cols(nw, cfg.n_modules)
         self.probe = np.zeros((b, self.probe_cols[-1]))
         self.status = np.zeros(b, dtype=np.int64)
         n_grid = cfg.n_steps + 1 + cfg.preview_steps
@@ -91,26 +144,54 @@ class TableBatch:
         self.ohm = np.zeros((b, nw))
         self.wvol = np.zeros((b, nw))
         self.last_row = np.zeros((b, self.table.width))
-        self.mem = bk.Memory(
+        self.mem = ro.Memory(
             k=np.zeros(b, dtype=np.int64),
             joule=np.zeros((b, nw)),
             hist=np.zeros((b, cfg.sensor_delay + 1, self.table.n_channels)),
             prev_task=np.zeros((b, d)),
             prev_action=np.full((b, nw), -1.0),
         )
-        maps = self.table.spec_arrays({pb: int(self.probe_cols[pb]) for pb in range(bk.N_PB)})
+        self.spec = self._spec_of(cfg)
+        self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
+        self.reward_col = self.table.cols["reward"].start
+        self.row_ids = np.arange(b)
+        # the step's buffers, written in place at the rows stepped (no per-step allocation)
+        self.obs = np.zeros((b, self.table.obs_dim), dtype=np.float32)  # last observation
+        self.terminated = np.zeros(b, dtype=np.bool_)
+        self.truncated = np.zeros(b, dtype=np.bool_)
+        self.clipped = np.zeros((b, nw))  # clipped actions of the step
+        self.resolve = np.zeros(b, dtype=np.bool_)
+        self.noise = np.zeros((b, self.table.n_channels))  # stays 0 without sensor noise
+        self._coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (nw,)).copy()
+        self._fresh_actions = np.full((b, nw), -1.0)
+        self._out = tuple(
+            ro.Out(obs=self.obs, row=self.last_row, terminated=self.terminated, truncated=self.truncated)
+        )
+        self._spec = tuple(self.spec)
+        self._mem = tuple(self.mem)
+        inputs = (self.probe, self.status)
+        tail = (self.volts, self.loads, self.targets, self.noise)
+        self._step_in = (*inputs, self.clipped, *tail)  # ro.Step of a step
+        self._reset_in = (*inputs, self._fresh_actions, *tail)  # ro.Step of a reset
+        self._drive = (self._coef, self.forces, self.resolve_plan, self.resolve)
+        self._plant = tuple(getattr(cfg, k) if k in _CFG_PLANT else getattr(self, k) for k in self.PLANT)
+
+    def _spec_of(self, cfg: BaseEnvConfig) -> ro.Spec:
+        """The readout's maps and settings (:data:`.readout.Spec`) from the table and ``cfg``; sets
+        :attr:`noise_sigma` and :attr:`noisy`."""
+        maps = self.table.spec_arrays({pb: int(self.probe_cols[pb]) for pb in range(ro.N_PB)})
         self.noise_sigma = maps["sigma"]
         self.noisy = bool(self.noise_sigma.any())
-        settings = np.zeros(bk.N_SETTINGS)
-        settings[bk.S_PERIOD] = cfg.control_period
-        settings[bk.S_ERROR_SCALE] = cfg.error_scale
-        settings[bk.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
-        settings[bk.S_COST_WEIGHT] = cfg.cost_weight
-        settings[bk.S_T_LIMIT] = cfg.temperature_limit
-        counts = np.zeros(bk.N_COUNTS, dtype=np.int64)
-        counts[bk.C_PREVIEW] = cfg.preview_steps
-        counts[bk.C_MAX_STEPS] = cfg.n_steps
-        self.spec = bk.Spec(
+        settings = np.zeros(ro.N_SETTINGS)
+        settings[ro.S_PERIOD] = cfg.control_period
+        settings[ro.S_ERROR_SCALE] = cfg.error_scale
+        settings[ro.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
+        settings[ro.S_COST_WEIGHT] = cfg.cost_weight
+        settings[ro.S_T_LIMIT] = cfg.temperature_limit
+        counts = np.zeros(ro.N_COUNTS, dtype=np.int64)
+        counts[ro.C_PREVIEW] = cfg.preview_steps
+        counts[ro.C_MAX_STEPS] = cfg.n_steps
+        return ro.Spec(
             qcol=maps["qcol"],
             probe_cols=self.probe_cols,
             chan_src=maps["chan_src"],
@@ -122,29 +203,6 @@ class TableBatch:
             settings=settings,
             counts=counts,
         )
-        self.episodes: list[tuple[Any, LoadSchedule, ModelParams] | None] = [None] * b
-        self.reward_col = self.table.cols["reward"].start
-        self.row_ids = np.arange(b)
-        # the step's buffers, written in place at the rows stepped (no per-step allocation)
-        self.obs = np.zeros((b, self.table.obs_dim), dtype=np.float32)  # last observation
-        self.terminated = np.zeros(b, dtype=np.bool_)
-        self.truncated = np.zeros(b, dtype=np.bool_)
-        self.act = np.zeros((b, nw))  # clipped actions of the step
-        self.resolve = np.zeros(b, dtype=np.bool_)
-        self.noise = np.zeros((b, self.table.n_channels))  # stays 0 without sensor noise
-        self._coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (nw,)).copy()
-        self._fresh_actions = np.full((b, nw), -1.0)
-        self._out = tuple(
-            bk.Out(obs=self.obs, row=self.last_row, terminated=self.terminated, truncated=self.truncated)
-        )
-        self._spec = tuple(self.spec)
-        self._mem = tuple(self.mem)
-        inputs = (self.probe, self.status)
-        tail = (self.volts, self.loads, self.targets, self.noise)
-        self._step_in = (*inputs, self.act, *tail)  # bk.Step of a step
-        self._reset_in = (*inputs, self._fresh_actions, *tail)  # bk.Step of a reset
-        self._drive = (self._coef, self.forces, self.resolve_plan, self.resolve)
-        self._plant = tuple(getattr(cfg, k) if k in _CFG_PLANT else getattr(self, k) for k in self.PLANT)
 
     # ------------------------------------------------------------------ plant hooks
     def _alloc_plant(self, b: int) -> None:
@@ -173,7 +231,7 @@ class TableBatch:
         raise NotImplementedError
 
     def _step_kernel(self):
-        """The plant's step kernel of :mod:`._step_kernels` (looked up per call: the benchmarks
+        """The plant's step kernel of :mod:`.step_kernels` (looked up per call: the benchmarks
         wrap the module attribute), parallel or serial as ``self.parallel``."""
         raise NotImplementedError
 
@@ -187,18 +245,18 @@ class TableBatch:
     @property
     def max_steps(self) -> int:
         """Truncation step count (the vector env may lower it to ``max_episode_steps``)."""
-        return int(self.spec.counts[bk.C_MAX_STEPS])
+        return int(self.spec.counts[ro.C_MAX_STEPS])
 
     @max_steps.setter
     def max_steps(self, value: int) -> None:
-        self.spec.counts[bk.C_MAX_STEPS] = int(value)
+        self.spec.counts[ro.C_MAX_STEPS] = int(value)
 
     @property
     def snapshot_arrays(self) -> tuple[str, ...]:
         return (*COMMON_ARRAYS, *self.PLANT_ARRAYS)
 
     def _array(self, name: str) -> np.ndarray:
-        return getattr(self.mem, name) if name in bk.Memory._fields else getattr(self, name)
+        return getattr(self.mem, name) if name in ro.Memory._fields else getattr(self, name)
 
     # ------------------------------------------------------------------ reset
     def _draw_params(self, rng: np.random.Generator, opts: dict) -> tuple[ModelParams, np.ndarray | None]:
@@ -262,7 +320,7 @@ class TableBatch:
         self._probe(rows)
         if self.noisy:
             self.noise[i] = rng.normal(size=self.table.n_channels) * self.noise_sigma
-        bk.finish(rows, self._reset_in, self._mem, self._spec, self._out, True)
+        ro.finish(rows, self._reset_in, self._mem, self._spec, self._out, True)
         return self.obs[i].copy()
 
     def parse_options(self, options) -> dict[str, Any]:
@@ -287,19 +345,29 @@ class TableBatch:
         return info
 
     # ------------------------------------------------------------------ step
+    def check_actions(self, actions) -> np.ndarray:
+        """``actions`` (of :attr:`action_shape`) as a (B, W) float32 or float64 array, a view if it is
+        one already; ValueError (:func:`.config.validate_actions`) on a wrong shape or a non-number
+        (not finite actions are left to :meth:`advance`)."""
+        if not (
+            isinstance(actions, np.ndarray) and actions.dtype in _FLOATS and actions.shape == self.action_shape
+        ):
+            actions = validate_actions(actions, self.action_shape)
+        return actions.reshape(self.num_envs, -1)
+
     def advance(
-        self, actions: np.ndarray, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
+        self, actions, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
     ) -> np.ndarray:
         """Advance the environments ``rows`` (default all) by one control period, in place.
 
         Writes the buffers :attr:`obs`, :attr:`last_row` (the step rows: reward, info), :attr:`status`,
         :attr:`terminated` and :attr:`truncated` at ``rows`` and leaves the other rows as they are:
-        one jitted call (inputs, physics, probe, bookkeeping: :mod:`._step_kernels`) and no NumPy
+        one jitted call (inputs, physics, probe, readout: :mod:`.step_kernels`) and no NumPy
         temporaries (with sensor noise, the noise is drawn first, per environment).
 
         Args:
-            actions: (B, W) float32 or float64; clipped to [-1, 1] (ValueError if not finite; the
-                caller checks the shape).
+            actions: (B, W) float32 or float64 from :meth:`check_actions`; clipped to [-1, 1]
+                (ValueError if not finite).
             rngs: per-environment generators (only used for sensor noise).
             rows: (n,) int64 environments to step, ascending (default all).
 
@@ -310,7 +378,7 @@ class TableBatch:
             rows = self.row_ids
         if self.noisy:  # drawn per environment from its own generator, only for a valid step
             if not np.isfinite(actions).all():
-                validate_actions(actions, actions.shape)  # raises the documented ValueError
+                self._refuse(actions)
             c = self.table.n_channels
             for i in rows:
                 self.noise[i] = rngs[i].normal(size=c) * self.noise_sigma
@@ -318,8 +386,12 @@ class TableBatch:
         if not kernel(
             rows, actions, self._drive, self._plant, self._step_in, self._mem, self._spec, self._out
         ):
-            validate_actions(actions, actions.shape)  # raises the documented ValueError
+            self._refuse(actions)
         return rows
+
+    def _refuse(self, actions: np.ndarray) -> None:
+        """Raise the documented ValueError of actions that are not finite, in the env's shape."""
+        validate_actions(actions.reshape(self.action_shape), self.action_shape)
 
     def step(
         self, actions: np.ndarray, rngs: Sequence[np.random.Generator], active: np.ndarray | None = None

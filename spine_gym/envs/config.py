@@ -1,12 +1,12 @@
-"""Configuration and conventions shared by every env of spine_gym, and ``SmaSpine-v0``'s table.
+"""The configuration every env of spine_gym shares, and its validation.
 
 :class:`BaseEnvConfig` holds and validates the arguments all envs share (voltages, periods, loads,
-domain randomisation, sensors, reward weights); :class:`EnvConfig` adds ``SmaSpine-v0``'s task
-and its declarative observation/info table (:meth:`EnvConfig.table`, see :mod:`.table`); the
-spatial envs' configurations are in :mod:`.spatial`. :class:`SpineSnapshot` is the full state of
-one env (``snapshot()`` / ``restore()``). The batch that runs every env is
-:class:`.table_batch.TableBatch` (planar plant: :class:`.planar.PlanarBatch`). The physics
-(MODEL.md, SPATIAL.md) lives only in ``spine_gym.physics``.
+domain randomisation, sensors, reward weights) and checks that every reset it can draw solves its
+initial state; the per-geometry configurations add their task and their declarative
+observation/info table (:class:`.planar.EnvConfig`, :mod:`.spatial`). The validators here
+(:func:`validate_actions` and the argument checks) raise one-line ``ValueError`` s naming the
+argument, its allowed range and the value received. The physics (MODEL.md, SPATIAL.md) lives
+only in ``spine_gym.physics``.
 """
 
 from __future__ import annotations
@@ -24,25 +24,17 @@ import numpy as np
 from ..layout import wire_key
 from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from ..physics import columns as L
-from ..physics.planar import columns as PL
-from ..physics.planar.solver import init_state
 from ..uncertainty import ParameterUncertainty, apply_offsets
-from .table import Entry, Table
-from .task import ANGLE_LIMIT, TARGET_KINDS, LoadSchedule, TargetProfile
+from .loads import LoadSchedule
+from .table import Entry
 
 __all__ = [
     "BaseEnvConfig",
-    "EnvConfig",
-    "planar_obs_index",
-    "OBS_NAMES",
-    "OBS_UNITS",
+    "config_fields",
     "default_randomization",
     "validate_actions",
     "RESET_OPTION_KEYS",
-    "SpineSnapshot",
     "EPISODE_ATTRS",
-    "status_text",
-    "status_texts",
 ]
 
 ANGLE_OBS_LIMIT = 180.0  # [deg] bound of the angle entry
@@ -234,6 +226,17 @@ class BaseEnvConfig:
     def _check_task(self) -> None:
         """Validate the task's own fields (subclasses)."""
 
+    def _check_kinds(self, kinds: tuple[str, ...], period_name: str) -> None:
+        """Validate ``target_kinds`` (one of ``kinds`` or a non-empty subset of them, held as a tuple)
+        and the (low, high) period range ``period_name`` of periodic targets (>= 2 control periods)."""
+        s = object.__setattr__
+        given = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
+        if not given or any(k not in kinds for k in given):
+            raise ValueError(f"target_kinds must be a non-empty subset of {kinds}, got {self.target_kinds!r}")
+        s(self, "target_kinds", given)
+        periods = _pair(period_name, getattr(self, period_name), 2.0 * self.control_period, 1e6)
+        s(self, period_name, periods)
+
     # ------------------------------------------------------------------ resets that can be held
     def initial_status(self, params: ModelParams, payload: float) -> int:
         """Status (``layout.OK`` or an error code) of the initial state (MODEL.md §3.10) of an
@@ -386,6 +389,59 @@ class BaseEnvConfig:
             )
         return tuple(_real(f"sensor_noise[{k!r}]", value.get(k, 0.0), 0.0, 1e3) for k in keys)
 
+    def extreme_params(self) -> list[ModelParams]:
+        """The nominal parameters and the extremes of the randomised ones (each field at its low
+        and its high end, or a fit's extremes): what the bounds of the resistance entries cover."""
+        cands = [self.params]
+        if isinstance(self.domain_randomization, ParameterUncertainty):
+            cands += self.domain_randomization.extremes(self.params)
+        else:
+            for name, lo, hi in self.domain_randomization:
+                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
+        return cands
+
+    def wire_entries(self, names: tuple[str, ...], resistance_doc: str) -> tuple[Entry, Entry, Entry]:
+        """The (temperature, previous action, resistance) entries, one component per wire (group)
+        ``names``; the resistance entry's documentation is ``resistance_doc``."""
+        return (
+            Entry(
+                "temperature",
+                "temperature",
+                "K",
+                "wire temperature",
+                tuple(f"temperature_{n}" for n in names),
+                (0.0, TEMP_OBS_HIGH),
+                noise="temperature",
+            ),
+            Entry(
+                "previous_action",
+                "action",
+                "-",
+                "previous action (after clipping)",
+                tuple(f"previous_action_{n}" for n in names),
+                (-1.0, 1.0),
+                info=False,
+            ),
+            Entry(
+                "resistance",
+                "resistance",
+                "Ohm",
+                resistance_doc,
+                tuple(f"resistance_{n}" for n in names),
+                (0.0, self.resistance_bound()),
+                noise="resistance",
+            ),
+        )
+
+    @staticmethod
+    def reward_entries() -> tuple[Entry, Entry, Entry]:
+        """The reward (returned by ``step``, not in the info) and its two terms (in the info)."""
+        return (
+            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
+            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
+            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
+        )
+
     def error_entries(self, unit: str, names: tuple[str, ...], bound: float) -> tuple[Entry, ...]:
         """The observed tracking errors (``observe_errors``): target − measured tracked entry and
         target preview − measured tracked entry, components ``names``, bounds ±``bound``; () if off.
@@ -431,236 +487,6 @@ class BaseEnvConfig:
         return int(round(self.target_preview / self.control_period))
 
 
-@dataclass(frozen=True)
-class EnvConfig(BaseEnvConfig):
-    """Validated arguments of ``SmaSpine-v0`` (see :class:`spine_gym.envs.SmaSpineEnv` for meanings)."""
-
-    target_range: tuple[float, float] = (-45.0, 45.0)
-    target_kinds: tuple[str, ...] = TARGET_KINDS
-    sine_period_range: tuple[float, float] = (20.0, 60.0)
-
-    def _check_task(self) -> None:
-        s = object.__setattr__
-        s(self, "target_range", _pair("target_range", self.target_range, -TARGET_REACH, TARGET_REACH))
-        kinds = (self.target_kinds,) if isinstance(self.target_kinds, str) else tuple(self.target_kinds)
-        if not kinds or any(k not in TARGET_KINDS for k in kinds):
-            raise ValueError(
-                f"target_kinds must be a non-empty subset of {TARGET_KINDS}, got {self.target_kinds!r}"
-            )
-        s(self, "target_kinds", kinds)
-        s(
-            self,
-            "sine_period_range",
-            _pair("sine_period_range", self.sine_period_range, 2.0 * self.control_period, 1e6),
-        )
-
-    @property
-    def energy_reference(self) -> float:
-        """Largest electrical energy of one control period [J]: both sides at v_max, nominal
-        martensite/austenite resistivity, whichever is lower (the normaliser of the energy term)."""
-        p = self.params
-        r_min = min(p.lam_A, p.lam_M) * p.L0 / p.wire_area  # [Ω] one wire
-        return 2.0 * p.n_w * self.v_max**2 / r_min * self.control_period
-
-    def initial_status(self, params: ModelParams, payload: float) -> int:
-        state = np.zeros(PL.state_size(params.n_seg))
-        return init_state(
-            state, params.to_kernel(), self.solver.to_kernel(), self.initial_loads(params, payload)
-        )
-
-    def resistance_bound(self) -> float:
-        """Upper bound of the resistance entries [Ω]: 2x the largest one-wire resistance over the
-        nominal and randomised parameters (values above it are clipped)."""
-        cands = [self.params]
-        if isinstance(self.domain_randomization, ParameterUncertainty):
-            cands += self.domain_randomization.extremes(self.params)
-        else:
-            for name, lo, hi in self.domain_randomization:
-                cands += [self.params.replace(**{name: lo}), self.params.replace(**{name: hi})]
-        r = max(max(p.lam_A, p.lam_M) * p.L0 / p.wire_area for p in cands)
-        return float(2.0 * r + 10.0 * self.sensor_noise[2])
-
-    # ------------------------------------------------------------------ the plant and the table
-    n_wires = 2  # right, left
-    n_modules = 1
-    force_dim = 2  # global (x, y)
-
-    @property
-    def n_seg(self) -> int:
-        return self.params.n_seg
-
-    @property
-    def volt_coef(self) -> float:
-        """Volts per unit of (action + 1)."""
-        return 0.5 * self.v_max
-
-    def table(self) -> Table:
-        """The declarative observation/info table of ``SmaSpine-v0`` (one place per entry)."""
-        lim = (-ANGLE_LIMIT, ANGLE_LIMIT)
-        rl = ("right", "left")
-        entries = (
-            Entry(
-                "voltage", "voltage", "V", "applied voltage [right, left]", ("voltage_right", "voltage_left")
-            ),
-            Entry(
-                "angle_deg",
-                "angle",
-                "deg",
-                "bending angle θ (sum of segment angles)",
-                ("angle",),
-                (-ANGLE_OBS_LIMIT, ANGLE_OBS_LIMIT),
-                noise="angle",
-            ),
-            Entry("target_deg", "target", "deg", "current target θ*(t)", ("target",), lim),
-            Entry("tracking_error_deg", "error", "deg", "target − angle", ("tracking_error",)),
-            Entry("energy_J", "energy", "J", "electrical energy of the step (both sides)", ("energy",)),
-            Entry("power_W", "power", "W", "mean electrical power per side", ("power_right", "power_left")),
-            Entry("cost", "cost", "K", "Σ over both wires of max(0, T − temperature_limit)", ("cost",)),
-            Entry(
-                "temperature",
-                "temperature",
-                "K",
-                "wire temperature",
-                tuple(f"temperature_{w}" for w in rl),
-                (0.0, TEMP_OBS_HIGH),
-                noise="temperature",
-            ),
-            Entry(
-                "angle_rate",
-                "rate",
-                "deg/s",
-                "angle rate (difference of measured angles)",
-                ("angle_rate",),
-                (-RATE_OBS_LIMIT, RATE_OBS_LIMIT),
-                info=False,
-            ),
-            Entry(
-                "target_preview",
-                "preview",
-                "deg",
-                "target preview θ*(t + target_preview)",
-                ("target_preview",),
-                lim,
-                info=False,
-            ),
-            Entry(
-                "previous_action",
-                "action",
-                "-",
-                "previous action (after clipping)",
-                tuple(f"previous_action_{w}" for w in rl),
-                (-1.0, 1.0),
-                info=False,
-            ),
-            Entry(
-                "resistance",
-                "resistance",
-                "Ohm",
-                "wire resistance (one wire)",
-                tuple(f"resistance_{w}" for w in rl),
-                (0.0, self.resistance_bound()),
-                noise="resistance",
-            ),
-            Entry("time", "time", "s", "time at the end of the step", ("time",)),
-            Entry(
-                "tip_force",
-                "force",
-                "N",
-                "force on the top disk (events + payload weight), global x/y",
-                ("fx", "fy"),
-            ),
-            Entry("reward", "reward", "-", "reward of the step", ("reward",), info=False),
-            Entry("reward_tracking", "reward_tracking", "-", "−‖e‖ / error_scale", ("reward_tracking",)),
-            Entry("reward_energy", "reward_energy", "-", "−energy_weight · E / E_ref", ("reward_energy",)),
-            *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
-        )
-        return Table(entries, "angle_deg", self.noise_sigma)
-
-
-# ---------------------------------------------------------------- snapshots
-@dataclass(frozen=True, eq=False)
-class SpineSnapshot:
-    """The full state of one environment: model state, episode data, bookkeeping and RNG.
-
-    Made by ``snapshot()`` of :class:`~.table_batch.TableBatch`, :class:`~spine_gym.envs.SmaSpineEnv` or
-    :class:`~spine_gym.envs.SmaSpineVectorEnv`; ``restore(snapshot)`` puts it back, after which the
-    env continues bit for bit as it would have from the moment of the snapshot (tested). The arrays
-    are private copies (read-only); a snapshot can be restored any number of times and into any
-    env of the same configuration.
-
-    Attributes:
-        arrays: name -> copy of the environment's row of each array of ``TableBatch.snapshot_arrays``.
-        episode: the episode's (TargetProfile, LoadSchedule, ModelParams).
-        rng_state: ``bit_generator.state`` of the env's generator (sensor noise and later resets),
-            or None if the batch alone was snapshotted.
-        extra: env-level flags (e.g. whether the episode has ended).
-    """
-
-    arrays: Mapping[str, np.ndarray]
-    episode: tuple[TargetProfile, LoadSchedule, ModelParams]
-    rng_state: dict | None = None
-    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)
-
-    @property
-    def state(self) -> np.ndarray:
-        """The model state vector (``spine_gym.physics.planar.columns``, or
-        ``spine_gym.physics.spatial.columns`` for a spatial spine)."""
-        return self.arrays["states"]
-
-    @property
-    def kp(self) -> np.ndarray:
-        """The episode's kernel constants (``ModelParams.to_kernel``)."""
-        return self.arrays["kps"]
-
-    @property
-    def step_index(self) -> int:
-        """Control steps taken in the episode."""
-        return int(self.arrays["k"])
-
-    def with_rng(self, rng_state: dict | None, **extra) -> SpineSnapshot:
-        """A copy carrying the env's generator state and flags."""
-        return dataclasses.replace(self, rng_state=rng_state, extra={**self.extra, **extra})
-
-
-def make_renderer(cfg: BaseEnvConfig):
-    """The ``rgb_array`` renderer of an env (imported on the first ``render()``: ``import spine_gym``
-    stays free of matplotlib)."""
-    from . import render  # noqa: PLC0415  (matplotlib only when rendering)
-
-    return render.make_renderer(cfg)
-
-
-def status_text(code: int) -> str:
-    """``info["status_text"]`` of a step with status ``code`` (from ``layout.STATUS_TEXT``)."""
-    return L.STATUS_TEXT.get(int(code), str(int(code)))
-
-
-def status_texts(status: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``info["status_text"]`` of failed steps: (positions j with ``status[j] != OK``, their
-    :func:`status_text` as an object array)."""
-    if not status.any():  # L.OK == 0: the common case, no failure
-        return _NO_ROWS, _NO_TEXTS
-    failed = np.flatnonzero(status != L.OK)
-    return failed, np.array([status_text(c) for c in status[failed]], dtype=object)
-
-
-_NO_ROWS = np.zeros(0, dtype=np.int64)
-_NO_TEXTS = np.zeros(0, dtype=object)
-
-
-def config_fields(cls: type = EnvConfig) -> list[str]:
-    """Names of the env's keyword arguments held in its configuration class (default ``SmaSpine-v0``'s)."""
+def config_fields(cls: type) -> list[str]:
+    """Names of the env's keyword arguments held in its configuration class ``cls``."""
     return [f.name for f in dataclasses.fields(cls)]
-
-
-# the planar observation layout, from its table (units and names of the default configuration)
-_PLANAR_TABLE = EnvConfig().table()
-OBS_NAMES = _PLANAR_TABLE.obs_names
-OBS_UNITS = tuple(e.unit for e in _PLANAR_TABLE.entries if e.obs is not None for _ in e.names)
-
-
-def planar_obs_index(key: str) -> int:
-    """Observation index of the first component of ``SmaSpine-v0``'s table entry ``key`` (e.g.
-    ``"angle_deg"``, ``"target_deg"``, ``"target_preview"``, ``"temperature"``, ``"previous_action"``,
-    ``"resistance"``); controllers derive their indices from it."""
-    return _PLANAR_TABLE.obs_index(key).start

@@ -1,25 +1,25 @@
 """One env step in one jitted call: inputs, physics, readings and bookkeeping.
 
-A step of every env id is four jitted pieces — :func:`._bookkeeping.begin_step` (clipped actions,
+A step of every env id is four jitted pieces — :func:`begin_step` (clipped actions,
 voltages, loads, resolve flags), the plant's per-spine control period
 (:func:`spine_gym.physics.env_kernels.step_spine` or its spatial twin), the plant's probe
-(:func:`._bookkeeping.planar_probe`, :func:`._bookkeeping.spatial_probe`) and the table-driven
-writer (:func:`._bookkeeping.finish_rows`) — and this module runs them in one call from Python, so
+(:func:`.readout.planar_probe`, :func:`.readout.spatial_probe`) and the table-driven
+writer (:func:`.readout.finish_rows`) — and this module runs them in one call from Python, so
 a vector step pays numba's dispatch and argument unboxing once, not four times. Nothing is
 computed here that the pieces do not compute: the rows are bit for bit those of the separate
 calls (``scripts/rollout_digest.py`` gives the same digests).
 
 The argument groups are plain tuples built once per batch (numba types a plain tuple of arrays on
-its fast C path; :class:`.table_batch.TableBatch` holds them):
+its fast C path; :class:`.batch.TableBatch` holds them):
 
-* ``drive``: ``(coef, forces, plan, resolve)``, as :func:`._bookkeeping.begin_step` takes them;
+* ``drive``: ``(coef, forces, plan, resolve)``, as :func:`begin_step` takes them;
 * ``plant``: the plant's arrays, :data:`PLANAR_PLANT` / :data:`SPATIAL_PLANT` order;
-* ``step``, ``mem``, ``spec``, ``out``: :data:`._bookkeeping.Step`, ``Memory``, ``Spec``, ``Out``.
+* ``step``, ``mem``, ``spec``, ``out``: :data:`.readout.Step`, ``Memory``, ``Spec``, ``Out``.
 
 Each kernel is one body compiled twice, so that the serial and the parallel loop cannot differ
 (tests/test_vector_env.py compares them bit for bit): ``*_serial`` loops over the spines serially,
 the other runs that loop with ``prange`` on all numba threads. A spine's probe and bookkeeping
-(:func:`._bookkeeping.planar_probe_row`, :func:`._bookkeeping.finish_row`) run inside the loop, right
+(:func:`.readout.planar_probe_row`, :func:`.readout.finish_row`) run inside the loop, right
 after its physics, on its own row of scratch: rows are independent, and run after the loop they
 were a serial tail that capped the 1 → 2 thread scaling at large N (~1 µs per spine). The
 parallel loop deals the rows out one at a time (:mod:`spine_gym.physics._deal`): spines differ in
@@ -31,15 +31,18 @@ documented ValueError).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from ..physics._deal import counter, take
 from ..physics._jit import jit, pjit
 from ..physics.env_kernels import step_spine, step_spine_spatial
-from . import _bookkeeping as bk
+from . import readout as ro
 
 __all__ = [
+    "begin_step",
     "PLANAR_PLANT",
     "SPATIAL_PLANT",
     "planar_step",
@@ -55,6 +58,39 @@ SPATIAL_PLANT = (
 )  # fmt: skip
 
 
+@jit
+def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, resolve):
+    """Inputs of one step: clip the actions, set the voltages and the loads of step k.
+
+    Every row gets its clipped action ``clipped`` (B, W) (float64, from float32 or float64
+    ``actions``) and its wire voltages ``volts = (clipped + 1) coef``; each environment of
+    ``rows`` gets the vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at
+    the last step after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
+    ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
+    then; the caller raises).
+    """
+    b, w = clipped.shape
+    for i in range(b):
+        for q in range(w):
+            if not math.isfinite(actions[i, q]):
+                return False
+    n_steps = forces.shape[1]
+    for i in range(b):
+        resolve[i] = False
+        for q in range(w):
+            clip = min(max(np.float64(actions[i, q]), -1.0), 1.0)
+            clipped[i, q] = clip
+            volts[i, q] = (clip + 1.0) * coef[q]
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        k0 = k[i]
+        kk = min(k0, n_steps - 1)
+        for q in range(loads.shape[2]):
+            loads[i, 0, q] = forces[i, kk, q]
+        resolve[i] = plan[i, kk] and k0 < n_steps
+    return True
+
+
 def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     """One control period of the planar spines ``rows`` (int64, ascending); see the module docstring.
 
@@ -66,13 +102,13 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     Returns:
         False if an action is not finite (nothing changed), else True.
     """
-    st, m, sp = bk.Step(*step), bk.Memory(*mem), bk.Spec(*spec)
+    st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
     states, backup, kps, ks, ohm, wvol, meas, dt, n_sub = plant
-    if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+    if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
-    scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
+    scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each
     todo = counter()
     for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
         j = take(todo, rows.shape[0])
@@ -91,21 +127,25 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
                 n_sub,
                 meas[i],
             )
-            bk.planar_probe_row(i, meas, ohm, wvol, probe_cols, probe)
-            bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+            ro.planar_probe_row(i, meas, ohm, wvol, probe_cols, probe)
+            ro.finish_row(i, step, mem, spec, out, False, scratch[j])
             j = take(todo, rows.shape[0])
     return True
 
 
 def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
-    """:func:`_planar_step` for spatial or chained spines (``actions`` (B, W))."""
-    st, m, sp = bk.Step(*step), bk.Memory(*mem), bk.Spec(*spec)
+    """:func:`_planar_step` for spatial or chained spines (``actions`` (B, W)).
+
+    A body of its own rather than one shared with :func:`_planar_step`: the plant tuples, the
+    physics call and the probe differ in their numba types, and a body that took them as arguments
+    would change what the parallel loop compiles to."""
+    st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
     states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
-    if not bk.begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
+    if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
-    scratch = np.empty((rows.shape[0], bk.row_scratch_size(sp, bk.Out(*out).row.shape[1])))  # a row each
+    scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each
     todo = counter()
     for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
         j = take(todo, rows.shape[0])
@@ -125,8 +165,8 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
                 n_sub,
                 meas[i],
             )
-            bk.spatial_probe_row(i, meas, record_cols, ohm, wvol, probe_cols, probe)
-            bk.finish_row(i, step, mem, spec, out, False, scratch[j])
+            ro.spatial_probe_row(i, meas, record_cols, ohm, wvol, probe_cols, probe)
+            ro.finish_row(i, step, mem, spec, out, False, scratch[j])
             j = take(todo, rows.shape[0])
     return True
 

@@ -2,28 +2,30 @@
 
 The class docstring of :class:`SmaSpineEnv` is the documentation page. The physics is the jitted
 model of ``spine_gym.physics`` (MODEL.md); this module maps actions to wire voltages, runs one
-control period of the model per step through :class:`spine_gym.envs.table_batch.TableBatch` (the code the
+control period of the model per step through :class:`spine_gym.envs.batch.TableBatch` (the code the
 vector env runs too) and returns observations, rewards and infos.
 """
 
 from __future__ import annotations
 
-import os
+import inspect
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..params import ModelParams, SolverOptions
-from .core import EnvConfig, SpineSnapshot, make_renderer, validate_actions
-from .planar import PlanarBatch
-from .task import TARGET_KINDS
+from ..params import ModelParams
+from .batch import SpineSnapshot
+from .env_facts import EnvFacts, make_config, settings_signature
+from .planar import EnvConfig, PlanarBatch
 
 __all__ = ["SmaSpineEnv"]
 
+_RENDER_MODE = inspect.Parameter("render_mode", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None)
 
-class SmaSpineEnv(gym.Env):
+
+class SmaSpineEnv(EnvFacts, gym.Env):
     """SMA-actuated robotic spine: bend it to a moving target angle by heating two wires.
 
     ## Description
@@ -69,7 +71,7 @@ class SmaSpineEnv(gym.Env):
     and carry Gaussian ``sensor_noise`` if enabled; the angle rate differentiates the measured
     angle. Target, preview and previous actions are exact. Time t is the end of the step just
     taken (``info["time"]``). The table is generated from the env's declarative table
-    (:meth:`spine_gym.envs.core.EnvConfig.table`); ``env.unwrapped.obs_index(key)`` gives the
+    (:meth:`spine_gym.envs.planar.EnvConfig.table`); ``env.unwrapped.obs_index(key)`` gives the
     indices of an entry. The first four entries (angle, target, right and left temperature) are
     the env contract.
 
@@ -100,9 +102,9 @@ class SmaSpineEnv(gym.Env):
     uniform onset, length in ``tip_force_duration`` s; a payload in ``payload_range`` kg), and, if
     enabled, randomised model parameters. ``reset(options=...)`` pins any of them:
 
-    * ``"target"``: a :class:`~spine_gym.envs.task.TargetProfile` (or a number: a constant target
+    * ``"target"``: a :class:`~spine_gym.envs.targets.TargetProfile` (or a number: a constant target
       in degrees; pinned targets may use ±90°);
-    * ``"loads"``: a :class:`~spine_gym.envs.task.LoadSchedule`;
+    * ``"loads"``: a :class:`~spine_gym.envs.loads.LoadSchedule`;
     * ``"params"``: a :class:`~spine_gym.ModelParams` (same ``n_seg``) instead of the randomised set.
 
     ## Episode end
@@ -201,116 +203,35 @@ class SmaSpineEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    CONFIG = EnvConfig  # the configuration class (its fields are the keyword arguments)
     BATCH = PlanarBatch  # the batch class behind the env
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        *,
-        v_max: float = 5.0,
-        control_period: float = 0.1,
-        physics_dt: float | None = None,
-        episode_duration: float = 60.0,
-        target_range: tuple[float, float] = (-45.0, 45.0),
-        target_kinds: tuple[str, ...] = TARGET_KINDS,
-        sine_period_range: tuple[float, float] = (20.0, 60.0),
-        target_preview: float = 1.0,
-        tip_force_range: tuple[float, float] | None = (0.0, 0.5),
-        tip_force_count: tuple[int, int] = (0, 2),
-        tip_force_duration: tuple[float, float] = (1.0, 10.0),
-        payload_range: tuple[float, float] | None = (0.0, 0.05),
-        domain_randomization: bool | dict | str | os.PathLike = False,
-        sensor_noise: dict | None = None,
-        sensor_delay: int = 0,
-        temperature_limit: float = 423.0,
-        error_scale: float = 10.0,
-        energy_weight: float = 0.5,
-        cost_weight: float = 0.0,
-        observe_errors: bool = False,
-        params: ModelParams | None = None,
-        solver: SolverOptions | None = None,
-    ):
-        config = EnvConfig(
-            v_max=v_max,
-            control_period=control_period,
-            physics_dt=physics_dt,
-            episode_duration=episode_duration,
-            target_range=target_range,
-            target_kinds=target_kinds,
-            sine_period_range=sine_period_range,
-            target_preview=target_preview,
-            tip_force_range=tip_force_range,
-            tip_force_count=tip_force_count,
-            tip_force_duration=tip_force_duration,
-            payload_range=payload_range,
-            domain_randomization=domain_randomization,
-            sensor_noise=sensor_noise,
-            sensor_delay=sensor_delay,
-            temperature_limit=temperature_limit,
-            error_scale=error_scale,
-            energy_weight=energy_weight,
-            cost_weight=cost_weight,
-            observe_errors=observe_errors,
-            params=params,
-            solver=solver,
-        )
-        self._setup(render_mode, config)
-
-    def _setup(self, render_mode: str | None, config) -> None:
-        """Spaces and the batch of one (every env id of spine_gym: ``BATCH`` is its batch class)."""
+    def __init__(self, render_mode: str | None = None, **settings):
+        """The keyword arguments (``settings``) are the fields of ``CONFIG`` (see "Arguments"); the
+        spaces and a batch of one of ``BATCH`` follow from them (every single env id of spine_gym)."""
+        self.config = config = make_config(self.CONFIG, type(self).__name__, settings)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
-        self.config = config
         self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": 1.0 / self.config.control_period}
-        self._core = self.BATCH(self.config, 1, parallel=False)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / config.control_period}
         self.action_space = spaces.Box(-1.0, 1.0, (config.n_wires,), np.float32)
+        self._core = self.BATCH(config, 1, parallel=False, action_shape=self.action_space.shape)
         self.observation_space = spaces.Box(self._core.obs_low, self._core.obs_high, dtype=np.float32)
         self._renderer = None
         self._needs_reset = True
         self._done = False
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.__signature__ = settings_signature(cls.CONFIG, _RENDER_MODE)
+
     # ------------------------------------------------------------------ read-only facts
-    @property
-    def v_max(self) -> float:
-        """Voltage of action +1 [V]."""
-        return self.config.v_max
-
-    @property
-    def control_period(self) -> float:
-        """Time per step [s]."""
-        return self.config.control_period
-
-    @property
-    def episode_duration(self) -> float:
-        """Episode length [s]."""
-        return self.config.episode_duration
-
     @property
     def max_steps(self) -> int:
         """Steps per episode (the env truncates after this many)."""
         return self.config.n_steps
-
-    @property
-    def temperature_limit(self) -> float:
-        """Threshold of ``info["cost"]`` [K]."""
-        return self.config.temperature_limit
-
-    @property
-    def observation_names(self) -> tuple[str, ...]:
-        """Names of the observation entries (units in the class docstring)."""
-        return self._core.obs_names
-
-    @property
-    def table(self):
-        """The env's declarative observation/info table (:class:`spine_gym.envs.table.Table`)."""
-        return self._core.table
-
-    def obs_index(self, key: str) -> slice:
-        """Observation indices of the table entry ``key`` (e.g. ``"temperature"``), a slice."""
-        return self._core.table.obs_index(key)
 
     @property
     def target_profile(self):
@@ -352,14 +273,14 @@ class SmaSpineEnv(gym.Env):
         """One control period; returns ``(obs, reward, terminated, truncated, info)``."""
         if self._needs_reset:
             raise RuntimeError("call reset() before step()")
-        a = validate_actions(action, self.action_space.shape)
+        core = self._core
+        actions = core.check_actions(action)
         if self._done:
             gym.logger.warn(
                 "step() called after the episode ended (terminated or truncated); call reset(). "
                 "The model keeps running with the last target and loads."
             )
-        core = self._core
-        core.advance(a[None, :], (self.np_random,))
+        core.advance(actions, (self.np_random,))
         term, trunc = bool(core.terminated[0]), bool(core.truncated[0])
         self._done = self._done or term or trunc
         return core.obs[0].copy(), float(core.last_row[0, core.reward_col]), term, trunc, self._info()
@@ -397,22 +318,14 @@ class SmaSpineEnv(gym.Env):
             return None
         if self._core.episodes[0] is None:
             raise RuntimeError("call reset() before render()")
-        if self._renderer is None:
-            self._renderer = make_renderer(self.config)
-        return self._renderer.draw(self._core.state_summary(0))
+        return self._frame(0)
 
     def close(self):
         """Release the figure of the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-    def __getstate__(self):
-        d = self.__dict__.copy()
-        d["_renderer"] = None  # matplotlib figures are not pickled
-        return d
+        self._close_renderer()
 
 
+SmaSpineEnv.__signature__ = settings_signature(EnvConfig, _RENDER_MODE)
 if SmaSpineEnv.__doc__ is not None:  # the observation table, from the env's table (python -OO strips docs)
     SmaSpineEnv.__doc__ = SmaSpineEnv.__doc__.replace(
         "{obs_table}", EnvConfig().table().markdown_observation().replace("\n", "\n    ")
