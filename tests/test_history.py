@@ -1,4 +1,4 @@
-"""spine_gym.agents.history: the frame-history observation against a NumPy reference, in training and after
+"""spine_gym.agents.observations: the frame-history observation against a NumPy reference, in training and after
 loading; spine_gym.agents.train's budget_scale."""
 
 from __future__ import annotations
@@ -11,8 +11,14 @@ import torch
 from test_agents import TINY, run_cli
 
 from spine_gym.agents.envs import make_vec_env
-from spine_gym.agents.history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec, history_features, history_step
-from spine_gym.agents.integral import IntegralObsPolicy
+from spine_gym.agents.observations import (
+    HistoryObsPolicy,
+    HistoryObsVecEnv,
+    HistorySpec,
+    IntegralObsPolicy,
+    history_features,
+    history_step,
+)
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
 from spine_gym.agents.train import energy_budget
 

@@ -1,4 +1,4 @@
-"""spine_gym.agents.integral: the integral-of-error observation against a NumPy reference, in training and after loading."""
+"""spine_gym.agents.observations: the integral-of-error observation against a NumPy reference, in training and after loading."""
 
 from __future__ import annotations
 
@@ -11,7 +11,13 @@ import torch
 from test_agents import TINY, run_cli
 
 from spine_gym.agents.envs import make_vec_env
-from spine_gym.agents.integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec, integral_step, parse_tau
+from spine_gym.agents.observations import (
+    IntegralObsPolicy,
+    IntegralObsVecEnv,
+    IntegralSpec,
+    integral_step,
+    parse_tau,
+)
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
 from spine_gym.agents.residual import ResidualPolicy
 from spine_gym.agents.runtime import load_policy, make_env, run_episode

@@ -139,9 +139,9 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("budget_episodes", 16)
     special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
     special.setdefault("budget_scale", 1.0)  # the budget is this fraction of energy_budget's joules
-    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.integral
+    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.observations
     special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
-    special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.history)
+    special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.observations)
     special.setdefault("noise_type", None)  # "normal" or "ornstein-uhlenbeck": TD3's action noise
     special.setdefault("noise_std", 0.1)  # its standard deviation, in units of the action range [-1, 1]
     if special["residual"] in (None, "none", "None", False):

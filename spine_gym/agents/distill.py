@@ -8,7 +8,7 @@ Example::
 DAgger (Ross et al. 2011) with the registry's privileged MPPI (true state, parameters, future
 targets and loads) as the expert and a student that sees only what a learned policy sees (the
 env's observation with a 3-s target preview, optionally the frame history of
-:mod:`spine_gym.agents.history` and the error integral of :mod:`spine_gym.agents.integral`, which let it infer the
+:mod:`spine_gym.agents.observations` and the error integral of :mod:`spine_gym.agents.observations`, which let it infer the
 unobserved loads from how the angle answered recent actions):
 
 1. iteration k rolls out ``episodes`` episodes of the env's own samplers (reset seeds
@@ -49,8 +49,14 @@ from tqdm import tqdm
 
 from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
-from .history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec
-from .integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec
+from .observations import (
+    HistoryObsPolicy,
+    HistoryObsVecEnv,
+    HistorySpec,
+    IntegralObsPolicy,
+    IntegralObsVecEnv,
+    IntegralSpec,
+)
 from .runtime import (
     ORACLE_NAMES,
     VALIDATION_SEED_BASE,

@@ -22,7 +22,7 @@ The exported action is SB3's ``predict(deterministic=True)`` for a Box action sp
 and TD3's actor, rescaled to the bounds. :mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
 alone; the formulas are in its docstring.
 
-Observation memories (:mod:`spine_gym.agents.integral`'s integral of the error, :mod:`spine_gym.agents.history`'s
+Observation memories (:mod:`spine_gym.agents.observations`: the integral of the error, the
 frame history) are exported: the network's input is the env's observation followed by their
 features, ``policy.json`` holds their specs, and :meth:`spine_gym.agents.numpy_policy.ExportedPolicy.step`
 and ``policy_step`` of the C code keep them. A residual policy on a PID (:mod:`spine_gym.agents.residual`)
@@ -58,8 +58,7 @@ from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
 
 from .common import ENV_ID
 from .export_c import write_c
-from .history import HistoryObsPolicy
-from .integral import IntegralObsPolicy
+from .observations import HistoryObsPolicy, IntegralObsPolicy
 from . import numpy_policy
 from .numpy_policy import BUNDLE_FORMAT
 from .residual import ResidualPolicy

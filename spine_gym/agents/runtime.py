@@ -7,8 +7,8 @@
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
   :class:`spine_gym.agents.residual.ResidualPolicy`, one trained with the integral-of-error observation
-  wrapped in :class:`spine_gym.agents.integral.IntegralObsPolicy`, one with the frame history in
-  :class:`spine_gym.agents.history.HistoryObsPolicy`), so the evaluation treats it like any controller.
+  wrapped in :class:`spine_gym.agents.observations.IntegralObsPolicy`, one with the frame history in
+  :class:`spine_gym.agents.observations.HistoryObsPolicy`), so the evaluation treats it like any controller.
 * :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`;
   :func:`validation_scores` — mean RMSE and energy over the validation episodes.
 
@@ -32,8 +32,7 @@ import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .common import ALGOS, ENV_ID, algo_class
-from .history import HistoryObsPolicy, HistorySpec
-from .integral import IntegralObsPolicy, IntegralSpec
+from .observations import HistoryObsPolicy, HistorySpec, IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory, episode_metrics
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy

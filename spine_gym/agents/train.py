@@ -62,10 +62,10 @@ since the previous dual step), ``budget_scale`` (default 1, in (0, 2]) multiplie
 with ``pid``: 7 % under the PID's energy); the budget goes into ``meta.json``.
 
 ``obs_integral: <τ [s] or inf>`` appends the (leaky) integral of the tracking error to the
-observation (:mod:`spine_gym.agents.integral`; ``obs_integral_limit`` its clip, default 300 deg s); its
+observation (:mod:`spine_gym.agents.observations`; ``obs_integral_limit`` its clip, default 300 deg s); its
 settings go into ``meta.json``, so :func:`spine_gym.agents.runtime.load_policy` rebuilds it for evaluation.
 ``obs_history: <k>`` appends the k earlier frames of the measured angle and the previous action
-(:mod:`spine_gym.agents.history`), after the integral; likewise stored and rebuilt.
+(:mod:`spine_gym.agents.observations`), after the integral; likewise stored and rebuilt.
 """
 
 from __future__ import annotations
@@ -121,8 +121,7 @@ from .common import (
     preprocess_hyperparams,
 )
 from .envs import make_vec_env
-from .history import HistoryObsVecEnv, HistorySpec
-from .integral import IntegralObsVecEnv, IntegralSpec
+from .observations import HistoryObsVecEnv, HistorySpec, IntegralObsVecEnv, IntegralSpec
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
@@ -414,7 +413,7 @@ def build_envs(
         if ev is not None:
             ev = ResidualVecEnv(ev, spec)
     if special["obs_integral"] is not None:
-        # the integral-of-error observation (spine_gym.agents.integral), above the residual's baseline
+        # the integral-of-error observation (spine_gym.agents.observations), above the residual's baseline
         probe = make_env(env_kwargs, env_id=env_id)
         ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
         probe.close()
@@ -423,7 +422,7 @@ def build_envs(
         if ev is not None:
             ev = IntegralObsVecEnv(ev, ispec)
     if special["obs_history"] is not None:
-        # the frame history (spine_gym.agents.history), after the integral
+        # the frame history (spine_gym.agents.observations), after the integral
         probe = make_env(env_kwargs, env_id=env_id)
         hspec = HistorySpec.from_env(probe, special["obs_history"])
         probe.close()
