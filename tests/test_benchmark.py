@@ -18,9 +18,9 @@ from rliable import metrics as rly_metrics
 
 from spine_gym.agents import benchmark as bm
 from spine_gym.agents import benchmark_stats as stats
-from spine_gym.agents.common import ALGOS, ENV_IDS, load_hyperparams
 from spine_gym.agents.runtime import load_policy, validation_metrics
 from spine_gym.agents.train import _action_noise, resolve_config
+from spine_gym.agents.zoo_config import ALGOS, ENV_IDS, load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}

@@ -143,8 +143,8 @@ def test_budget_scale_multiplies_the_budget_and_is_validated():
 
 def test_the_shipped_budget_policy_loads_plain_with_its_preview():
     """ppo_bud (the new default physics_dt): no integral, no history, the 3-s preview."""
-    from spine_gym.agents.common import POLICIES_DIR
     from spine_gym.agents.runtime import SavedPolicy, evaluation_env_kwargs
+    from spine_gym.agents.zoo_config import POLICIES_DIR
 
     pol = load_policy(POLICIES_DIR / "ppo_bud")
     assert type(pol) is SavedPolicy and pol.model.observation_space.shape == (10,)

@@ -11,6 +11,7 @@ import torch
 from test_agents import TINY, run_cli
 
 from spine_gym.agents.envs import make_vec_env
+from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
 from spine_gym.agents.observations import (
     IntegralObsPolicy,
     IntegralObsVecEnv,
@@ -18,7 +19,6 @@ from spine_gym.agents.observations import (
     integral_step,
     parse_tau,
 )
-from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
 from spine_gym.agents.residual import ResidualPolicy
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
 
@@ -180,8 +180,8 @@ def test_budget_window_zero_takes_only_the_episodes_since_the_last_dual_step():
 
 
 def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_preview():
-    from spine_gym.agents.common import POLICIES_DIR
     from spine_gym.agents.runtime import evaluation_env_kwargs
+    from spine_gym.agents.zoo_config import POLICIES_DIR
 
     pol = load_policy(POLICIES_DIR / "ppo_int")
     assert isinstance(pol, IntegralObsPolicy) and pol.spec.tau == 10.0 and pol.spec.size == 1

@@ -6,7 +6,8 @@
 * :mod:`spine_gym.agents.scenarios` — the named, seeded scenarios of that suite.
 * :mod:`spine_gym.agents.video` — MP4 videos of evaluation episodes (``python -m spine_gym.agents.evaluate --video``).
 * :mod:`spine_gym.agents.tune` — reproducible tuning of the PID and bang-bang baselines on training scenarios.
-* :mod:`spine_gym.agents.common` — loading saved policies, env construction and hyperparameter files.
+* :mod:`spine_gym.agents.zoo_config` — env ids, algorithms and the hyperparameter files.
+* :mod:`spine_gym.agents.runtime` — loading saved policies, building controllers, running episodes.
 * :mod:`spine_gym.agents.export` — a trained policy as ONNX, NumPy arrays and C (``python -m spine_gym.agents.export``);
   :mod:`spine_gym.agents.numpy_policy` runs the bundle without torch, :mod:`spine_gym.agents.export_c` writes the C.
 

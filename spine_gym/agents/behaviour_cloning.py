@@ -33,11 +33,11 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecNormalize
 
-from .common import load_hyperparams, preprocess_hyperparams
 from .datasets import datasets_path, load_metadata, transitions
 from .distill import fit_student, obs_statistics
 from .envs import make_vec_env
 from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
+from .zoo_config import load_hyperparams, preprocess_hyperparams
 
 __all__ = ["make_model", "behaviour_clone", "save_policy", "expert_of", "compare", "main"]
 

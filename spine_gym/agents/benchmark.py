@@ -87,7 +87,6 @@ from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
 
 from . import benchmark_stats as stats
-from .common import ALGOS, load_hyperparams
 from .evaluate import write_csv
 from .registry import registry_for
 from .runtime import (
@@ -100,6 +99,7 @@ from .runtime import (
     wrap_policy,
 )
 from .train import build_envs, build_model, lagrangian_callbacks, resolve_config
+from .zoo_config import ALGOS, load_hyperparams
 
 DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family
 REFERENCES = ("pid", "mpc_estimated", "mpc_oracle")

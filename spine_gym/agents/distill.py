@@ -47,7 +47,6 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm import tqdm
 
-from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
 from .envs import make_vec_env
 from .observations import (
     HistoryObsPolicy,
@@ -68,6 +67,7 @@ from .runtime import (
 )
 from .scenarios import HARD_LIKE_KWARGS
 from .train import _yaml_safe
+from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
 __all__ = [
     "STUDENT_ENV_KWARGS",

@@ -56,13 +56,13 @@ from torch import nn
 import spine_gym
 from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
 
-from .common import ENV_ID
-from .export_c import write_c
-from .observations import HistoryObsPolicy, IntegralObsPolicy
 from . import numpy_policy
+from .export_c import write_c
 from .numpy_policy import BUNDLE_FORMAT
+from .observations import HistoryObsPolicy, IntegralObsPolicy
 from .residual import ResidualPolicy
 from .runtime import SavedPolicy, load_policy, make_env
+from .zoo_config import ENV_ID
 
 __all__ = ["UnsupportedPolicyError", "actor_layers", "bundle_of", "export_policy", "write_onnx", "main"]
 

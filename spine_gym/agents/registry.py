@@ -35,7 +35,7 @@ from spine_gym.controllers import (
 )
 from spine_gym.envs import base_id
 
-from .common import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
+from .zoo_config import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
 TUNED_FILE = HYPERPARAMS_DIR / "baselines.yml"

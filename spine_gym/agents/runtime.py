@@ -31,12 +31,12 @@ from tqdm import tqdm
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
-from .common import ALGOS, ENV_ID, algo_class
-from .observations import HistoryObsPolicy, HistorySpec, IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory, episode_metrics
+from .observations import HistoryObsPolicy, HistorySpec, IntegralObsPolicy, IntegralSpec
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
+from .zoo_config import ALGOS, ENV_ID, algo_class
 
 __all__ = [
     "make_env",

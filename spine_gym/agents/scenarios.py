@@ -42,13 +42,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
 from spine_gym.envs import ENV_SPECS, base_id, default_randomization
 from spine_gym.envs.task import LoadSchedule, TargetProfile
+from spine_gym.envs.task_spatial import BendTarget, ChainTarget
 
-from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
+from .zoo_config import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 
 EVAL_SEED_BASE = 900_000  # evaluation reset seeds: EVAL_SEED_BASE + k; training/tuning seeds stay below
 G = 9.81  # [m/s^2]

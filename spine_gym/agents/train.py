@@ -110,19 +110,9 @@ from .checkpoints import (
     restore_eval_history,
     save_lagrangian,
 )
-from .common import (
-    ALGOS,
-    ENV_ID,
-    OFF_POLICY,
-    SPECIAL_KEYS,
-    StoreDict,
-    algo_class,
-    load_hyperparams,
-    preprocess_hyperparams,
-)
 from .envs import make_vec_env
-from .observations import HistoryObsVecEnv, HistorySpec, IntegralObsVecEnv, IntegralSpec
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
+from .observations import HistoryObsVecEnv, HistorySpec, IntegralObsVecEnv, IntegralSpec
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
     OBSERVATION_KWARGS,
@@ -132,7 +122,16 @@ from .runtime import (
     validation_scores,
     vecnormalize_candidates,
 )
-
+from .zoo_config import (
+    ALGOS,
+    ENV_ID,
+    OFF_POLICY,
+    SPECIAL_KEYS,
+    StoreDict,
+    algo_class,
+    load_hyperparams,
+    preprocess_hyperparams,
+)
 
 EXAMPLES = (
     "spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0",
@@ -272,7 +271,7 @@ _SET_BY_FLAGS = ("env", "seed", "device", "verbose", "tensorboard_log")  # argum
 
 def hyperparameter_keys(algo: str) -> set[str]:
     """The keys a hyperparameter entry of ``algo`` may hold: the arguments of the algorithm's class
-    (but those that :func:`build_model` sets from flags) and :data:`~spine_gym.agents.common.SPECIAL_KEYS`."""
+    (but those that :func:`build_model` sets from flags) and :data:`~spine_gym.agents.zoo_config.SPECIAL_KEYS`."""
     own = set(inspect.signature(algo_class(algo)).parameters) - set(_SET_BY_FLAGS)
     return {k for k in own if not k.startswith("_")} | set(SPECIAL_KEYS)
 
@@ -312,9 +311,9 @@ class RunConfig:
     """The resolved settings of one training run (the YAML entry, overrides and flags applied).
 
     Attributes:
-        algo, env_id: the algorithm (:data:`spine_gym.agents.common.ALGOS`) and the registered env id.
+        algo, env_id: the algorithm (:data:`spine_gym.agents.zoo_config.ALGOS`) and the registered env id.
         hp: constructor kwargs of the algorithm (schedules and ``policy_kwargs`` parsed).
-        special: the entry's other settings (:data:`spine_gym.agents.common.SPECIAL_KEYS`, with defaults).
+        special: the entry's other settings (:data:`spine_gym.agents.zoo_config.SPECIAL_KEYS`, with defaults).
         n_envs, n_timesteps: sub-envs and training steps.
         env_kwargs: the training env's kwargs (the entry's, then the given ones).
     """

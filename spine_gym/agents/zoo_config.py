@@ -1,8 +1,10 @@
-"""Shared pieces of the training and evaluation CLIs.
+"""The RL-Zoo-style configuration of the agents: env ids, algorithms and their hyperparameter files.
 
 * Hyperparameter files in RL Zoo's format (``spine_gym/agents/hyperparams/{algo}.yml`` keyed by env id):
-  :func:`load_hyperparams` (with ``lin_<x>`` schedules, ``normalize`` as bool or dict string and
-  ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them).
+  :func:`load_hyperparams`, :func:`preprocess_hyperparams` (with ``lin_<x>`` schedules, ``normalize``
+  as bool or dict string and ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them);
+  :data:`SPECIAL_KEYS`, the keys of an entry that are not arguments of the algorithm.
+* The algorithms (:data:`ALGOS`, :func:`algo_class`) and env ids (:data:`ENV_IDS`, :data:`ENV_ID`, ...).
 * ``--env-kwargs``/``--hyperparams`` ``key=value`` (or RL Zoo's ``key:value``) parsing (:class:`StoreDict`,
   :class:`spine_gym.cli_conventions.KeyValues`).
 
@@ -16,7 +18,7 @@ from pathlib import Path
 
 import yaml
 
-from spine_gym.cli_conventions import KeyValues, parse_value  # noqa: F401 - parse_value re-exported
+from spine_gym.cli_conventions import KeyValues
 from spine_gym.envs import ENV_SPECS
 
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
