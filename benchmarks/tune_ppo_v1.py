@@ -31,7 +31,7 @@ import torch
 
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.benchmark import RunSpec, read_curve, reference_scores, run_one
-from spine_gym.agents.train import resolve_config
+from spine_gym.agents.training import resolve_config
 from spine_gym.envs import BENCHMARK_IDS
 
 ROOT = Path(__file__).resolve().parent

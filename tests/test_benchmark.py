@@ -19,7 +19,7 @@ from rliable import metrics as rly_metrics
 from spine_gym.agents import benchmark as bm
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.runtime import load_policy, validation_metrics
-from spine_gym.agents.train import _action_noise, resolve_config
+from spine_gym.agents.training import action_noise, resolve_config
 from spine_gym.agents.zoo_config import ALGOS, ENV_IDS, load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -124,10 +124,10 @@ def test_every_algorithm_has_an_entry_for_every_v0_id(algo):
     for env_id in ENV_IDS:
         cfg = resolve_config(algo, env_id)
         assert cfg.n_timesteps > 0 and cfg.n_envs >= 1 and load_hyperparams(algo, env_id)
-    noise = _action_noise(resolve_config("td3", ENV_IDS[0]), 2)
+    noise = action_noise(resolve_config("td3", ENV_IDS[0]), 2)
     assert noise is not None and np.allclose(noise._sigma, 0.1)
     with pytest.raises(ValueError, match="noise_type"):
-        _action_noise(resolve_config("ppo", ENV_IDS[0], hyperparams={"noise_type": "normal"}), 2)
+        action_noise(resolve_config("ppo", ENV_IDS[0], hyperparams={"noise_type": "normal"}), 2)
 
 
 # --------------------------------------------------------------------------- bad arguments

@@ -20,7 +20,7 @@ from spine_gym.agents.observations import (
     history_step,
 )
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
-from spine_gym.agents.train import energy_budget
+from spine_gym.agents.training import energy_budget
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods

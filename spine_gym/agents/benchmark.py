@@ -9,8 +9,8 @@ Example (``spine-gym benchmark`` is the same command)::
 Every algorithm (PPO, SAC, TD3, TQC) trains on every env id with every seed, with the
 hyperparameters of ``spine_gym/agents/hyperparams/{algo}.yml`` (the entry of the env id; its
 ``n_timesteps`` is the budget unless ``-n``/``--budget`` set one), through
-:mod:`spine_gym.agents.train`'s own construction (:func:`~spine_gym.agents.train.resolve_config`,
-:func:`~spine_gym.agents.train.build_envs`, :func:`~spine_gym.agents.train.build_model`). Every ``--eval-freq`` env
+:mod:`spine_gym.agents.train`'s own construction (:func:`~spine_gym.agents.training.resolve_config`,
+:func:`~spine_gym.agents.training.build_envs`, :func:`~spine_gym.agents.training.build_model`). Every ``--eval-freq`` env
 steps (and at step 0 and at the budget) the policy runs the validation episodes: the env's own
 sampled tasks with reset seeds ``VALIDATION_SEED_BASE + i`` (:func:`spine_gym.agents.runtime.validation_metrics`),
 disjoint from the training seeds and from the evaluation suite's (``EVAL_SEED_BASE`` and above,
@@ -98,7 +98,7 @@ from .runtime import (
     validation_metrics,
     wrap_policy,
 )
-from .train import build_envs, build_model, lagrangian_callbacks, resolve_config
+from .training import build_envs, build_model, lagrangian_callbacks, resolve_config
 from .zoo_config import ALGOS, load_hyperparams
 
 DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family

@@ -66,7 +66,7 @@ from .runtime import (
     validation_scores,
 )
 from .scenarios import HARD_LIKE_KWARGS
-from .train import _yaml_safe
+from .training import yaml_safe
 from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
 __all__ = [
@@ -311,7 +311,7 @@ def save_student(folder: Path, model, venv, obs_rms, hp: dict, special: dict, me
         "n_timesteps": 0,
         "env_kwargs": dict(STUDENT_ENV_KWARGS),
     }
-    (folder / "config.yml").write_text(yaml.safe_dump({ENV_ID: _yaml_safe(config)}))
+    (folder / "config.yml").write_text(yaml.safe_dump({ENV_ID: yaml_safe(config)}))
     return folder
 
 

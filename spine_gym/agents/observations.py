@@ -69,6 +69,11 @@ __all__ = [
     "IntegralObsVecEnv",
     "IntegralObsPolicy",
     "parse_tau",
+    "FEATURES",
+    "feature_specs",
+    "specs_from_meta",
+    "feature_vec_env",
+    "feature_policy",
 ]
 
 def augmented_space(base: spaces.Box, spec) -> spaces.Box:
@@ -438,3 +443,46 @@ class IntegralObsPolicy(_IntegralMemory, AugmentedObsPolicy):
 
     def __repr__(self) -> str:
         return f"IntegralObsPolicy({self.name}, tau={self.spec.tau}, limit={self.spec.limit})"
+
+
+# --------------------------------------------------------------------------- both, in training's order
+# hyperparameter (and meta.json) key -> (spec, training wrapper, policy wrapper); the training env wraps
+# them in this order, so the model sees [obs, integral, frame history]
+FEATURES = {
+    "obs_integral": (IntegralSpec, IntegralObsVecEnv, IntegralObsPolicy),
+    "obs_history": (HistorySpec, HistoryObsVecEnv, HistoryObsPolicy),
+}
+
+
+def feature_specs(env, special: dict) -> dict:
+    """``{key: spec}`` of the features a hyperparameter entry's settings ``special`` switch on
+    (``obs_integral``: τ, with ``obs_integral_limit``; ``obs_history``: k), for ``env``, in
+    :data:`FEATURES`' order."""
+    specs = {}
+    if special.get("obs_integral") is not None:
+        limit = float(special.get("obs_integral_limit", 300.0))
+        specs["obs_integral"] = IntegralSpec.from_env(env, special["obs_integral"], limit)
+    if special.get("obs_history") is not None:
+        specs["obs_history"] = HistorySpec.from_env(env, special["obs_history"])
+    return specs
+
+
+def specs_from_meta(meta: dict) -> dict:
+    """``{key: spec}`` of the features stored in a run's ``meta.json`` (``to_dict`` forms), in
+    :data:`FEATURES`' order."""
+    return {key: FEATURES[key][0].from_dict(meta[key]) for key in FEATURES if meta.get(key)}
+
+
+def feature_vec_env(venv: VecEnv, specs: dict) -> VecEnv:
+    """``venv`` inside the training wrappers of ``specs`` (from :func:`feature_specs`)."""
+    for key, spec in specs.items():
+        venv = FEATURES[key][1](venv, spec)
+    return venv
+
+
+def feature_policy(policy, specs: dict):
+    """``policy`` (a model behind ``predict``, with a ``name``) inside the policy wrappers of ``specs``:
+    the outermost computes the first feature, as the training env's innermost wrapper appends it first."""
+    for key in reversed(list(specs)):
+        policy = FEATURES[key][2](policy, specs[key])
+    return policy

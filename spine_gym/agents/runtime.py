@@ -32,7 +32,7 @@ import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .metrics import Trajectory, episode_metrics
-from .observations import HistoryObsPolicy, HistorySpec, IntegralObsPolicy, IntegralSpec
+from .observations import feature_policy, specs_from_meta
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
@@ -342,12 +342,8 @@ def wrap_policy(policy: SavedPolicy):
     """``policy`` inside the observation wrappers its ``meta`` names (residual baseline, integral of
     the error, frame history), so it sees what it was trained on."""
     meta = policy.meta
-    # the model sees [obs, residual's base action, integral, frame history] (spine_gym.agents.train's order):
-    # the innermost wrapper appends last
-    if meta.get("obs_history"):
-        policy = HistoryObsPolicy(policy, HistorySpec.from_dict(meta["obs_history"]), name=policy.name)
-    if meta.get("obs_integral"):
-        policy = IntegralObsPolicy(policy, IntegralSpec.from_dict(meta["obs_integral"]), name=policy.name)
+    # the model sees [obs, residual's base action, integral, frame history] (the training env's order)
+    policy = feature_policy(policy, specs_from_meta(meta))
     if meta.get("residual"):
         return ResidualPolicy(policy, meta["residual"], name=policy.name)
     return policy
