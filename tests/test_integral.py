@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from studies import load_study
 from test_agents import TINY, run_cli
 
 from spine_gym.agents.envs import make_vec_env
@@ -190,22 +191,22 @@ def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_prev
 
 
 def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weight_saves_energy(tmp_path):
-    """spine_gym.agents.ceiling on one 3-s validation episode: the PID row is the reference (ratios 1), and
+    """scripts/studies/ceiling.py on one 3-s validation episode: the PID row is the reference (ratios 1), and
     the oracle's cost Σ e² + w_energy E spends less energy when w_energy is 1000× larger."""
-    from spine_gym.agents.ceiling import ceiling_rows, plot
+    ceiling = load_study("ceiling")
 
-    rows = ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
+    rows = ceiling.ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
     assert [r["controller"] for r in rows] == ["pid", "mpc_oracle w_energy=0.01", "mpc_oracle w_energy=10"]
     assert rows[0]["rmse_ratio"] == 1.0 and rows[0]["energy_ratio"] == 1.0
     assert rows[2]["energy_J"] < rows[1]["energy_J"]
-    plot(rows, 0.7, tmp_path / "c.png")
+    ceiling.plot(rows, 0.7, tmp_path / "c.png")
     assert (tmp_path / "c.png").stat().st_size > 1000
 
 
 def test_ceiling_rows_sweep_the_causal_oracle_with_its_own_preview(monkeypatch):
     """--oracle mpc_oracle_causal --target-preview 3: the rows name the causal planner, which is
     built on a 3-s-preview env; the PID reference keeps the env's 1-s preview."""
-    import spine_gym.agents.ceiling as ceiling
+    ceiling = load_study("ceiling")
 
     built = []
     real = ceiling.energy_weighted_oracle

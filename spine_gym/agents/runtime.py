@@ -260,8 +260,8 @@ class SavedPolicy:
 def energy_weighted_oracle(env, w_energy: float, name: str = "mpc_oracle") -> MPPIController:
     """The registry's privileged MPC ``name`` (one of :data:`ORACLE_NAMES`: ``mpc_oracle``,
     ``mpc_oracle_causal``) for the planar ``env`` with the energy weight ``w_energy`` [1/J] of its
-    cost (the other settings its defaults): the expert of :mod:`spine_gym.agents.distill` and the trade-off
-    sweep of :mod:`spine_gym.agents.ceiling`."""
+    cost (the other settings its defaults): the expert of ``scripts/studies/distill.py`` and the trade-off
+    sweep of ``scripts/studies/ceiling.py``."""
     if name not in ORACLE_NAMES:
         raise ValueError(f"name must be one of {ORACLE_NAMES}, got {name!r}")
     return MPPIController(
