@@ -54,6 +54,8 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from .zoo_config import checked_number
+
 __all__ = [
     "AugmentedObsVecEnv",
     "AugmentedObsPolicy",
@@ -291,40 +293,11 @@ class _HistoryMemory:
         return history_features(mem, self.spec)
 
 
-class HistoryObsVecEnv(_HistoryMemory, AugmentedObsVecEnv):
-    """Observation = the wrapped env's observation ++ the k previous frames of the spec's entries
-    (:class:`AugmentedObsVecEnv`: terminal observations in ``infos`` are augmented
-    with the history continued to the episode's last state).
-
-    Args:
-        venv: the vector env (raw, un-normalised observations).
-        spec: the :class:`HistorySpec` (e.g. :meth:`HistorySpec.from_env`).
-    """
-
-    spec_type = HistorySpec
-
-
-class HistoryObsPolicy(_HistoryMemory, AugmentedObsPolicy):
-    """A model trained on :class:`HistoryObsVecEnv` observations, as a ``predict``-able controller.
-
-    It keeps the frames per row of the observation batch; ``episode_start`` (or ``reset()``)
-    restarts them (:class:`AugmentedObsPolicy`).
-    """
-
-    def __repr__(self) -> str:
-        return f"HistoryObsPolicy({self.name}, frames={self.spec.frames}, ranges={self.spec.ranges})"
-
-
 # --------------------------------------------------------------------------- integral of the error
 def parse_tau(value) -> float:
     """The leak time constant τ [s] of a ``obs_integral`` hyperparameter: a number > 0 or ``"inf"``."""
-    try:
-        tau = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"obs_integral (leak time constant) must be a number > 0 s or 'inf', got {value!r}") from None
-    if not tau > 0.0:
-        raise ValueError(f"obs_integral (leak time constant) must be a number > 0 s or 'inf', got {value!r}")
-    return tau
+    message = f"obs_integral (leak time constant) must be a number > 0 s or 'inf', got {value!r}"
+    return checked_number(value, lambda tau: tau > 0.0, message)
 
 
 @dataclass(frozen=True)
@@ -421,28 +394,35 @@ class _IntegralMemory:
         return mem
 
 
+# --------------------------------------------------------------------------- the wrappers of both
 class IntegralObsVecEnv(_IntegralMemory, AugmentedObsVecEnv):
-    """Observation = the wrapped env's observation ++ the integral of the tracking error
-    (:class:`AugmentedObsVecEnv`: terminal observations in ``infos`` are augmented
-    with the integral continued to the episode's last state).
-
-    Args:
-        venv: the vector env (raw, un-normalised observations).
-        spec: the :class:`IntegralSpec` (e.g. :meth:`IntegralSpec.from_env`).
-    """
+    """:class:`AugmentedObsVecEnv` appending the integral of the tracking error (``spec``: an
+    :class:`IntegralSpec`)."""
 
     spec_type = IntegralSpec
 
 
-class IntegralObsPolicy(_IntegralMemory, AugmentedObsPolicy):
-    """A model trained on :class:`IntegralObsVecEnv` observations, as a ``predict``-able controller.
+class HistoryObsVecEnv(_HistoryMemory, AugmentedObsVecEnv):
+    """:class:`AugmentedObsVecEnv` appending the k previous frames of the entries of ``spec``, a
+    :class:`HistorySpec`."""
 
-    It keeps the integral per row of the observation batch; ``episode_start`` (or ``reset()``)
-    restarts it (:class:`AugmentedObsPolicy`).
-    """
+    spec_type = HistorySpec
+
+
+class IntegralObsPolicy(_IntegralMemory, AugmentedObsPolicy):
+    """A model trained on :class:`IntegralObsVecEnv` observations, keeping the integral itself
+    (:class:`AugmentedObsPolicy`)."""
 
     def __repr__(self) -> str:
         return f"IntegralObsPolicy({self.name}, tau={self.spec.tau}, limit={self.spec.limit})"
+
+
+class HistoryObsPolicy(_HistoryMemory, AugmentedObsPolicy):
+    """A model trained on :class:`HistoryObsVecEnv` observations, keeping the frames itself
+    (:class:`AugmentedObsPolicy`)."""
+
+    def __repr__(self) -> str:
+        return f"HistoryObsPolicy({self.name}, frames={self.spec.frames}, ranges={self.spec.ranges})"
 
 
 # --------------------------------------------------------------------------- both, in training's order

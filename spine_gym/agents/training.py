@@ -42,6 +42,7 @@ from .zoo_config import (
     OFF_POLICY,
     SPECIAL_KEYS,
     algo_class,
+    checked_number,
     load_hyperparams,
     preprocess_hyperparams,
 )
@@ -51,7 +52,8 @@ _SET_BY_FLAGS = ("env", "seed", "device", "verbose", "tensorboard_log")  # argum
 
 def hyperparameter_keys(algo: str) -> set[str]:
     """The keys a hyperparameter entry of ``algo`` may hold: the arguments of the algorithm's class
-    (but those that :func:`build_model` sets from flags) and :data:`~spine_gym.agents.zoo_config.SPECIAL_KEYS`."""
+    (but those that :func:`build_model` sets from flags) and
+    :data:`~spine_gym.agents.zoo_config.SPECIAL_KEYS`."""
     own = set(inspect.signature(algo_class(algo)).parameters) - set(_SET_BY_FLAGS)
     return {k for k in own if not k.startswith("_")} | set(SPECIAL_KEYS)
 
@@ -318,25 +320,16 @@ def energy_budget(
     """The energy budget per episode [J]: ``scale`` × a number as given, or ``"pid"``: ``scale`` ×
     the tuned PID's mean energy on ``n_episodes`` validation episodes of ``env_id`` with the training
     distribution ``env_kwargs``."""
-    try:
-        scale = float(scale)
-    except (TypeError, ValueError):
-        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}") from None
-    if not 0.0 < scale <= 2.0:
-        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}")
+    message = f"budget_scale must be a number in (0, 2], got {scale!r}"
+    scale = checked_number(scale, lambda x: 0.0 < x <= 2.0, message)
     if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
         kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
         probe = make_env(kw, env_id=env_id)
         pid = build_controller("pid", probe)
         probe.close()
         return scale * validation_scores(pid, n_episodes, kw, env_id)[1]
-    try:
-        value = float(spec)
-    except (TypeError, ValueError):
-        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}") from None
-    if not value > 0.0:
-        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}")
-    return scale * value
+    message = f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}"
+    return scale * checked_number(spec, lambda x: x > 0.0, message)
 
 
 def checkpoint_vecnormalize(ckpt: Path) -> Path:

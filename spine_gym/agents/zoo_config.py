@@ -14,6 +14,7 @@ Loading saved policies, building controllers and running episodes live in :mod:`
 from __future__ import annotations
 
 import ast
+from collections.abc import Callable
 from pathlib import Path
 
 import yaml
@@ -94,6 +95,18 @@ def _eval_policy_kwargs(text: str) -> dict:
     if not isinstance(value, dict):
         raise ValueError(f"policy_kwargs must evaluate to a dict, got {type(value).__name__}")
     return value
+
+
+def checked_number(value, ok: Callable[[float], bool], message: str) -> float:
+    """``float(value)`` if ``value`` reads as a number for which ``ok`` holds; ValueError ``message``
+    otherwise (a hyperparameter's value, checked)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(message) from None
+    if not ok(number):
+        raise ValueError(message)
+    return number
 
 
 def load_hyperparams(algo: str, env_id: str = ENV_ID, path: Path | None = None) -> dict:
