@@ -190,18 +190,27 @@ def build_suite(
     duration: float = 60.0, profiles: list[str] | None = None, groups: tuple[str, ...] = tuple(GROUP_OFFSET)
 ) -> list[Scenario]:
     """The scenarios of ``groups`` (default: nominal, disturbed, hard) for ``duration``-s episodes."""
-    table = _profiles(duration)
-    names = profiles or list(table)
+    return _suite(_profiles(duration), duration, profiles, groups, _planar_loads)
+
+
+def _planar_loads(group: str, k: int, duration: float):
+    """Payload, tip pulses and plant parameters of scenario seed k of a planar group."""
+    if group == "disturbed":
+        return (*_disturbance(k, duration), ())
+    if group == "hard":
+        return _hard(k, duration)
+    return 0.0, (), ()
+
+
+def _suite(table: dict, duration: float, profiles, groups, loads, env_id: str = ENV_ID, seed_offset: int = 0):
+    """The scenarios of ``groups`` x ``profiles`` (default: all of ``table``); ``loads(group, k,
+    duration)`` gives the payload, tip pulses and plant parameters of scenario seed k."""
     out = []
     for group in groups:
-        for i, name in enumerate(names):
+        for i, name in enumerate(profiles or list(table)):
             kind, ctor, kwargs = table[name]
-            k = i + GROUP_OFFSET[group]
-            payload, pulses, params = 0.0, (), ()
-            if group == "disturbed":
-                payload, pulses = _disturbance(k, duration)
-            elif group == "hard":
-                payload, pulses, params = _hard(k, duration)
+            k = i + GROUP_OFFSET[group] + seed_offset
+            payload, pulses, params = loads(group, k, duration)
             out.append(
                 Scenario(
                     name=name + SUFFIX[group],
@@ -213,6 +222,7 @@ def build_suite(
                     params=params,
                     duration=duration,
                     seed=EVAL_SEED_BASE + k,
+                    env_id=env_id,
                 )
             )
     return out
@@ -321,26 +331,13 @@ def build_spatial_suite(
 ) -> list[Scenario]:
     """The scenarios of a spatial env (``SmaSpine3D-v0`` or ``SmaSpineChain-v0``)."""
     table = (_profiles_3d if env_id == SPATIAL_ENV_ID else _profiles_chain)(duration)
-    out = []
-    for group in groups:
-        for i, name in enumerate(profiles or list(table)):
-            kind, ctor, kwargs = table[name]
-            k = i + GROUP_OFFSET[group] + SPATIAL_SEED_OFFSET[env_id]
-            payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
-            out.append(
-                Scenario(
-                    name=name + SUFFIX[group],
-                    group=group,
-                    kind=kind,
-                    target=(ctor, kwargs),
-                    payload_kg=payload,
-                    tip_pulses=pulses,
-                    duration=duration,
-                    seed=EVAL_SEED_BASE + k,
-                    env_id=env_id,
-                )  # fmt: skip
-            )
-    return out
+    return _suite(table, duration, profiles, groups, _spatial_loads, env_id, SPATIAL_SEED_OFFSET[env_id])
+
+
+def _spatial_loads(group: str, k: int, duration: float):
+    """Payload and 3-D tip pushes of scenario seed k of a spatial group (no plant randomisation)."""
+    payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
+    return payload, pulses, ()
 
 
 SUITES_BY_ENV = {
