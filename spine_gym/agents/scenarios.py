@@ -129,14 +129,23 @@ def _profiles(duration: float) -> dict[str, tuple[str, str, dict]]:
 
 def _disturbance(k: int, duration: float) -> tuple[float, tuple[tuple[float, float, float, float], ...]]:
     """Payload [kg] and two horizontal tip-force pulses for scenario k, from a fixed seed."""
+    return _payload_and_pushes(k, duration, _horizontal_push)
+
+
+def _horizontal_push(rng: np.random.Generator) -> tuple[float, float]:
+    return float(np.round(rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3), 3)), 0.0
+
+
+def _payload_and_pushes(k: int, duration: float, push) -> tuple[float, tuple[tuple[float, ...], ...]]:
+    """Payload [kg] and two tip pushes (``push(rng)``: the force components) for scenario seed k: one
+    in 20–45 % of the episode, one in 60–85 %, each lasting 4–10 s."""
     rng = np.random.default_rng(EVAL_SEED_BASE + k)
     payload = float(np.round(rng.uniform(0.02, 0.05), 3))
     pulses = []
     for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
         t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
         t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
-        fx = float(np.round(rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3), 3))
-        pulses.append((t0, min(t1, duration), fx, 0.0))
+        pulses.append((t0, min(t1, duration), *push(rng)))
     return payload, tuple(pulses)
 
 
@@ -313,17 +322,14 @@ SPATIAL_SEED_OFFSET = {SPATIAL_ENV_ID: 10_000, CHAIN_ENV_ID: 20_000}  # reset se
 
 def _disturbance_3d(k: int, duration: float):
     """Payload [kg] and two 3-D tip pushes (any azimuth, tilted ±20°) for scenario seed k."""
-    rng = np.random.default_rng(EVAL_SEED_BASE + k)
-    payload = float(np.round(rng.uniform(0.02, 0.05), 3))
-    pulses = []
-    for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
-        t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
-        t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
-        mag, az = rng.uniform(0.1, 0.3), rng.uniform(0.0, 2.0 * np.pi)
-        el = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
-        f = mag * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        pulses.append((t0, min(t1, duration), *(float(np.round(c, 3)) for c in f)))
-    return payload, tuple(pulses)
+    return _payload_and_pushes(k, duration, _tilted_push)
+
+
+def _tilted_push(rng: np.random.Generator) -> tuple[float, float, float]:
+    mag, az = rng.uniform(0.1, 0.3), rng.uniform(0.0, 2.0 * np.pi)
+    el = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
+    f = mag * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    return tuple(float(np.round(c, 3)) for c in f)
 
 
 def build_spatial_suite(
