@@ -256,8 +256,8 @@ def test_tuned_file_matches_the_controllers():
 # --------------------------------------------------------------------------- residual learning
 def test_residual_env_with_zero_correction_is_the_tuned_pid():
     """A residual of 0 applies exactly the baseline's actions; the policy sees them appended."""
-    from spine_gym.agents.envs import make_vec_env
     from spine_gym.agents.residual import ResidualVecEnv, base_spec, combine
+    from spine_gym.agents.vec_env import make_vec_env
 
     kw = {"episode_duration": 2.0}
     env = ev.make_env(kw)

@@ -10,7 +10,6 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from spine_gym.agents.envs import make_vec_env
 from spine_gym.agents.observations import (
     HistoryObsPolicy,
     HistoryObsVecEnv,
@@ -21,6 +20,7 @@ from spine_gym.agents.observations import (
 )
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
 from spine_gym.agents.training import energy_budget
+from spine_gym.agents.vec_env import make_vec_env
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods

@@ -11,7 +11,6 @@ import torch
 from studies import load_study
 from test_agents import TINY, run_cli
 
-from spine_gym.agents.envs import make_vec_env
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
 from spine_gym.agents.observations import (
     IntegralObsPolicy,
@@ -22,6 +21,7 @@ from spine_gym.agents.observations import (
 )
 from spine_gym.agents.residual import ResidualPolicy
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
+from spine_gym.agents.vec_env import make_vec_env
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods

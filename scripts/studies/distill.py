@@ -53,7 +53,6 @@ from stable_baselines3.common.vec_env import VecNormalize
 from tqdm import tqdm
 
 from spine_gym.agents.behaviour_cloning import fit_student, obs_statistics
-from spine_gym.agents.envs import make_vec_env
 from spine_gym.agents.observations import (
     HistoryObsPolicy,
     HistoryObsVecEnv,
@@ -73,6 +72,7 @@ from spine_gym.agents.runtime import (
 )
 from spine_gym.agents.scenarios import HARD_LIKE_KWARGS
 from spine_gym.agents.training import yaml_safe
+from spine_gym.agents.vec_env import make_vec_env
 from spine_gym.agents.zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
 __all__ = [

@@ -36,8 +36,8 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
 from .datasets import datasets_path, load_metadata, transitions
-from .envs import make_vec_env
 from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
+from .vec_env import make_vec_env
 from .zoo_config import load_hyperparams, preprocess_hyperparams
 
 __all__ = [

@@ -25,7 +25,6 @@ from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckA
 from stable_baselines3.common.vec_env import VecNormalize
 
 from .checkpoints import lagrangian_candidates, load_lagrangian
-from .envs import make_vec_env
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
@@ -37,6 +36,7 @@ from .runtime import (
     validation_scores,
     vecnormalize_candidates,
 )
+from .vec_env import make_vec_env
 from .zoo_config import (
     ENV_ID,
     OFF_POLICY,
