@@ -13,15 +13,17 @@ Runtime (no command line):
 
 * :mod:`~spine_gym.agents.registry` — the one table of controllers; :mod:`~spine_gym.agents.runtime` — envs,
   controllers, saved policies, episodes; :mod:`~spine_gym.agents.scenarios`, :mod:`~spine_gym.agents.metrics`.
-* :mod:`~spine_gym.agents.observations` — the observation features (integral of the error, frame history);
-  :mod:`~spine_gym.agents.residual`, :mod:`~spine_gym.agents.lagrangian` — the residual and energy-budget wrappers.
-* :mod:`~spine_gym.agents.training` — how a training run is built; :mod:`~spine_gym.agents.vec_env` — its vector
-  envs; :mod:`~spine_gym.agents.checkpoints` — resumable checkpoints; :mod:`~spine_gym.agents.benchmark_run` —
-  one benchmark run and many.
+* :mod:`~spine_gym.agents.observations` — the observation features (integral of the error, frame
+  history); :mod:`~spine_gym.agents.residual`, :mod:`~spine_gym.agents.lagrangian` — the residual and
+  energy-budget wrappers.
+* :mod:`~spine_gym.agents.training` — how a training run is built; :mod:`~spine_gym.agents.vec_env` — its
+  vector envs; :mod:`~spine_gym.agents.checkpoints` — resumable checkpoints;
+  :mod:`~spine_gym.agents.benchmark_run` — one benchmark run and many.
 * :mod:`~spine_gym.agents.zoo_config` — env ids, algorithms and the hyperparameter files
   (``spine_gym/agents/hyperparams/``).
 * :mod:`~spine_gym.agents.numpy_policy`, :mod:`~spine_gym.agents.export_c` — an exported bundle without torch.
 
 ``spine_gym/agents/policies/`` holds the shipped policies with their ``VecNormalize`` statistics and the
-exact commands that produced them. One-off studies that informed a decision are scripts in ``scripts/studies/``.
+exact commands that produced them. One-off studies that informed a decision are scripts in
+``scripts/studies/``.
 """
