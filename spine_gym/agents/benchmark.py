@@ -11,8 +11,8 @@ hyperparameters of ``spine_gym/agents/hyperparams/{algo}.yml`` (the entry of the
 ``n_timesteps`` is the budget unless ``-n``/``--budget`` set one), built as
 :mod:`spine_gym.agents.train` builds a run (:func:`~spine_gym.agents.training.resolve_config`,
 :func:`~spine_gym.agents.training.build_envs`, :func:`~spine_gym.agents.training.build_model`). Every
-``--eval-freq`` env steps (and at step 0 and at the budget) the policy runs the validation episodes: the env's own
-sampled tasks with reset seeds ``VALIDATION_SEED_BASE + i`` (:func:`spine_gym.agents.runtime.validation_metrics`),
+``--eval-freq`` env steps (and at step 0 and at the budget) the policy runs the validation episodes:
+the env's own sampled tasks with reset seeds ``VALIDATION_SEED_BASE + i`` (:func:`spine_gym.agents.runtime.validation_metrics`),
 disjoint from the training seeds and from the evaluation suite's (``EVAL_SEED_BASE`` and above,
 never used here). Recorded: the mean tracking RMSE (the env's unit: deg, or mm for the chain's tip
 position), electrical energy [J] and time over the temperature limit [s] per episode, and the
