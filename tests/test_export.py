@@ -25,6 +25,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 from spine_gym.agents.evaluate import evaluate
 from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
 from spine_gym.agents.export_c import compile_driver
+from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.observations import (
     HistoryObsVecEnv,
     HistorySpec,
@@ -32,7 +33,6 @@ from spine_gym.agents.observations import (
     IntegralSpec,
     integral_step,
 )
-from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env
 from spine_gym.agents.scenarios import get_suite
 

@@ -13,6 +13,7 @@ import torch
 torch.set_num_threads(1)
 sys.path.insert(0, "scripts/studies")  # the DAgger study, run from the repository root
 import distill as dg
+
 d=np.load(sys.argv[1]); x,y,it=d['x'],d['y'],d['iteration']
 print('labels: frac at -1', np.mean(y<=-0.999), 'at +1', np.mean(y>=0.999), 'mean', y.mean(0), 'std', y.std(0))
 # step-to-step label change (noise)
