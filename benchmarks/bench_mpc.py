@@ -47,8 +47,8 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
-from spine_gym.agents.common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, env_id_of, make_env
+from spine_gym.agents.zoo_config import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 from spine_gym.controllers import MPPIConfig, MPPIController, SpatialMPPIController
 from spine_gym.controllers.mpc import min_samples
 from spine_gym.controllers.mpc_spatial import drive_patterns

@@ -139,8 +139,8 @@ def _build_ppo(parallel: bool | None, seed: int = 0):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from spine_gym.agents.common import ENV_ID, load_hyperparams, preprocess_hyperparams
-    from spine_gym.agents.envs import make_vec_env
+    from spine_gym.agents.vec_env import make_vec_env
+    from spine_gym.agents.zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
     hp, special = preprocess_hyperparams(load_hyperparams("ppo", ENV_ID))
     kwargs = {**special["env_kwargs"], "parallel": parallel}

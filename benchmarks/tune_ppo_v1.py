@@ -8,7 +8,7 @@ benchmark's seeds 0-4), validates every ``--eval-freq`` steps on the benchmark's
 episodes (reset seeds 500 000+, :mod:`spine_gym.agents.benchmark`; the evaluation suite is never
 touched) and reports, per candidate and id, the median training wall time and steps to the tuned
 PID's validation RMSE and the final RMSE and energy as ratios to the PID's. Each run is one
-:func:`spine_gym.agents.benchmark.run_one`, so runs are resumable (finished ones are skipped) and
+:func:`spine_gym.agents.benchmark_run.run_one`, so runs are resumable (finished ones are skipped) and
 measured exactly as the benchmark measures them (validation time excluded, torch on one thread).
 
     PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2
@@ -30,8 +30,9 @@ from pathlib import Path
 import torch
 
 from spine_gym.agents import benchmark_stats as stats
-from spine_gym.agents.benchmark import RunSpec, read_curve, reference_scores, run_one
-from spine_gym.agents.train import resolve_config
+from spine_gym.agents.benchmark import reference_scores
+from spine_gym.agents.benchmark_run import RunSpec, read_curve, run_one
+from spine_gym.agents.training import resolve_config
 from spine_gym.envs import BENCHMARK_IDS
 
 ROOT = Path(__file__).resolve().parent

@@ -13,11 +13,11 @@ import pytest
 import yaml
 
 from spine_gym.agents import evaluate as ev
-from spine_gym.agents.common import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
 from spine_gym.agents.metrics import Trajectory, episode_metrics, settling_times
 from spine_gym.agents.runtime import load_policy
 from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
 from spine_gym.agents.tune import TRAIN_SEED_BASE, load_tuned, tune
+from spine_gym.agents.zoo_config import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -256,8 +256,8 @@ def test_tuned_file_matches_the_controllers():
 # --------------------------------------------------------------------------- residual learning
 def test_residual_env_with_zero_correction_is_the_tuned_pid():
     """A residual of 0 applies exactly the baseline's actions; the policy sees them appended."""
-    from spine_gym.agents.envs import make_vec_env
     from spine_gym.agents.residual import ResidualVecEnv, base_spec, combine
+    from spine_gym.agents.vec_env import make_vec_env
 
     kw = {"episode_duration": 2.0}
     env = ev.make_env(kw)

@@ -14,10 +14,10 @@ import pytest
 
 from spine_gym.agents import evaluate as ev
 from spine_gym.agents import registry
-from spine_gym.agents.common import CHAIN_ENV_ID, POLICIES_DIR, SPATIAL_ENV_ID
 from spine_gym.agents.runtime import build_controller, load_policy, make_env, run_episode
 from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
 from spine_gym.agents.tune import TRAIN_SEED_BASE, tune
+from spine_gym.agents.zoo_config import CHAIN_ENV_ID, POLICIES_DIR, SPATIAL_ENV_ID
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}

@@ -1,5 +1,5 @@
-"""spine_gym.agents.benchmark: the table's statistics against rliable and hand-checked values, time to the PID's
-level, resuming, bad arguments, and the --quick pipeline end to end."""
+"""spine_gym.agents.benchmark and benchmark_run: the table's statistics against rliable and hand-checked
+values, time to the PID's level, resuming, bad arguments, and the --quick pipeline end to end."""
 
 from __future__ import annotations
 
@@ -17,10 +17,11 @@ from rliable import library as rly
 from rliable import metrics as rly_metrics
 
 from spine_gym.agents import benchmark as bm
+from spine_gym.agents import benchmark_run as br
 from spine_gym.agents import benchmark_stats as stats
-from spine_gym.agents.common import ALGOS, ENV_IDS, load_hyperparams
 from spine_gym.agents.runtime import load_policy, validation_metrics
-from spine_gym.agents.train import _action_noise, resolve_config
+from spine_gym.agents.training import action_noise, resolve_config
+from spine_gym.agents.zoo_config import ALGOS, ENV_IDS, load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
@@ -124,10 +125,10 @@ def test_every_algorithm_has_an_entry_for_every_v0_id(algo):
     for env_id in ENV_IDS:
         cfg = resolve_config(algo, env_id)
         assert cfg.n_timesteps > 0 and cfg.n_envs >= 1 and load_hyperparams(algo, env_id)
-    noise = _action_noise(resolve_config("td3", ENV_IDS[0]), 2)
+    noise = action_noise(resolve_config("td3", ENV_IDS[0]), 2)
     assert noise is not None and np.allclose(noise._sigma, 0.1)
     with pytest.raises(ValueError, match="noise_type"):
-        _action_noise(resolve_config("ppo", ENV_IDS[0], hyperparams={"noise_type": "normal"}), 2)
+        action_noise(resolve_config("ppo", ENV_IDS[0], hyperparams={"noise_type": "normal"}), 2)
 
 
 # --------------------------------------------------------------------------- bad arguments
@@ -173,17 +174,17 @@ def test_address_without_ray_exits_2_with_one_line_before_any_folder(tmp_path, c
 TINY = {"n_steps": 32, "batch_size": 32, "n_epochs": 1}
 
 
-def _tiny_spec(**kw) -> bm.RunSpec:
+def _tiny_spec(**kw) -> br.RunSpec:
     base = dict(algo="ppo", env_id="SmaSpineChain-v0", seed=0, n_timesteps=128, n_envs=2, eval_freq=64,
                 val_episodes=1, env_kwargs={"episode_duration": 2.0}, hyperparams=TINY)  # fmt: skip
-    return bm.RunSpec(**{**base, **kw})
+    return br.RunSpec(**{**base, **kw})
 
 
 def test_a_run_validates_on_schedule_and_resume_skips_it(tmp_path):
     spec = _tiny_spec()
-    record = bm.run_one(spec, tmp_path)
+    record = br.run_one(spec, tmp_path)
     folder = tmp_path / spec.folder
-    curve = bm.read_curve(folder / "curve.csv")
+    curve = br.read_curve(folder / "curve.csv")
     assert list(curve["step"]) == [0, 64, 128] and record["steps"] == 128
     assert np.all(np.diff(curve["train_wall_s"]) > 0) and record["final_rmse"] == curve["rmse"][-1]
     # the saved model is the one validated last: load_policy rebuilds it with its statistics
@@ -192,23 +193,23 @@ def test_a_run_validates_on_schedule_and_resume_skips_it(tmp_path):
 
     stamp = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
     time.sleep(0.01)
-    assert bm.run_one(spec, tmp_path) == record  # skipped: the stored record, nothing rewritten
+    assert br.run_one(spec, tmp_path) == record  # skipped: the stored record, nothing rewritten
     assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == stamp
     # in a worker process too (the pool path of --workers)
-    [(done_spec, pooled, error)] = list(bm.execute([spec], tmp_path, workers=2))
+    [(done_spec, pooled, error)] = list(br.execute([spec], tmp_path, workers=2))
     assert error == "" and pooled == record and done_spec == spec
     assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == stamp
 
     with pytest.raises(ValueError, match="n_timesteps=128, now 256"):
-        bm.check_finished([_tiny_spec(n_timesteps=256)], tmp_path)
-    bm.check_finished([spec], tmp_path)
+        br.check_finished([_tiny_spec(n_timesteps=256)], tmp_path)
+    br.check_finished([spec], tmp_path)
     # a run finished with another YAML entry (the file edited since) is not taken for a current one
-    done = folder / bm.DONE
+    done = folder / br.DONE
     stored = json.loads(done.read_text())
     stored["settings"]["entry"]["gamma"] = 0.5
     done.write_text(json.dumps(stored))
     with pytest.raises(ValueError, match="finished with entry="):
-        bm.check_finished([spec], tmp_path)
+        br.check_finished([spec], tmp_path)
 
 
 def test_an_interrupted_run_starts_over(tmp_path):
@@ -216,31 +217,31 @@ def test_an_interrupted_run_starts_over(tmp_path):
     folder = tmp_path / spec.folder
     folder.mkdir(parents=True)
     (folder / "curve.csv").write_text("step\n999\n")  # left by a killed run, no done marker
-    bm.run_one(spec, tmp_path)
-    assert list(bm.read_curve(folder / "curve.csv")["step"]) == [0, 64]
-    assert json.loads((folder / bm.DONE).read_text())["settings"] == spec.settings()
+    br.run_one(spec, tmp_path)
+    assert list(br.read_curve(folder / "curve.csv")["step"]) == [0, 64]
+    assert json.loads((folder / br.DONE).read_text())["settings"] == spec.settings()
 
 
 def test_a_run_sent_as_files_is_written_as_run_one_writes_it(tmp_path):
     spec = _tiny_spec(n_timesteps=64, eval_freq=64)
-    record, files = bm.run_files(spec)  # what a Ray task returns: no folder of its own is left
+    record, files = br.run_files(spec)  # what a Ray task returns: no folder of its own is left
     assert sorted(files) == ["curve.csv", "done.json", "meta.json", "model.zip", "vecnormalize.pkl"]
     stale = tmp_path / "sent" / spec.folder
     stale.mkdir(parents=True)
     (stale / "curve.csv").write_text("step\n999\n")  # an interrupted run is replaced
-    bm.write_run(tmp_path / "sent", spec, files)
-    local = bm.run_one(spec, tmp_path / "local")
+    br.write_run(tmp_path / "sent", spec, files)
+    local = br.run_one(spec, tmp_path / "local")
     sent, here = tmp_path / "sent" / spec.folder, tmp_path / "local" / spec.folder
     assert sorted(p.name for p in sent.iterdir()) == sorted(files)
     assert all((sent / name).read_bytes() == data for name, data in files.items())
-    a, b = bm.read_curve(sent / "curve.csv"), bm.read_curve(here / "curve.csv")
+    a, b = br.read_curve(sent / "curve.csv"), br.read_curve(here / "curve.csv")
     for column in ("step", "rmse", "energy_J", "time_over_limit_s"):  # the same run: equal numbers
         assert np.array_equal(a[column], b[column]), column
     untimed = [{k: v for k, v in r.items() if k not in ("wall_s", "cpu_s")} for r in (record, local)]
     assert untimed[0] == untimed[1]
     # the written run counts as finished: resuming skips it
-    assert bm.run_one(spec, tmp_path / "sent") == record
-    bm.check_finished([spec], tmp_path / "sent")
+    assert br.run_one(spec, tmp_path / "sent") == record
+    br.check_finished([spec], tmp_path / "sent")
 
 
 # --------------------------------------------------------------------------- --quick end to end

@@ -1,5 +1,6 @@
-"""spine_gym/agents/distill.py: the regression fit, one tiny DAgger iteration (cheap PID expert) end to end
-(saved folder loads through load_policy, reproduces the student's actions, fine-tunes with
+"""scripts/studies/distill.py and the regression fit it shares with spine_gym.agents.behaviour_cloning: the fit,
+one tiny DAgger iteration (cheap PID expert) end to end
+(the saved folder loads through load_policy, reproduces the student's actions, fine-tunes with
 spine_gym.agents.train -i), and argument checks."""
 
 from __future__ import annotations
@@ -11,10 +12,13 @@ import numpy as np
 import pytest
 import torch
 from stable_baselines3 import PPO
+from studies import load_study
 
-from spine_gym.agents import distill as dg
+from spine_gym.agents import behaviour_cloning as bc
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, load_policy, make_env, run_episode
 from spine_gym.agents.train import train
+
+dg = load_study("distill")
 
 
 def _labelled_set(model, n=512, seed=0):
@@ -33,10 +37,10 @@ def test_fit_reduces_action_error_deterministically():
         torch.manual_seed(0)
         model, _, _, _ = dg.make_student(obs_history=None, seed=0)
         x, y = _labelled_set(model)
-        rms = dg.obs_statistics(x)
-        before = dg.action_error(model, x, y, rms)
-        losses = dg.fit_student(model, x, y, rms, epochs=20, lr=3e-3, batch_size=64, seed=1)
-        after = dg.action_error(model, x, y, rms)
+        rms = bc.obs_statistics(x)
+        before = bc.action_error(model, x, y, rms)
+        losses = bc.fit_student(model, x, y, rms, epochs=20, lr=3e-3, batch_size=64, seed=1)
+        after = bc.action_error(model, x, y, rms)
         assert losses[-1] < losses[0]
         assert after < 0.3 * before, (before, after)
         errs.append((after, losses[-1]))
@@ -105,9 +109,9 @@ def test_helpers_reject_bad_arguments():
     model, _, _, _ = dg.make_student(obs_history=None)
     x, y = _labelled_set(model, n=8)
     with pytest.raises(ValueError, match="epochs"):
-        dg.fit_student(model, x, y, dg.obs_statistics(x), epochs=0)
+        bc.fit_student(model, x, y, bc.obs_statistics(x), epochs=0)
     with pytest.raises(ValueError, match="x and y"):
-        dg.fit_student(model, x, y[:4], dg.obs_statistics(x))
+        bc.fit_student(model, x, y[:4], bc.obs_statistics(x))
     env = make_env()
     with pytest.raises(ValueError, match="w_energy"):
         dg.build_expert(env, "pid", w_energy=1.0)

@@ -25,9 +25,14 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 from spine_gym.agents.evaluate import evaluate
 from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
 from spine_gym.agents.export_c import compile_driver
-from spine_gym.agents.history import HistoryObsVecEnv, HistorySpec
-from spine_gym.agents.integral import IntegralObsVecEnv, IntegralSpec, integral_step
 from spine_gym.agents.numpy_policy import load_bundle
+from spine_gym.agents.observations import (
+    HistoryObsVecEnv,
+    HistorySpec,
+    IntegralObsVecEnv,
+    IntegralSpec,
+    integral_step,
+)
 from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env
 from spine_gym.agents.scenarios import get_suite
 

@@ -1,4 +1,4 @@
-"""spine_gym.agents.history: the frame-history observation against a NumPy reference, in training and after
+"""spine_gym.agents.observations: the frame-history observation against a NumPy reference, in training and after
 loading; spine_gym.agents.train's budget_scale."""
 
 from __future__ import annotations
@@ -10,11 +10,17 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from spine_gym.agents.envs import make_vec_env
-from spine_gym.agents.history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec, history_features, history_step
-from spine_gym.agents.integral import IntegralObsPolicy
+from spine_gym.agents.observations import (
+    HistoryObsPolicy,
+    HistoryObsVecEnv,
+    HistorySpec,
+    IntegralObsPolicy,
+    history_features,
+    history_step,
+)
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
-from spine_gym.agents.train import energy_budget
+from spine_gym.agents.training import energy_budget
+from spine_gym.agents.vec_env import make_vec_env
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods
@@ -137,8 +143,8 @@ def test_budget_scale_multiplies_the_budget_and_is_validated():
 
 def test_the_shipped_budget_policy_loads_plain_with_its_preview():
     """ppo_bud (the new default physics_dt): no integral, no history, the 3-s preview."""
-    from spine_gym.agents.common import POLICIES_DIR
     from spine_gym.agents.runtime import SavedPolicy, evaluation_env_kwargs
+    from spine_gym.agents.zoo_config import POLICIES_DIR
 
     pol = load_policy(POLICIES_DIR / "ppo_bud")
     assert type(pol) is SavedPolicy and pol.model.observation_space.shape == (10,)

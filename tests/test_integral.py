@@ -1,4 +1,4 @@
-"""spine_gym.agents.integral: the integral-of-error observation against a NumPy reference, in training and after loading."""
+"""spine_gym.agents.observations: the integral-of-error observation against a NumPy reference, in training and after loading."""
 
 from __future__ import annotations
 
@@ -8,13 +8,20 @@ import math
 import numpy as np
 import pytest
 import torch
+from studies import load_study
 from test_agents import TINY, run_cli
 
-from spine_gym.agents.envs import make_vec_env
-from spine_gym.agents.integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec, integral_step, parse_tau
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
+from spine_gym.agents.observations import (
+    IntegralObsPolicy,
+    IntegralObsVecEnv,
+    IntegralSpec,
+    integral_step,
+    parse_tau,
+)
 from spine_gym.agents.residual import ResidualPolicy
 from spine_gym.agents.runtime import load_policy, make_env, run_episode
+from spine_gym.agents.vec_env import make_vec_env
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}  # 20 control periods
@@ -174,8 +181,8 @@ def test_budget_window_zero_takes_only_the_episodes_since_the_last_dual_step():
 
 
 def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_preview():
-    from spine_gym.agents.common import POLICIES_DIR
     from spine_gym.agents.runtime import evaluation_env_kwargs
+    from spine_gym.agents.zoo_config import POLICIES_DIR
 
     pol = load_policy(POLICIES_DIR / "ppo_int")
     assert isinstance(pol, IntegralObsPolicy) and pol.spec.tau == 10.0 and pol.spec.size == 1
@@ -184,22 +191,22 @@ def test_the_shipped_integral_policy_rebuilds_its_observation_and_keeps_its_prev
 
 
 def test_ceiling_rows_score_the_oracle_against_the_pid_and_a_higher_energy_weight_saves_energy(tmp_path):
-    """spine_gym.agents.ceiling on one 3-s validation episode: the PID row is the reference (ratios 1), and
+    """scripts/studies/ceiling.py on one 3-s validation episode: the PID row is the reference (ratios 1), and
     the oracle's cost Σ e² + w_energy E spends less energy when w_energy is 1000× larger."""
-    from spine_gym.agents.ceiling import ceiling_rows, plot
+    ceiling = load_study("ceiling")
 
-    rows = ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
+    rows = ceiling.ceiling_rows(1, [0.01, 10.0], ["default"], duration=3.0)
     assert [r["controller"] for r in rows] == ["pid", "mpc_oracle w_energy=0.01", "mpc_oracle w_energy=10"]
     assert rows[0]["rmse_ratio"] == 1.0 and rows[0]["energy_ratio"] == 1.0
     assert rows[2]["energy_J"] < rows[1]["energy_J"]
-    plot(rows, 0.7, tmp_path / "c.png")
+    ceiling.plot(rows, 0.7, tmp_path / "c.png")
     assert (tmp_path / "c.png").stat().st_size > 1000
 
 
 def test_ceiling_rows_sweep_the_causal_oracle_with_its_own_preview(monkeypatch):
     """--oracle mpc_oracle_causal --target-preview 3: the rows name the causal planner, which is
     built on a 3-s-preview env; the PID reference keeps the env's 1-s preview."""
-    import spine_gym.agents.ceiling as ceiling
+    ceiling = load_study("ceiling")
 
     built = []
     real = ceiling.energy_weighted_oracle

@@ -9,10 +9,10 @@ import pytest
 import torch
 from test_agents import TINY, run_cli
 
-from spine_gym.agents.envs import make_vec_env
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
 from spine_gym.agents.runtime import build_controller, make_env, validation_scores
-from spine_gym.agents.train import energy_budget
+from spine_gym.agents.training import energy_budget
+from spine_gym.agents.vec_env import make_vec_env
 
 torch.set_num_threads(1)
 KW = {"episode_duration": 2.0}

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401 - registers the envs
-from spine_gym.agents.common import CHAIN_ENV_ID, SPATIAL_ENV_ID
 from spine_gym.agents.runtime import build_controller, make_env, run_episode
+from spine_gym.agents.zoo_config import CHAIN_ENV_ID, SPATIAL_ENV_ID
 from spine_gym.controllers import MPPIConfig, SpatialMPPIController, SpatialPhaseEstimator
 from spine_gym.controllers.mpc_spatial import SpatialReadings, drive_patterns
 from spine_gym.envs.loads import LoadSchedule

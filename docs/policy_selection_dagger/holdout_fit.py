@@ -1,7 +1,7 @@
 """One-off check quoted in docs/agents.md (distillation): how well the student predicts the oracle on held-out episodes.
 
 Usage: PYTHONPATH=. python docs/policy_selection_dagger/holdout_fit.py runs/dagA/data.npz 50 200
-(a DAgger data.npz of spine_gym.agents.distill with 30-s episodes = 300 rows each; 1/5 of the episodes held out;
+(a DAgger data.npz of scripts/studies/distill.py with 30-s episodes = 300 rows each; 1/5 of the episodes held out;
 one fresh student per epoch count, obs_history 5).
 """
 import sys
@@ -11,7 +11,9 @@ import numpy as np
 import torch
 
 torch.set_num_threads(1)
-from spine_gym.agents import distill as dg
+sys.path.insert(0, "scripts/studies")  # the DAgger study, run from the repository root
+import distill as dg
+
 d=np.load(sys.argv[1]); x,y,it=d['x'],d['y'],d['iteration']
 print('labels: frac at -1', np.mean(y<=-0.999), 'at +1', np.mean(y>=0.999), 'mean', y.mean(0), 'std', y.std(0))
 # step-to-step label change (noise)

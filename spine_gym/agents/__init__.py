@@ -1,15 +1,29 @@
-"""Learned controllers for ``SmaSpine-v0`` (the Stable-Baselines3 side of spine_gym).
+"""Learned controllers for the spine envs (the Stable-Baselines3 side of spine_gym), one module per concept.
 
-* :mod:`spine_gym.agents.train` — RL-Zoo-style training CLI (``python -m spine_gym.agents.train --algo ppo``).
-* :mod:`spine_gym.agents.evaluate` — the fixed scenario suite for baselines and saved models
-  (``python -m spine_gym.agents.evaluate``).
-* :mod:`spine_gym.agents.scenarios` — the named, seeded scenarios of that suite.
-* :mod:`spine_gym.agents.video` — MP4 videos of evaluation episodes (``python -m spine_gym.agents.evaluate --video``).
-* :mod:`spine_gym.agents.tune` — reproducible tuning of the PID and bang-bang baselines on training scenarios.
-* :mod:`spine_gym.agents.common` — loading saved policies, env construction and hyperparameter files.
-* :mod:`spine_gym.agents.export` — a trained policy as ONNX, NumPy arrays and C (``python -m spine_gym.agents.export``);
-  :mod:`spine_gym.agents.numpy_policy` runs the bundle without torch, :mod:`spine_gym.agents.export_c` writes the C.
+Command lines (each ``python -m spine_gym.agents.<name>``, and ``spine-gym <name>`` for most):
 
-``spine_gym/agents/policies/`` holds the shipped PPO and SAC policies with their ``VecNormalize``
-statistics and the exact commands that produced them.
+* :mod:`~spine_gym.agents.train` — RL-Zoo-style training (``--algo ppo``); :mod:`~spine_gym.agents.evaluate` —
+  the fixed scenario suite for baselines and saved models (``--video``: :mod:`~spine_gym.agents.video`);
+  :mod:`~spine_gym.agents.tune` — tuning the PID and bang-bang baselines; :mod:`~spine_gym.agents.benchmark` —
+  RL algorithms x env ids at fixed budgets; :mod:`~spine_gym.agents.selection` — scoring candidate policies;
+  :mod:`~spine_gym.agents.export` — a policy as ONNX, NumPy and C; :mod:`~spine_gym.agents.datasets` — Minari
+  datasets of a controller; :mod:`~spine_gym.agents.behaviour_cloning` — a policy fitted to one.
+
+Runtime (no command line):
+
+* :mod:`~spine_gym.agents.registry` — the one table of controllers; :mod:`~spine_gym.agents.runtime` — envs,
+  controllers, saved policies, episodes; :mod:`~spine_gym.agents.scenarios`, :mod:`~spine_gym.agents.metrics`.
+* :mod:`~spine_gym.agents.observations` — the observation features (integral of the error, frame
+  history); :mod:`~spine_gym.agents.residual`, :mod:`~spine_gym.agents.lagrangian` — the residual and
+  energy-budget wrappers.
+* :mod:`~spine_gym.agents.training` — how a training run is built; :mod:`~spine_gym.agents.vec_env` — its
+  vector envs; :mod:`~spine_gym.agents.checkpoints` — resumable checkpoints;
+  :mod:`~spine_gym.agents.benchmark_run` — one benchmark run and many.
+* :mod:`~spine_gym.agents.zoo_config` — env ids, algorithms and the hyperparameter files
+  (``spine_gym/agents/hyperparams/``).
+* :mod:`~spine_gym.agents.numpy_policy`, :mod:`~spine_gym.agents.export_c` — an exported bundle without torch.
+
+``spine_gym/agents/policies/`` holds the shipped policies with their ``VecNormalize`` statistics and the
+exact commands that produced them. One-off studies that informed a decision are scripts in
+``scripts/studies/``.
 """

@@ -8,8 +8,9 @@ Example::
 
 The student is the shipped PPO ``MlpPolicy`` of the dataset's env id (``spine_gym/agents/hyperparams/ppo.yml``),
 its deterministic action (the Gaussian's mean) fitted by MSE to the dataset's actions on its
-observations, normalised by their mean and variance — :func:`spine_gym.agents.distill.fit_student`, the
-regression DAgger uses, on the (observation, action) pairs of :func:`spine_gym.agents.datasets.transitions`.
+observations, normalised by their mean and variance (:func:`fit_student`, the regression the DAgger
+study ``scripts/studies/distill.py`` uses too), on the (observation, action) pairs of
+:func:`spine_gym.agents.datasets.transitions`.
 It is saved in the shipped format (``model.zip``, ``vecnormalize.pkl``, ``meta.json``:
 :func:`spine_gym.agents.runtime.load_policy` reads it, ``python -m spine_gym.agents.train -i`` fine-tunes it).
 
@@ -31,15 +32,110 @@ import minari
 import numpy as np
 import torch
 from stable_baselines3 import PPO
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
-from .common import load_hyperparams, preprocess_hyperparams
 from .datasets import datasets_path, load_metadata, transitions
-from .distill import fit_student, obs_statistics
-from .envs import make_vec_env
 from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
+from .vec_env import make_vec_env
+from .zoo_config import load_hyperparams, preprocess_hyperparams
 
-__all__ = ["make_model", "behaviour_clone", "save_policy", "expert_of", "compare", "main"]
+__all__ = [
+    "obs_statistics",
+    "mean_action",
+    "fit_student",
+    "action_error",
+    "make_model",
+    "behaviour_clone",
+    "save_policy",
+    "expert_of",
+    "compare",
+    "main",
+]
+
+
+def _check(name: str, ok: bool, value, what: str) -> None:
+    if not ok:
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def _check_int(name: str, value, low: int) -> None:
+    _check(name, isinstance(value, (int, np.integer)) and value >= low, value, f"an integer >= {low}")
+
+
+def obs_statistics(x: np.ndarray) -> RunningMeanStd:
+    """A ``RunningMeanStd`` of the rows of ``x`` (as ``VecNormalize`` keeps it)."""
+    rms = RunningMeanStd(shape=x.shape[1:])
+    rms.mean = x.mean(axis=0).astype(np.float64)
+    rms.var = x.var(axis=0).astype(np.float64)
+    rms.count = float(x.shape[0])
+    return rms
+
+
+def mean_action(model, obs_t: torch.Tensor) -> torch.Tensor:
+    """The policy's deterministic action (the Gaussian's mean, before the clip to the space)."""
+    policy = model.policy
+    features = policy.extract_features(obs_t, policy.pi_features_extractor)
+    return policy.action_net(policy.mlp_extractor.forward_actor(features))
+
+
+def fit_student(
+    model,
+    x: np.ndarray,
+    y: np.ndarray,
+    obs_rms,
+    epochs: int = 30,
+    lr: float = 1e-3,
+    batch_size: int = 256,
+    seed: int = 0,
+    clip_obs: float = 10.0,
+    epsilon: float = 1e-8,
+) -> list[float]:
+    """Fit the student's mean action to ``y`` on ``x`` normalised by ``obs_rms`` (MSE, Adam);
+    returns the mean loss per epoch. Only the actor (extractor, policy MLP, action net) moves."""
+    _check_int("epochs", epochs, 1)
+    _check("lr", float(lr) > 0.0, lr, "> 0")
+    _check_int("batch_size", batch_size, 1)
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float32)
+    if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] == 0:
+        raise ValueError(f"x and y must be non-empty (n, d) and (n, a) arrays, got {x.shape} and {y.shape}")
+    xn = np.clip((x - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon), -clip_obs, clip_obs).astype(np.float32)
+    xt, yt = torch.as_tensor(xn), torch.as_tensor(y)
+    policy = model.policy
+    params = [
+        *policy.pi_features_extractor.parameters(),
+        *policy.mlp_extractor.policy_net.parameters(),
+        *policy.action_net.parameters(),
+    ]
+    opt = torch.optim.Adam(params, lr=float(lr))
+    gen = torch.Generator().manual_seed(int(seed))
+    losses = []
+    policy.set_training_mode(True)
+    for _ in range(int(epochs)):
+        perm = torch.randperm(xt.shape[0], generator=gen)
+        total = 0.0
+        for i in range(0, xt.shape[0], int(batch_size)):
+            idx = perm[i : i + int(batch_size)]
+            loss = torch.mean((mean_action(model, xt[idx]) - yt[idx]) ** 2)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(idx)
+        losses.append(total / xt.shape[0])
+    policy.set_training_mode(False)
+    return losses
+
+
+def action_error(
+    model, x: np.ndarray, y: np.ndarray, obs_rms, epsilon: float = 1e-8, clip_obs: float = 10.0
+) -> float:
+    """Mean squared error of the student's mean action against ``y`` on ``x``."""
+    xn = (np.asarray(x, np.float64) - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon)
+    xn = np.clip(xn, -clip_obs, clip_obs)
+    with torch.no_grad():
+        a = mean_action(model, torch.as_tensor(xn.astype(np.float32))).numpy()
+    return float(np.mean((a - np.asarray(y, np.float32)) ** 2))
 
 
 def make_model(env_id: str, env_kwargs: dict, seed: int = 0):

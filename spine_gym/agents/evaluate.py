@@ -49,7 +49,6 @@ from spine_gym.cli_conventions import (
 from spine_gym.envs import base_id
 from spine_gym.plotting import plot_episodes
 
-from .common import CHAIN_ENV_ID, ENV_ID, POLICIES_DIR
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
 from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
@@ -62,6 +61,7 @@ from .runtime import (
 )
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
+from .zoo_config import CHAIN_ENV_ID, ENV_ID, POLICIES_DIR
 
 #: unit of the tracking error per env (the metric columns are named ``*_deg`` after the planar angle)
 ERROR_UNIT = {CHAIN_ENV_ID: "mm"}

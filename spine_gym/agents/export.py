@@ -22,7 +22,7 @@ The exported action is SB3's ``predict(deterministic=True)`` for a Box action sp
 and TD3's actor, rescaled to the bounds. :mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
 alone; the formulas are in its docstring.
 
-Observation memories (:mod:`spine_gym.agents.integral`'s integral of the error, :mod:`spine_gym.agents.history`'s
+Observation memories (:mod:`spine_gym.agents.observations`: the integral of the error, the
 frame history) are exported: the network's input is the env's observation followed by their
 features, ``policy.json`` holds their specs, and :meth:`spine_gym.agents.numpy_policy.ExportedPolicy.step`
 and ``policy_step`` of the C code keep them. A residual policy on a PID (:mod:`spine_gym.agents.residual`)
@@ -56,14 +56,13 @@ from torch import nn
 import spine_gym
 from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
 
-from .common import ENV_ID
-from .export_c import write_c
-from .history import HistoryObsPolicy
-from .integral import IntegralObsPolicy
 from . import numpy_policy
+from .export_c import write_c
 from .numpy_policy import BUNDLE_FORMAT
+from .observations import HistoryObsPolicy, IntegralObsPolicy
 from .residual import ResidualPolicy
 from .runtime import SavedPolicy, load_policy, make_env
+from .zoo_config import ENV_ID
 
 __all__ = ["UnsupportedPolicyError", "actor_layers", "bundle_of", "export_policy", "write_onnx", "main"]
 

@@ -11,7 +11,7 @@ without tanh layers needs no libm), and computes in float32 what
 * for a policy with observation memories (``POLICY_HAS_STATE`` defined): ``policy_state_t``,
   ``void policy_reset(policy_state_t *s)`` (at an episode's start) and
   ``void policy_step(policy_state_t *s, const float *obs, float *act)`` on the env's observation
-  (``POLICY_N_OBS`` floats). The integral is kept in double, as in :mod:`spine_gym.agents.integral`.
+  (``POLICY_N_OBS`` floats). The integral is kept in double, as in :mod:`spine_gym.agents.observations`.
 
 Compile with ``cc -std=c99 -O2 -c policy.c`` (ISO C mode: no contraction into fused multiply-adds,
 so the integral's update is the same double arithmetic as NumPy's). :func:`compile_driver` builds

@@ -26,9 +26,9 @@ the layers in float32; onnxruntime and the C code normalise in float32 (differen
 ``input`` is the env's observation followed by the features of the bundle's memories, in the
 order of ``policy.json``'s ``features`` (the order :mod:`spine_gym.agents.train` appends them):
 
-* ``integral`` (:mod:`spine_gym.agents.integral`): ``I = clip(decay · I + dt · (obs[target] − obs[tracked]),
+* ``integral`` (:mod:`spine_gym.agents.observations`): ``I = clip(decay · I + dt · (obs[target] − obs[tracked]),
   ±limit)``, ``I = 0`` before an episode's first observation, kept in float64;
-* ``history`` (:mod:`spine_gym.agents.history`): the ``frames`` frames before the current one of the
+* ``history`` (:mod:`spine_gym.agents.observations`): the ``frames`` frames before the current one of the
   observation ranges ``ranges``, newest first; at an episode's first observation every frame is
   the current one.
 

@@ -35,7 +35,7 @@ from spine_gym.controllers import (
 )
 from spine_gym.envs import base_id
 
-from .common import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
+from .zoo_config import CHAIN_ENV_ID, ENV_ID, HYPERPARAMS_DIR, SPATIAL_ENV_ID
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
 TUNED_FILE = HYPERPARAMS_DIR / "baselines.yml"
@@ -114,34 +114,34 @@ class ControllerSpec:
         return self.search_space is not None
 
 
+def _mpc_specs(cls: type, model: str, estimator: str, **how) -> dict[str, ControllerSpec]:
+    """The three MPPI entries (not run by default) of the planner ``cls`` on ``model`` (its dynamics),
+    ``estimator`` the state estimate of ``mpc_estimated``; ``how``: how it is built from the env."""
+    modes = (
+        ("mpc_oracle", "oracle", "true state, future targets and loads (privileged upper bound)"),
+        ("mpc_oracle_causal", "oracle_causal",
+         "true state and plant, current load held, observed target preview (privileged, causal)"),
+        ("mpc_estimated", "estimated", None),
+    )  # fmt: skip
+    return {
+        name: ControllerSpec(
+            cls,
+            f"MPPI on {model}, {what}" if what else f"MPPI on {model} from the observation ({estimator})",
+            kwargs={"mode": mode},
+            in_default=False,
+            **how,
+        )
+        for name, mode, what in modes
+    }
+
+
 REGISTRY: dict[str, ControllerSpec] = {
     "step": ControllerSpec(
         StepVoltageController, "open-loop steady-state step voltage (the paper)", guard=False
     ),
     "bang_bang": ControllerSpec(BangBangController, "three-level relay with hysteresis", _bang_bang_space),
     "pid": ControllerSpec(PIDController, "PID with feedforward, preview and anti-windup", _pid_space),
-    "mpc_oracle": ControllerSpec(
-        MPPIController,
-        "MPPI on the env's physics, true state, future targets and loads (privileged upper bound)",
-        kwargs={"mode": "oracle"},
-        plans_on_env=True,
-        in_default=False,
-    ),
-    "mpc_oracle_causal": ControllerSpec(
-        MPPIController,
-        "MPPI on the env's physics, true state and plant, current load held, observed target preview "
-        "(privileged, causal)",
-        kwargs={"mode": "oracle_causal"},
-        plans_on_env=True,
-        in_default=False,
-    ),
-    "mpc_estimated": ControllerSpec(
-        MPPIController,
-        "MPPI on the env's physics from the observation (phase-fraction estimator)",
-        kwargs={"mode": "estimated"},
-        plans_on_env=True,
-        in_default=False,
-    ),
+    **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
 }
 BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
 TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)
@@ -164,27 +164,8 @@ def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
             pid_space,
             from_env=True,
         ),  # fmt: skip
-        "mpc_oracle": ControllerSpec(
-            SpatialMPPIController,
-            "MPPI on the spatial core, true state, future targets and loads (privileged upper bound)",
-            kwargs={"mode": "oracle"},
-            from_env=True,
-            in_default=False,
-        ),
-        "mpc_oracle_causal": ControllerSpec(
-            SpatialMPPIController,
-            "MPPI on the spatial core, true state and plant, current load held, observed target "
-            "preview (privileged, causal)",
-            kwargs={"mode": "oracle_causal"},
-            from_env=True,
-            in_default=False,
-        ),
-        "mpc_estimated": ControllerSpec(
-            SpatialMPPIController,
-            "MPPI on the spatial core from the observation (per-wire phase-fraction estimator)",
-            kwargs={"mode": "estimated"},
-            from_env=True,
-            in_default=False,
+        **_mpc_specs(
+            SpatialMPPIController, "the spatial core", "per-wire phase-fraction estimator", from_env=True
         ),
     }
 

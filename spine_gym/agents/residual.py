@@ -31,8 +31,8 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 from spine_gym.envs import base_id
 
-from .common import ENV_ID
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
+from .zoo_config import ENV_ID
 
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]
 
@@ -136,7 +136,7 @@ class ResidualVecEnv(VecEnvWrapper):
 
 
 class ResidualPolicy:
-    """A residual model (a :class:`spine_gym.agents.common.SavedPolicy`) and its baseline, as one controller.
+    """A residual model (a :class:`spine_gym.agents.zoo_config.SavedPolicy`) and its baseline, as one controller.
 
     ``predict`` takes the env's observation, computes the baseline action (the baseline keeps its
     memory internally; ``episode_start`` restarts it), appends it, asks the model for the residual

@@ -58,9 +58,9 @@ from tqdm.auto import tqdm
 
 from spine_gym.envs import SmaSpineVectorEnv
 
-from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
 from .evaluate import evaluate, format_tables, summarize
 from .scenarios import SUITES, get_suite
+from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
 __all__ = [
     "RLLIB_ENV",

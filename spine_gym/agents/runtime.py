@@ -7,8 +7,8 @@
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
   :class:`spine_gym.agents.residual.ResidualPolicy`, one trained with the integral-of-error observation
-  wrapped in :class:`spine_gym.agents.integral.IntegralObsPolicy`, one with the frame history in
-  :class:`spine_gym.agents.history.HistoryObsPolicy`), so the evaluation treats it like any controller.
+  wrapped in :class:`spine_gym.agents.observations.IntegralObsPolicy`, one with the frame history in
+  :class:`spine_gym.agents.observations.HistoryObsPolicy`), so the evaluation treats it like any controller.
 * :func:`run_episode` — one episode of a controller in an env, as a :class:`Trajectory`;
   :func:`validation_scores` — mean RMSE and energy over the validation episodes.
 
@@ -31,13 +31,12 @@ from tqdm import tqdm
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
-from .common import ALGOS, ENV_ID, algo_class
-from .history import HistoryObsPolicy, HistorySpec
-from .integral import IntegralObsPolicy, IntegralSpec
 from .metrics import Trajectory, episode_metrics
+from .observations import feature_policy, specs_from_meta
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
+from .zoo_config import ALGOS, ENV_ID, algo_class
 
 __all__ = [
     "make_env",
@@ -261,8 +260,8 @@ class SavedPolicy:
 def energy_weighted_oracle(env, w_energy: float, name: str = "mpc_oracle") -> MPPIController:
     """The registry's privileged MPC ``name`` (one of :data:`ORACLE_NAMES`: ``mpc_oracle``,
     ``mpc_oracle_causal``) for the planar ``env`` with the energy weight ``w_energy`` [1/J] of its
-    cost (the other settings its defaults): the expert of :mod:`spine_gym.agents.distill` and the trade-off
-    sweep of :mod:`spine_gym.agents.ceiling`."""
+    cost (the other settings its defaults): the expert of ``scripts/studies/distill.py`` and the trade-off
+    sweep of ``scripts/studies/ceiling.py``."""
     if name not in ORACLE_NAMES:
         raise ValueError(f"name must be one of {ORACLE_NAMES}, got {name!r}")
     return MPPIController(
@@ -343,12 +342,8 @@ def wrap_policy(policy: SavedPolicy):
     """``policy`` inside the observation wrappers its ``meta`` names (residual baseline, integral of
     the error, frame history), so it sees what it was trained on."""
     meta = policy.meta
-    # the model sees [obs, residual's base action, integral, frame history] (spine_gym.agents.train's order):
-    # the innermost wrapper appends last
-    if meta.get("obs_history"):
-        policy = HistoryObsPolicy(policy, HistorySpec.from_dict(meta["obs_history"]), name=policy.name)
-    if meta.get("obs_integral"):
-        policy = IntegralObsPolicy(policy, IntegralSpec.from_dict(meta["obs_integral"]), name=policy.name)
+    # the model sees [obs, residual's base action, integral, frame history] (the training env's order)
+    policy = feature_policy(policy, specs_from_meta(meta))
     if meta.get("residual"):
         return ResidualPolicy(policy, meta["residual"], name=policy.name)
     return policy

@@ -2,7 +2,7 @@
 
 A :class:`Scenario` is pure data (target profile, load schedule, duration, reset seed); its
 :meth:`Scenario.reset_options` turns it into the env's ``reset(options={"target": ...,
-"loads": ...})`` objects (:mod:`spine_gym.envs.task`). The suite has two groups with the same
+"loads": ...})`` objects (:mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.loads`). The suite has two groups with the same
 target profiles:
 
 * ``nominal`` — no external load;
@@ -29,10 +29,10 @@ The spatial envs have their own suites (:data:`SUITES_BY_ENV`, :func:`get_suite`
 with ``nominal`` and ``disturbed`` groups (payload plus 3-D tip pushes tilted up to ±20° from the
 horizontal, in any azimuth):
 
-* ``SmaSpine3D-v0`` — target bending vectors (:class:`spine_gym.envs.task_spatial.BendTarget`): a
+* ``SmaSpine3D-v0`` — target bending vectors (:class:`spine_gym.envs.targets_spatial.BendTarget`): a
   diagonal step, a tour of three steps around the azimuth, a 40° hold, a circle and a
   figure-eight of the tip direction;
-* ``SmaSpineChain-v0`` — target tip positions (:class:`spine_gym.envs.task_spatial.ChainTarget`,
+* ``SmaSpineChain-v0`` — target tip positions (:class:`spine_gym.envs.targets_spatial.ChainTarget`,
   every module an arc within the env's 20° per-module bend limit, so inside its documented
   workspace): a hold, a step sequence, a circle and a figure-eight.
 """
@@ -42,14 +42,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from spine_gym.envs.targets_spatial import BendTarget, ChainTarget
 
 from spine_gym import ModelParams
 from spine_gym.envs import ENV_SPECS, base_id, default_randomization
 from spine_gym.envs.loads import LoadSchedule
 from spine_gym.envs.targets import TargetProfile
+from spine_gym.envs.targets_spatial import BendTarget, ChainTarget
 
-from .common import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
+from .zoo_config import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
 
 EVAL_SEED_BASE = 900_000  # evaluation reset seeds: EVAL_SEED_BASE + k; training/tuning seeds stay below
 G = 9.81  # [m/s^2]
@@ -64,7 +64,7 @@ class Scenario:
         group: ``"nominal"`` or ``"disturbed"``.
         kind: ``"step"``, ``"ramp"`` or ``"sine"`` (settling time is reported for steps).
         target: ``(constructor, kwargs)`` of the env's target class (:data:`TARGET_CLASSES`:
-            :class:`~spine_gym.envs.task.TargetProfile` for ``SmaSpine-v0``); constructor ``""``
+            :class:`~spine_gym.envs.targets.TargetProfile` for ``SmaSpine-v0``); constructor ``""``
             calls the class itself.
         payload_kg: mass hung on the top disk [kg] (a constant downward tip force m g).
         tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y), or
@@ -130,14 +130,23 @@ def _profiles(duration: float) -> dict[str, tuple[str, str, dict]]:
 
 def _disturbance(k: int, duration: float) -> tuple[float, tuple[tuple[float, float, float, float], ...]]:
     """Payload [kg] and two horizontal tip-force pulses for scenario k, from a fixed seed."""
+    return _payload_and_pushes(k, duration, _horizontal_push)
+
+
+def _horizontal_push(rng: np.random.Generator) -> tuple[float, float]:
+    return float(np.round(rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3), 3)), 0.0
+
+
+def _payload_and_pushes(k: int, duration: float, push) -> tuple[float, tuple[tuple[float, ...], ...]]:
+    """Payload [kg] and two tip pushes (``push(rng)``: the force components) for scenario seed k: one
+    in 20–45 % of the episode, one in 60–85 %, each lasting 4–10 s."""
     rng = np.random.default_rng(EVAL_SEED_BASE + k)
     payload = float(np.round(rng.uniform(0.02, 0.05), 3))
     pulses = []
     for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
         t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
         t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
-        fx = float(np.round(rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3), 3))
-        pulses.append((t0, min(t1, duration), fx, 0.0))
+        pulses.append((t0, min(t1, duration), *push(rng)))
     return payload, tuple(pulses)
 
 
@@ -191,18 +200,27 @@ def build_suite(
     duration: float = 60.0, profiles: list[str] | None = None, groups: tuple[str, ...] = tuple(GROUP_OFFSET)
 ) -> list[Scenario]:
     """The scenarios of ``groups`` (default: nominal, disturbed, hard) for ``duration``-s episodes."""
-    table = _profiles(duration)
-    names = profiles or list(table)
+    return _suite(_profiles(duration), duration, profiles, groups, _planar_loads)
+
+
+def _planar_loads(group: str, k: int, duration: float):
+    """Payload, tip pulses and plant parameters of scenario seed k of a planar group."""
+    if group == "disturbed":
+        return (*_disturbance(k, duration), ())
+    if group == "hard":
+        return _hard(k, duration)
+    return 0.0, (), ()
+
+
+def _suite(table: dict, duration: float, profiles, groups, loads, env_id: str = ENV_ID, seed_offset: int = 0):
+    """The scenarios of ``groups`` x ``profiles`` (default: all of ``table``); ``loads(group, k,
+    duration)`` gives the payload, tip pulses and plant parameters of scenario seed k."""
     out = []
     for group in groups:
-        for i, name in enumerate(names):
+        for i, name in enumerate(profiles or list(table)):
             kind, ctor, kwargs = table[name]
-            k = i + GROUP_OFFSET[group]
-            payload, pulses, params = 0.0, (), ()
-            if group == "disturbed":
-                payload, pulses = _disturbance(k, duration)
-            elif group == "hard":
-                payload, pulses, params = _hard(k, duration)
+            k = i + GROUP_OFFSET[group] + seed_offset
+            payload, pulses, params = loads(group, k, duration)
             out.append(
                 Scenario(
                     name=name + SUFFIX[group],
@@ -214,6 +232,7 @@ def build_suite(
                     params=params,
                     duration=duration,
                     seed=EVAL_SEED_BASE + k,
+                    env_id=env_id,
                 )
             )
     return out
@@ -304,17 +323,14 @@ SPATIAL_SEED_OFFSET = {SPATIAL_ENV_ID: 10_000, CHAIN_ENV_ID: 20_000}  # reset se
 
 def _disturbance_3d(k: int, duration: float):
     """Payload [kg] and two 3-D tip pushes (any azimuth, tilted ±20°) for scenario seed k."""
-    rng = np.random.default_rng(EVAL_SEED_BASE + k)
-    payload = float(np.round(rng.uniform(0.02, 0.05), 3))
-    pulses = []
-    for t_lo, t_hi in ((0.2, 0.45), (0.6, 0.85)):
-        t0 = float(np.round(rng.uniform(t_lo, t_hi) * duration, 1))
-        t1 = float(np.round(t0 + rng.uniform(4.0, 10.0), 1))
-        mag, az = rng.uniform(0.1, 0.3), rng.uniform(0.0, 2.0 * np.pi)
-        el = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
-        f = mag * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        pulses.append((t0, min(t1, duration), *(float(np.round(c, 3)) for c in f)))
-    return payload, tuple(pulses)
+    return _payload_and_pushes(k, duration, _tilted_push)
+
+
+def _tilted_push(rng: np.random.Generator) -> tuple[float, float, float]:
+    mag, az = rng.uniform(0.1, 0.3), rng.uniform(0.0, 2.0 * np.pi)
+    el = np.radians(rng.uniform(-HARD_TILT_DEG, HARD_TILT_DEG))
+    f = mag * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    return tuple(float(np.round(c, 3)) for c in f)
 
 
 def build_spatial_suite(
@@ -322,26 +338,13 @@ def build_spatial_suite(
 ) -> list[Scenario]:
     """The scenarios of a spatial env (``SmaSpine3D-v0`` or ``SmaSpineChain-v0``)."""
     table = (_profiles_3d if env_id == SPATIAL_ENV_ID else _profiles_chain)(duration)
-    out = []
-    for group in groups:
-        for i, name in enumerate(profiles or list(table)):
-            kind, ctor, kwargs = table[name]
-            k = i + GROUP_OFFSET[group] + SPATIAL_SEED_OFFSET[env_id]
-            payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
-            out.append(
-                Scenario(
-                    name=name + SUFFIX[group],
-                    group=group,
-                    kind=kind,
-                    target=(ctor, kwargs),
-                    payload_kg=payload,
-                    tip_pulses=pulses,
-                    duration=duration,
-                    seed=EVAL_SEED_BASE + k,
-                    env_id=env_id,
-                )  # fmt: skip
-            )
-    return out
+    return _suite(table, duration, profiles, groups, _spatial_loads, env_id, SPATIAL_SEED_OFFSET[env_id])
+
+
+def _spatial_loads(group: str, k: int, duration: float):
+    """Payload and 3-D tip pushes of scenario seed k of a spatial group (no plant randomisation)."""
+    payload, pulses = _disturbance_3d(k, duration) if group == "disturbed" else (0.0, ())
+    return payload, pulses, ()
 
 
 SUITES_BY_ENV = {

@@ -27,7 +27,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import ENV_ID, ENV_IDS, StoreDict
 from .evaluate import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
@@ -37,6 +36,7 @@ from .runtime import (
     make_env,
     validation_scores,
 )
+from .zoo_config import ENV_ID, ENV_IDS, StoreDict
 
 __all__ = ["VALIDATION_SEED_BASE", "validation_scores", "main"]
 

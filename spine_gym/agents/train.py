@@ -42,10 +42,12 @@ give the same weights (``tests/test_train_resume.py``). Evaluations up to the ch
 ``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
 normalisation statistics and step counter, the multiplier from ``lagrangian_init``.
 
-The pieces are public for :mod:`spine_gym.agents.benchmark`, which trains through the same path:
-:func:`resolve_config` (the YAML entry with overrides), :func:`build_envs` (the wrapped training
-env), :func:`build_model` and :func:`lagrangian_callbacks`. ``noise_type: normal`` (or
-``ornstein-uhlenbeck``) with ``noise_std`` gives the off-policy algorithms exploration noise (TD3).
+The run is built by :mod:`spine_gym.agents.training` (shared with :mod:`spine_gym.agents.benchmark`):
+:func:`~spine_gym.agents.training.resolve_config` (the YAML entry with overrides),
+:func:`~spine_gym.agents.training.build_envs` (the wrapped training env),
+:func:`~spine_gym.agents.training.build_model` and :func:`~spine_gym.agents.training.lagrangian_callbacks`.
+``noise_type: normal`` (or ``ornstein-uhlenbeck``) with ``noise_std`` gives the off-policy algorithms
+exploration noise (TD3).
 
 ``residual: pid`` in the hyperparameters (or ``-params residual:pid``) trains a residual policy on
 top of the tuned PID (:mod:`spine_gym.agents.residual`; ``residual_scale`` sets the authority of the
@@ -62,31 +64,26 @@ since the previous dual step), ``budget_scale`` (default 1, in (0, 2]) multiplie
 with ``pid``: 7 % under the PID's energy); the budget goes into ``meta.json``.
 
 ``obs_integral: <τ [s] or inf>`` appends the (leaky) integral of the tracking error to the
-observation (:mod:`spine_gym.agents.integral`; ``obs_integral_limit`` its clip, default 300 deg s); its
+observation (:mod:`spine_gym.agents.observations`; ``obs_integral_limit`` its clip, default 300 deg s); its
 settings go into ``meta.json``, so :func:`spine_gym.agents.runtime.load_policy` rebuilds it for evaluation.
 ``obs_history: <k>`` appends the k earlier frames of the measured angle and the previous action
-(:mod:`spine_gym.agents.history`), after the integral; likewise stored and rebuilt.
+(:mod:`spine_gym.agents.observations`), after the integral; likewise stored and rebuilt.
 """
 
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import os
 import shlex
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import torch
 import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
-from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
 from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import VecNormalize
 
 from spine_gym.cli_conventions import (
     Parser,
@@ -104,36 +101,21 @@ from spine_gym.cli_conventions import (
 from .checkpoints import (
     RunCheckpointCallback,
     checkpoint_steps,
-    lagrangian_candidates,
     latest_checkpoint,
-    load_lagrangian,
     restore_eval_history,
     save_lagrangian,
 )
-from .common import (
-    ALGOS,
-    ENV_ID,
-    OFF_POLICY,
-    SPECIAL_KEYS,
-    StoreDict,
-    algo_class,
-    load_hyperparams,
-    preprocess_hyperparams,
+from .training import (
+    RunConfig,
+    build_envs,
+    build_model,
+    checkpoint_vecnormalize,
+    hyperparameter_keys,
+    lagrangian_callbacks,
+    resolve_config,
+    yaml_safe,
 )
-from .envs import make_vec_env
-from .history import HistoryObsVecEnv, HistorySpec
-from .integral import IntegralObsVecEnv, IntegralSpec
-from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
-from .residual import ResidualVecEnv, base_spec
-from .runtime import (
-    OBSERVATION_KWARGS,
-    build_controller,
-    env_temperature_limit,
-    make_env,
-    validation_scores,
-    vecnormalize_candidates,
-)
-
+from .zoo_config import ALGOS, ENV_ID, StoreDict
 
 EXAMPLES = (
     "spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0",
@@ -214,19 +196,6 @@ def _next_run_folder(log_folder: Path, algo: str, env_id: str) -> Path:
     return folder
 
 
-def _yaml_safe(d: dict) -> dict:
-    out = {}
-    for k, v in d.items():
-        if callable(v):
-            v = f"lin_{v.initial:g}" if hasattr(v, "initial") else repr(v)
-        elif isinstance(v, tuple):
-            v = list(v)
-        elif isinstance(v, dict):
-            v = _yaml_safe(v)
-        out[k] = v
-    return out
-
-
 def _resume_target(path: Path) -> tuple[Path, Path]:
     """(run folder, checkpoint) of ``--resume path``: a run folder and its newest complete
     checkpoint, or a checkpoint ``<run>/checkpoints/rl_model_<n>_steps.zip`` and its run."""
@@ -268,16 +237,6 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
     return args, argv, resume, cfg
 
 
-_SET_BY_FLAGS = ("env", "seed", "device", "verbose", "tensorboard_log")  # arguments of the algorithm
-
-
-def hyperparameter_keys(algo: str) -> set[str]:
-    """The keys a hyperparameter entry of ``algo`` may hold: the arguments of the algorithm's class
-    (but those that :func:`build_model` sets from flags) and :data:`~spine_gym.agents.common.SPECIAL_KEYS`."""
-    own = set(inspect.signature(algo_class(algo)).parameters) - set(_SET_BY_FLAGS)
-    return {k for k in own if not k.startswith("_")} | set(SPECIAL_KEYS)
-
-
 def _checked_config(args, checkpoint: str) -> RunConfig:
     """The run's configuration, with every argument checked (ValueError, one line): step counts,
     the files to read (``checkpoint``: the model to start from), the hyperparameter keys and
@@ -304,251 +263,8 @@ def _checked_config(args, checkpoint: str) -> RunConfig:
         raise ValueError(f"hyperparameters of {args.algo} on {args.env}: {first_line(e)}") from None
     check_env_kwargs(args.env, cfg.env_kwargs)
     if checkpoint and cfg.special["normalize"] is not None:
-        _checkpoint_vecnormalize(Path(checkpoint))
+        checkpoint_vecnormalize(Path(checkpoint))
     return cfg
-
-
-@dataclass
-class RunConfig:
-    """The resolved settings of one training run (the YAML entry, overrides and flags applied).
-
-    Attributes:
-        algo, env_id: the algorithm (:data:`spine_gym.agents.common.ALGOS`) and the registered env id.
-        hp: constructor kwargs of the algorithm (schedules and ``policy_kwargs`` parsed).
-        special: the entry's other settings (:data:`spine_gym.agents.common.SPECIAL_KEYS`, with defaults).
-        n_envs, n_timesteps: sub-envs and training steps.
-        env_kwargs: the training env's kwargs (the entry's, then the given ones).
-    """
-
-    algo: str
-    env_id: str
-    hp: dict
-    special: dict
-    n_envs: int
-    n_timesteps: int
-    env_kwargs: dict
-
-
-@dataclass
-class TrainingEnvs:
-    """The wrapped training env (and evaluation env) of a run.
-
-    Attributes:
-        env: the outermost training ``VecEnv`` (``VecNormalize`` if the entry normalises).
-        eval_env: the evaluation callback's env (same wrappers, frozen statistics) or None.
-        budget_env: the Lagrangian energy-budget wrapper, if the entry sets ``energy_budget``.
-        meta: the wrappers' settings for ``meta.json`` (what :func:`spine_gym.agents.runtime.load_policy`
-            rebuilds: ``residual``, ``obs_integral``, ``obs_history``; ``energy_budget_J``).
-    """
-
-    env: object
-    eval_env: object | None
-    budget_env: EnergyBudgetVecEnv | None
-    meta: dict
-
-
-def resolve_config(
-    algo: str,
-    env_id: str,
-    *,
-    n_envs: int = -1,
-    n_timesteps: int = -1,
-    hyperparams: dict | None = None,
-    env_kwargs: dict | None = None,
-    conf_file: str | Path | None = None,
-) -> RunConfig:
-    """The hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (or ``conf_file``) with
-    ``hyperparams`` overriding it; ``n_envs``/``n_timesteps`` > 0 override the entry's (-1: the
-    entry's), ``env_kwargs`` update the entry's."""
-    hp_raw = load_hyperparams(algo, env_id, conf_file)
-    hp_raw.update(hyperparams or {})
-    hp, special = preprocess_hyperparams(hp_raw)
-    return RunConfig(
-        algo=algo,
-        env_id=env_id,
-        hp=hp,
-        special=special,
-        n_envs=n_envs if n_envs > 0 else int(special.get("n_envs", 1)),
-        n_timesteps=n_timesteps if n_timesteps > 0 else int(float(special.get("n_timesteps", 1e5))),
-        env_kwargs={**special["env_kwargs"], **(env_kwargs or {})},
-    )
-
-
-def build_envs(
-    cfg: RunConfig,
-    seed: int,
-    *,
-    eval_env: bool = False,
-    vec_env: str = "native",
-    trained_agent: str = "",
-    resume: bool = False,
-    verbose: int = 0,
-) -> TrainingEnvs:
-    """The training env of ``cfg`` (native vector env seeded ``seed``) inside the entry's wrappers
-    (residual, integral and history observations, energy budget, ``VecNormalize``; starting from
-    ``trained_agent`` loads its statistics), and with ``eval_env`` the evaluation callback's env.
-    ``resume``: ``trained_agent`` is a checkpoint of the run being continued, whose energy budget and
-    Lagrange multiplier are restored too (:func:`_budget_env`)."""
-    special, env_kwargs, env_id = cfg.special, cfg.env_kwargs, cfg.env_id
-    meta: dict = {}
-    env = make_vec_env(env_id, cfg.n_envs, seed=seed, env_kwargs=env_kwargs, kind=vec_env)
-    norm = special["normalize"]
-    ev = None
-    if eval_env:
-        ev = make_vec_env(env_id, 1, seed=seed + 1_000_003, env_kwargs=env_kwargs, kind="dummy")
-    if special["residual"]:
-        # residual RL: the policy learns a correction on top of the tuned baseline (spine_gym.agents.residual)
-        probe = make_env(env_kwargs, env_id=env_id)
-        spec = base_spec(
-            special["residual"],
-            v_max=probe.v_max,
-            dt=probe.control_period,
-            temperature_limit=env_temperature_limit(probe),
-            scale=special["residual_scale"],
-            env_id=env_id,
-            env_kwargs=env_kwargs,
-        )
-        probe.close()
-        meta["residual"] = spec
-        env = ResidualVecEnv(env, spec)
-        if ev is not None:
-            ev = ResidualVecEnv(ev, spec)
-    if special["obs_integral"] is not None:
-        # the integral-of-error observation (spine_gym.agents.integral), above the residual's baseline
-        probe = make_env(env_kwargs, env_id=env_id)
-        ispec = IntegralSpec.from_env(probe, special["obs_integral"], float(special["obs_integral_limit"]))
-        probe.close()
-        meta["obs_integral"] = ispec.to_dict()
-        env = IntegralObsVecEnv(env, ispec)
-        if ev is not None:
-            ev = IntegralObsVecEnv(ev, ispec)
-    if special["obs_history"] is not None:
-        # the frame history (spine_gym.agents.history), after the integral
-        probe = make_env(env_kwargs, env_id=env_id)
-        hspec = HistorySpec.from_env(probe, special["obs_history"])
-        probe.close()
-        meta["obs_history"] = hspec.to_dict()
-        env = HistoryObsVecEnv(env, hspec)
-        if ev is not None:
-            ev = HistoryObsVecEnv(ev, hspec)
-    budget_env = None
-    if special["energy_budget"] is not None:
-        budget_env = _budget_env(cfg, env, trained_agent if resume else "", verbose)
-        env = budget_env
-        meta["energy_budget_J"] = budget_env.budget
-    if norm is not None:
-        if trained_agent:
-            stats = _checkpoint_vecnormalize(Path(trained_agent))
-            env = VecNormalize.load(str(stats), env)
-            env.training = True
-        else:
-            env = VecNormalize(env, gamma=cfg.hp.get("gamma", 0.99), **norm)
-        if ev is not None:
-            ev = VecNormalize(
-                ev,
-                training=False,
-                norm_reward=False,
-                **{k: v for k, v in norm.items() if k != "norm_reward"},
-            )
-    return TrainingEnvs(env=env, eval_env=ev, budget_env=budget_env, meta=meta)
-
-
-def _budget_env(cfg: RunConfig, env, checkpoint: str = "", verbose: int = 0) -> EnergyBudgetVecEnv:
-    """``env`` inside the Lagrangian energy budget of ``cfg``'s entry; resuming from the run's
-    ``checkpoint``, its budget (a ``pid`` budget is not measured again) and multiplier."""
-    special = cfg.special
-    if checkpoint:
-        budget = float(json.loads(lagrangian_candidates(Path(checkpoint))[0].read_text())["budget_J"])
-    else:
-        budget = energy_budget(
-            special["energy_budget"],
-            cfg.env_kwargs,
-            int(special["budget_episodes"]),
-            special["budget_scale"],
-            env_id=cfg.env_id,
-        )
-    probe = make_env(cfg.env_kwargs, env_id=cfg.env_id)
-    budget_env = EnergyBudgetVecEnv(
-        env,
-        budget,
-        probe.config.energy_reference,
-        lam0=float(special["lagrangian_init"]),
-        window=int(special["budget_window"]),
-    )
-    probe.close()
-    if checkpoint:
-        load_lagrangian(budget_env, Path(checkpoint))
-    if verbose:
-        print(f"energy budget {budget:.1f} J per episode", flush=True)
-    return budget_env
-
-
-def _action_noise(cfg: RunConfig, n_actions: int):
-    """TD3-style exploration noise of the entry's ``noise_type``/``noise_std`` (None: none)."""
-    kind = cfg.special["noise_type"]
-    if kind in (None, "none", "None"):
-        return None
-    if cfg.algo not in OFF_POLICY:
-        raise ValueError(f"noise_type is for the off-policy algorithms {OFF_POLICY}, not {cfg.algo!r}")
-    mean, sigma = np.zeros(n_actions), float(cfg.special["noise_std"]) * np.ones(n_actions)
-    if kind == "normal":
-        return NormalActionNoise(mean, sigma)
-    if kind == "ornstein-uhlenbeck":
-        return OrnsteinUhlenbeckActionNoise(mean, sigma)
-    raise ValueError(f"noise_type must be 'normal' or 'ornstein-uhlenbeck', got {kind!r}")
-
-
-def build_model(
-    cfg: RunConfig,
-    env,
-    seed: int,
-    *,
-    device: str = "cpu",
-    tensorboard_log: str | None = None,
-    verbose: int = 0,
-    trained_agent: str = "",
-    resume: bool = False,
-):
-    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``).
-    ``resume``: the checkpoint's last observation belongs to the envs of the stopped process, so the
-    model resets ``env`` when it starts learning."""
-    algo_cls = algo_class(cfg.algo)
-    if not trained_agent:
-        noise = _action_noise(cfg, int(np.prod(env.action_space.shape)))
-        extra = {} if noise is None else {"action_noise": noise}
-        return algo_cls(
-            cfg.special["policy"],
-            env,
-            seed=seed,
-            device=device,
-            tensorboard_log=tensorboard_log,
-            verbose=verbose,
-            **cfg.hp,
-            **extra,
-        )
-    model = algo_cls.load(
-        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose
-    )
-    if model.seed != seed:
-        # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
-        # Only re-seed when it differs: a second seeding after the network's construction changes
-        # the RNG stream, and the same-seed fine-tunes in spine_gym/agents/policies/COMMANDS.md must reproduce.
-        model.seed = seed
-        model.set_random_seed(seed)
-    replay = Path(trained_agent).with_name("replay_buffer.pkl")
-    if cfg.algo in OFF_POLICY and replay.exists():
-        model.load_replay_buffer(str(replay))
-    if resume:
-        model._last_obs = None  # SB3's learn resets the env when there is no last observation
-    return model
-
-
-def lagrangian_callbacks(cfg: RunConfig, envs: TrainingEnvs, verbose: int = 0) -> list:
-    """The dual-ascent callback of an energy-budget run (empty list otherwise)."""
-    if envs.budget_env is None:
-        return []
-    eta = float(cfg.special["lagrangian_lr"])
-    return [LagrangianCallback(envs.budget_env, eta=eta, verbose=verbose)]
 
 
 def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] | None) -> tuple[Path, dict]:
@@ -576,7 +292,7 @@ def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] 
         "n_timesteps": n_timesteps,
         "env_kwargs": cfg.env_kwargs,
     }
-    (run / "config.yml").write_text(yaml.safe_dump({args.env: _yaml_safe(entry)}))
+    (run / "config.yml").write_text(yaml.safe_dump({args.env: yaml_safe(entry)}))
     meta = {
         "algo": args.algo,
         "env_id": args.env,
@@ -689,46 +405,6 @@ def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents
     if eval_env is not None:
         eval_env.close()
     return run
-
-
-def energy_budget(
-    spec, env_kwargs: dict, n_episodes: int, scale: float = 1.0, env_id: str = ENV_ID
-) -> float:
-    """The energy budget per episode [J]: ``scale`` × a number as given, or ``"pid"``: ``scale`` ×
-    the tuned PID's mean energy on ``n_episodes`` validation episodes of ``env_id`` with the training
-    distribution ``env_kwargs``."""
-    try:
-        scale = float(scale)
-    except (TypeError, ValueError):
-        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}") from None
-    if not 0.0 < scale <= 2.0:
-        raise ValueError(f"budget_scale must be a number in (0, 2], got {scale!r}")
-    if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
-        kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
-        probe = make_env(kw, env_id=env_id)
-        pid = build_controller("pid", probe)
-        probe.close()
-        return scale * validation_scores(pid, n_episodes, kw, env_id)[1]
-    try:
-        value = float(spec)
-    except (TypeError, ValueError):
-        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}") from None
-    if not value > 0.0:
-        raise ValueError(f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}")
-    return scale * value
-
-
-def _checkpoint_vecnormalize(ckpt: Path) -> Path:
-    """``VecNormalize`` statistics saved with a checkpoint (or a run folder's final ones)."""
-    if not ckpt.exists():
-        raise ValueError(f"checkpoint {ckpt} does not exist")
-    candidates = vecnormalize_candidates(ckpt)
-    for c in candidates:
-        if c.exists():
-            return c
-    raise ValueError(
-        f"no VecNormalize statistics found beside {ckpt} (looked for {[str(c) for c in candidates]})"
-    )
 
 
 def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> int:

@@ -40,10 +40,10 @@ from spine_gym.cli_conventions import (
 )
 from spine_gym.envs import base_id
 
-from .common import ENV_ID
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
+from .zoo_config import ENV_ID
 
 __all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
 

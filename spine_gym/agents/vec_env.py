@@ -12,7 +12,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
 
-from .common import ENV_ID, ENV_IDS
+from .zoo_config import ENV_ID, ENV_IDS
 
 
 def _native(env_id: str, n_envs: int, seed: int, env_kwargs: dict) -> VecEnv:

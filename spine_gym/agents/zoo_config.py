@@ -1,8 +1,10 @@
-"""Shared pieces of the training and evaluation CLIs.
+"""The RL-Zoo-style configuration of the agents: env ids, algorithms and their hyperparameter files.
 
 * Hyperparameter files in RL Zoo's format (``spine_gym/agents/hyperparams/{algo}.yml`` keyed by env id):
-  :func:`load_hyperparams` (with ``lin_<x>`` schedules, ``normalize`` as bool or dict string and
-  ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them).
+  :func:`load_hyperparams`, :func:`preprocess_hyperparams` (with ``lin_<x>`` schedules, ``normalize``
+  as bool or dict string and ``policy_kwargs`` as a ``dict(...)`` string, as RL Zoo writes them);
+  :data:`SPECIAL_KEYS`, the keys of an entry that are not arguments of the algorithm.
+* The algorithms (:data:`ALGOS`, :func:`algo_class`) and env ids (:data:`ENV_IDS`, :data:`ENV_ID`, ...).
 * ``--env-kwargs``/``--hyperparams`` ``key=value`` (or RL Zoo's ``key:value``) parsing (:class:`StoreDict`,
   :class:`spine_gym.cli_conventions.KeyValues`).
 
@@ -12,11 +14,12 @@ Loading saved policies, building controllers and running episodes live in :mod:`
 from __future__ import annotations
 
 import ast
+from collections.abc import Callable
 from pathlib import Path
 
 import yaml
 
-from spine_gym.cli_conventions import KeyValues, parse_value  # noqa: F401 - parse_value re-exported
+from spine_gym.cli_conventions import KeyValues
 from spine_gym.envs import ENV_SPECS
 
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
@@ -94,6 +97,18 @@ def _eval_policy_kwargs(text: str) -> dict:
     return value
 
 
+def checked_number(value, ok: Callable[[float], bool], message: str) -> float:
+    """``float(value)`` if ``value`` reads as a number for which ``ok`` holds; ValueError ``message``
+    otherwise (a hyperparameter's value, checked)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(message) from None
+    if not ok(number):
+        raise ValueError(message)
+    return number
+
+
 def load_hyperparams(algo: str, env_id: str = ENV_ID, path: Path | None = None) -> dict:
     """The raw hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (a dict copy)."""
     if algo not in ALGOS:
@@ -139,9 +154,9 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("budget_episodes", 16)
     special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
     special.setdefault("budget_scale", 1.0)  # the budget is this fraction of energy_budget's joules
-    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.integral
+    special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.observations
     special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
-    special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.history)
+    special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.observations)
     special.setdefault("noise_type", None)  # "normal" or "ornstein-uhlenbeck": TD3's action noise
     special.setdefault("noise_std", 0.1)  # its standard deviation, in units of the action range [-1, 1]
     if special["residual"] in (None, "none", "None", False):

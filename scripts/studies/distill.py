@@ -1,14 +1,20 @@
 """Distil a planning expert (``mpc_oracle``) into a feed-forward PPO policy by DAgger.
 
+A study, not part of the runtime: it informed the decision not to ship a distilled policy (the
+students and their PPO fine-tunes did not beat the shipped ``ppo_bud`` on the selection rule;
+``docs/agents.md``, "Distillation from the oracle MPC", and ``spine_gym/agents/policies/COMMANDS.md``,
+"Distillation", for the runs). Run it from the repository root; the regression it fits with is
+:func:`spine_gym.agents.behaviour_cloning.fit_student`.
+
 Example::
 
-    python -m spine_gym.agents.distill --out runs/dag --iterations 4 --episodes 10 --duration 30 \\
+    python scripts/studies/distill.py --out runs/dag --iterations 4 --episodes 10 --duration 30 \\
         --obs-history 5 --w-energy 0.05
 
 DAgger (Ross et al. 2011) with the registry's privileged MPPI (true state, parameters, future
 targets and loads) as the expert and a student that sees only what a learned policy sees (the
 env's observation with a 3-s target preview, optionally the frame history of
-:mod:`spine_gym.agents.history` and the error integral of :mod:`spine_gym.agents.integral`, which let it infer the
+:mod:`spine_gym.agents.observations` and the error integral of :mod:`spine_gym.agents.observations`, which let it infer the
 unobserved loads from how the angle answered recent actions):
 
 1. iteration k rolls out ``episodes`` episodes of the env's own samplers (reset seeds
@@ -43,15 +49,19 @@ import numpy as np
 import torch
 import yaml
 from stable_baselines3 import PPO
-from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm import tqdm
 
-from .common import ENV_ID, load_hyperparams, preprocess_hyperparams
-from .envs import make_vec_env
-from .history import HistoryObsPolicy, HistoryObsVecEnv, HistorySpec
-from .integral import IntegralObsPolicy, IntegralObsVecEnv, IntegralSpec
-from .runtime import (
+from spine_gym.agents.behaviour_cloning import fit_student, obs_statistics
+from spine_gym.agents.observations import (
+    HistoryObsPolicy,
+    HistoryObsVecEnv,
+    HistorySpec,
+    IntegralObsPolicy,
+    IntegralObsVecEnv,
+    IntegralSpec,
+)
+from spine_gym.agents.runtime import (
     ORACLE_NAMES,
     VALIDATION_SEED_BASE,
     SavedPolicy,
@@ -60,8 +70,10 @@ from .runtime import (
     make_env,
     validation_scores,
 )
-from .scenarios import HARD_LIKE_KWARGS
-from .train import _yaml_safe
+from spine_gym.agents.scenarios import HARD_LIKE_KWARGS
+from spine_gym.agents.training import yaml_safe
+from spine_gym.agents.vec_env import make_vec_env
+from spine_gym.agents.zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
 __all__ = [
     "STUDENT_ENV_KWARGS",
@@ -69,8 +81,6 @@ __all__ = [
     "build_expert",
     "student_controller",
     "collect_episode",
-    "obs_statistics",
-    "fit_student",
     "save_student",
     "distill",
     "main",
@@ -203,81 +213,6 @@ def collect_episode(env, expert, student, tap, seed: int, beta: float, rng: np.r
     return np.asarray(xs, np.float32), np.asarray(ys, np.float32), rmse, energy
 
 
-def obs_statistics(x: np.ndarray) -> RunningMeanStd:
-    """A ``RunningMeanStd`` of the rows of ``x`` (as ``VecNormalize`` keeps it)."""
-    rms = RunningMeanStd(shape=x.shape[1:])
-    rms.mean = x.mean(axis=0).astype(np.float64)
-    rms.var = x.var(axis=0).astype(np.float64)
-    rms.count = float(x.shape[0])
-    return rms
-
-
-def _mean_action(model, obs_t: torch.Tensor) -> torch.Tensor:
-    """The policy's deterministic action (the Gaussian's mean, before the clip to the space)."""
-    policy = model.policy
-    features = policy.extract_features(obs_t, policy.pi_features_extractor)
-    return policy.action_net(policy.mlp_extractor.forward_actor(features))
-
-
-def fit_student(
-    model,
-    x: np.ndarray,
-    y: np.ndarray,
-    obs_rms,
-    epochs: int = 30,
-    lr: float = 1e-3,
-    batch_size: int = 256,
-    seed: int = 0,
-    clip_obs: float = 10.0,
-    epsilon: float = 1e-8,
-) -> list[float]:
-    """Fit the student's mean action to ``y`` on ``x`` normalised by ``obs_rms`` (MSE, Adam);
-    returns the mean loss per epoch. Only the actor (extractor, policy MLP, action net) moves."""
-    _check_int("epochs", epochs, 1)
-    _check("lr", float(lr) > 0.0, lr, "> 0")
-    _check_int("batch_size", batch_size, 1)
-    x = np.asarray(x, np.float64)
-    y = np.asarray(y, np.float32)
-    if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] == 0:
-        raise ValueError(f"x and y must be non-empty (n, d) and (n, a) arrays, got {x.shape} and {y.shape}")
-    xn = np.clip((x - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon), -clip_obs, clip_obs).astype(np.float32)
-    xt, yt = torch.as_tensor(xn), torch.as_tensor(y)
-    policy = model.policy
-    params = [
-        *policy.pi_features_extractor.parameters(),
-        *policy.mlp_extractor.policy_net.parameters(),
-        *policy.action_net.parameters(),
-    ]
-    opt = torch.optim.Adam(params, lr=float(lr))
-    gen = torch.Generator().manual_seed(int(seed))
-    losses = []
-    policy.set_training_mode(True)
-    for _ in range(int(epochs)):
-        perm = torch.randperm(xt.shape[0], generator=gen)
-        total = 0.0
-        for i in range(0, xt.shape[0], int(batch_size)):
-            idx = perm[i : i + int(batch_size)]
-            loss = torch.mean((_mean_action(model, xt[idx]) - yt[idx]) ** 2)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += loss.item() * len(idx)
-        losses.append(total / xt.shape[0])
-    policy.set_training_mode(False)
-    return losses
-
-
-def action_error(
-    model, x: np.ndarray, y: np.ndarray, obs_rms, epsilon: float = 1e-8, clip_obs: float = 10.0
-) -> float:
-    """Mean squared error of the student's mean action against ``y`` on ``x``."""
-    xn = (np.asarray(x, np.float64) - obs_rms.mean) / np.sqrt(obs_rms.var + epsilon)
-    xn = np.clip(xn, -clip_obs, clip_obs)
-    with torch.no_grad():
-        a = _mean_action(model, torch.as_tensor(xn.astype(np.float32))).numpy()
-    return float(np.mean((a - np.asarray(y, np.float32)) ** 2))
-
-
 def _validate(model, obs_rms, hspec, ispec, n: int) -> dict:
     """Mean RMSE [deg] and energy [J] of the student on ``n`` validation episodes of the default
     and the hard-like distribution (60 s, the student's preview: ``spine_gym.agents.selection``'s episodes)."""
@@ -305,7 +240,7 @@ def save_student(folder: Path, model, venv, obs_rms, hp: dict, special: dict, me
         "n_timesteps": 0,
         "env_kwargs": dict(STUDENT_ENV_KWARGS),
     }
-    (folder / "config.yml").write_text(yaml.safe_dump({ENV_ID: _yaml_safe(config)}))
+    (folder / "config.yml").write_text(yaml.safe_dump({ENV_ID: yaml_safe(config)}))
     return folder
 
 
@@ -371,7 +306,7 @@ def distill(
         "seed": int(seed),
         "n_envs": 8,
         "n_timesteps": 0,
-        "command": command or "python -m spine_gym.agents.distill --out " + shlex.quote(str(out)),
+        "command": command or "python scripts/studies/distill.py --out " + shlex.quote(str(out)),
         "resumed_from": None,
         "fine_tune_params": params,
     }
@@ -468,7 +403,7 @@ def distill(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.distill", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python scripts/studies/distill.py", description=__doc__.split("\n")[0])
     p.add_argument(
         "--out", required=True, help="output folder (the student, per-iteration students, data.npz)"
     )
@@ -523,7 +458,7 @@ def main(argv: list[str] | None = None) -> Path:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     torch.set_num_threads(1)
-    command = "python -m spine_gym.agents.distill " + " ".join(shlex.quote(a) for a in argv)
+    command = "python scripts/studies/distill.py " + " ".join(shlex.quote(a) for a in argv)
     return distill(
         args.out,
         iterations=args.iterations,
