@@ -2,8 +2,8 @@
 
 A :class:`Scenario` is pure data (target profile, load schedule, duration, reset seed); its
 :meth:`Scenario.reset_options` turns it into the env's ``reset(options={"target": ...,
-"loads": ...})`` objects (:mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.loads`). The suite has two groups with the same
-target profiles:
+"loads": ...})`` objects (:mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.loads`). The suite has
+two groups with the same target profiles:
 
 * ``nominal`` — no external load;
 * ``disturbed`` — a payload on the top disk (gravity load) and horizontal tip-force pulses that
