@@ -23,9 +23,13 @@ alternating call by call (which goes first swaps every repeat), best and median 
 
 Accuracy (the cores must agree, not only be timed): per workload the largest difference of the
 bending angle Θ (planar ``angle``; spatial tip bending vector, first component) and of the two wire
-temperatures over every output, control period and rollout step, against the gate of
+temperatures over every output, control period and rollout step, against the gates of
 tests/test_spatial_coupled.py (SPATIAL.md §8.3: the two coupled steps linearise slightly
-differently, 1.7e-5° measured over the 50-s hysteresis run): |ΔΘ| < 1e-4°, |ΔT| < 1e-3 K.
+differently, so their step sequences differ): |ΔT| < 1e-3 K everywhere; |ΔΘ| < 1e-4° for the
+smooth §10.2 drive (1.7e-5° measured over its 50 s), < 0.1° for drives that switch the wires (the
+gate of the whole §10.3 alternate drive, whose snap-through amplifies the difference to 0.006°).
+The env-kernel and rollout workloads switch both wires every 0.1 s, so they get the 0.1° gate; the
+result also says whether they meet the 1e-4° one.
 
 Writes ``benchmarks/results/planar_on_spatial.json`` and ``.png``; prints a table.
 
@@ -68,11 +72,12 @@ DT = 0.1  # [s] the envs' default control period (one physics step per control p
 N_SPINES, PERIODS = 16, 200  # env-kernel workload: a native vector env's 16 spines over a 20-s episode
 V_MAX = 5.0  # [V] the envs' default v_max
 N_ROLLOUTS, HORIZON = 32, 30  # MPPIConfig defaults: 32 samples, 3-s horizon at 0.1 s
-GATE_ANGLE_DEG, GATE_TEMP_K = 1e-4, 1e-3  # tests/test_spatial_coupled.py, SPATIAL.md §8.3
-WORKLOADS = {  # name: (unit of the reported time, factor from seconds per call)
-    "simulate": ("ms per 20-s run", 1e3),
-    "env_kernel": ("µs per spine and control period", 1e6 / (N_SPINES * PERIODS)),
-    "mpc_rollouts": ("ms per 32 × 3-s rollouts", 1e3),
+# tests/test_spatial_coupled.py, SPATIAL.md §8.3: [deg] smooth drive, drives that switch the wires; [K]
+GATE_SMOOTH_DEG, GATE_SWITCHING_DEG, GATE_TEMP_K = 1e-4, 0.1, 1e-3
+WORKLOADS = {  # name: (unit of the reported time, factor from seconds per call, angle gate [deg])
+    "simulate": ("ms per 20-s run", 1e3, GATE_SMOOTH_DEG),
+    "env_kernel": ("µs per spine and control period", 1e6 / (N_SPINES * PERIODS), GATE_SWITCHING_DEG),
+    "mpc_rollouts": ("ms per 32 × 3-s rollouts", 1e3, GATE_SWITCHING_DEG),
 }
 
 
@@ -177,16 +182,17 @@ def inputs() -> list[tuple]:
     ]
 
 
-def accuracy(planar: tuple, spatial: tuple) -> dict:
+def accuracy(planar: tuple, spatial: tuple, gate_deg: float) -> dict:
     """Largest |Θ_spatial − Θ_planar| [deg] and |ΔT| of either wire [K], against the gates."""
     d_angle = float(np.abs(spatial[0] - planar[0]).max())
     d_temp = float(max(np.abs(spatial[j] - planar[j]).max() for j in (1, 2)))
     return {
         "max_abs_angle_diff_deg": d_angle,
         "max_abs_temp_diff_K": d_temp,
-        "gate_angle_deg": GATE_ANGLE_DEG,
+        "gate_angle_deg": gate_deg,
         "gate_temp_K": GATE_TEMP_K,
-        "passes": d_angle < GATE_ANGLE_DEG and d_temp < GATE_TEMP_K,
+        "passes": d_angle < gate_deg and d_temp < GATE_TEMP_K,
+        "within_smooth_drive_gate": d_angle < GATE_SMOOTH_DEG,
     }
 
 
@@ -256,7 +262,7 @@ def main(argv=None) -> int:
     work = dict(zip(WORKLOADS, inputs(), strict=True))
     # one call of each: compiles, and the accuracy (the same numbers every repeat)
     res = {
-        n: {"accuracy": accuracy(*(getattr(c, n)(*a)[:3] for c in cores.values()))}
+        n: {"accuracy": accuracy(*(getattr(c, n)(*a)[:3] for c in cores.values()), WORKLOADS[n][2])}
         for n, a in work.items()
     }
     mach = machine()
@@ -271,16 +277,16 @@ def main(argv=None) -> int:
         f"{'workload':13s} {'unit':33s} {'planar cpu':>10s} {'spatial cpu':>11s} {'ratio cpu':>9s} "
         f"{'ratio wall':>10s}  |ΔΘ| [deg] (gate)   |ΔT| [K] (gate)"
     )
-    for name, (unit, factor) in WORKLOADS.items():
+    for name, (unit, factor, gate) in WORKLOADS.items():
         t = res[name]["time"] = summary(samples[name], factor)
         a = res[name]["accuracy"]
         print(
             f"{name:13s} {unit:33s} {t['planar_cpu_median']:10.3f} {t['spatial_cpu_median']:11.3f} "
             f"{t['ratio_cpu_median']:9.2f} {t['ratio_wall_median']:10.2f}  "
-            f"{a['max_abs_angle_diff_deg']:.1e} ({GATE_ANGLE_DEG:g})  "
+            f"{a['max_abs_angle_diff_deg']:.1e} ({gate:g})  "
             f"{a['max_abs_temp_diff_K']:.1e} ({GATE_TEMP_K:g}) {'ok' if a['passes'] else 'FAILS'}"
         )
-    units = {n: u for n, (u, _) in WORKLOADS.items()}
+    units = {n: u for n, (u, _, _) in WORKLOADS.items()}
     out = {"settings": {"repeats": args.repeats, "units": units}, "machine": mach, "results": res}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "planar_on_spatial.json").write_text(json.dumps(out, indent=2))
