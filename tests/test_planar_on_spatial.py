@@ -31,11 +31,11 @@ BEND = ss.sens_offset(NW, NM, NS) + 2 * NM  # record row: tip bending vector [ra
 TEMP = SL.wire_offset(SL.F_T, NW)  # record row: wire temperatures [K]
 
 
-def _assert_agree(theta_planar, t_planar, rec, gate_deg):
+def _assert_agree(theta_planar, t_planar, rec):
     """Θ [rad] (...) and (right, left) temperatures (..., 2) of the planar core against spatial rows."""
     d_theta = np.degrees(np.abs(rec[..., BEND] - theta_planar)).max()
     d_temp = np.abs(rec[..., TEMP : TEMP + 2] - t_planar).max()
-    assert d_theta < gate_deg and d_temp < GATE_TEMP_K, (d_theta, d_temp)
+    assert d_theta < GATE_SWITCHING_DEG and d_temp < GATE_TEMP_K, (d_theta, d_temp)
 
 
 def test_env_kernels_of_both_cores_agree_over_an_episode_of_random_voltages():
@@ -61,7 +61,7 @@ def test_env_kernels_of_both_cores_agree_over_an_episode_of_random_voltages():
             active, DT, 1, status, rec[k]
         )
         assert (status == OK).all()
-    _assert_agree(meas[..., OUT_ANGLE], meas[..., [PL.X_TR, PL.X_TL]], rec, GATE_SWITCHING_DEG)
+    _assert_agree(meas[..., OUT_ANGLE], meas[..., [PL.X_TR, PL.X_TL]], rec)
 
 
 def test_mpc_rollouts_of_both_cores_agree_from_a_warm_state():
@@ -84,4 +84,4 @@ def test_mpc_rollouts_of_both_cores_agree_from_a_warm_state():
         np.empty((b, start_s.shape[0])), rec, status
     )
     assert (status == OK).all()
-    _assert_agree(angle, temp, rec, GATE_SWITCHING_DEG)
+    _assert_agree(angle, temp, rec)
