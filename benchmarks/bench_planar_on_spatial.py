@@ -237,16 +237,17 @@ def plot(res: dict, path: Path) -> None:
     for k, core in enumerate(("planar", "spatial")):
         vals = [res[n]["time"][f"{core}_cpu_median"] for n in names]
         ax_t.bar(x + 0.38 * (k - 0.5), vals, 0.36, label=f"{core} core")
-    ax_t.set_xticks(x, [f"{n}\n[{WORKLOADS[n][0]}]" for n in names], fontsize=7)
-    ax_t.set_ylabel("process CPU time, median of repeats (unit per workload)")
-    ax_t.legend()
+    ax_t.set_xticks(x, [f"{n}\n[{WORKLOADS[n][0]}]".replace(" per ", "\nper ") for n in names], fontsize=7)
+    ax_t.set_ylabel("process CPU time, median (units below)")
+    ax_t.legend(loc="upper left")
     for k, clock in enumerate(("cpu", "wall")):
         vals = [res[n]["time"][f"ratio_{clock}_median"] for n in names]
         ax_r.bar(x + 0.38 * (k - 0.5), vals, 0.36, label=f"{clock} time")
     ax_r.axhline(1.0, color="k", lw=0.8)
     ax_r.set_xticks(x, names)
     ax_r.set_ylabel("spatial / planar (medians)")
-    ax_r.legend()
+    ax_r.set_ylim(0.0, 2.8)
+    ax_r.legend(loc="upper left", ncols=2)
     fig.suptitle("two-wire spine: SpineLayout.planar() on the spatial core vs the planar core", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
