@@ -212,6 +212,15 @@ def test_a_run_validates_on_schedule_and_resume_skips_it(tmp_path):
         br.check_finished([spec], tmp_path)
 
 
+def test_no_progress_draws_no_step_bar(tmp_path, capsys):
+    spec = _tiny_spec(n_timesteps=64, eval_freq=64)
+    [(_, record, error)] = list(br.execute([spec], tmp_path / "quiet", workers=1, progress=False))
+    assert error == "" and record["steps"] == 64
+    assert spec.label not in capsys.readouterr().err
+    list(br.execute([spec], tmp_path / "shown", workers=1))
+    assert spec.label in capsys.readouterr().err
+
+
 def test_an_interrupted_run_starts_over(tmp_path):
     spec = _tiny_spec(n_timesteps=64, eval_freq=64)
     folder = tmp_path / spec.folder

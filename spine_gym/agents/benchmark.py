@@ -129,7 +129,7 @@ QUICK_HYPERPARAMS = {
 
 # --------------------------------------------------------------------------- references
 def reference_scores(
-    env_id: str, names: tuple[str, ...], task_kwargs: dict, n_val: int, n_ref: int, out: Path
+    env_id: str, names: tuple[str, ...], task_kwargs: dict, n_val: int, n_ref: int, out: Path, progress: bool = True
 ) -> dict[str, dict]:
     """Validation means of the reference controllers on ``env_id`` (the PID on ``n_val`` episodes,
     the others on the first ``n_ref``), from the cache ``out/references/<env id>.json`` when it
@@ -144,7 +144,7 @@ def reference_scores(
             probe = make_env(kw, env_id=env_id)
             ctrl = build_controller(name, probe)
             probe.close()
-            desc = f"  reference {name} on {env_id}"
+            desc = f"  reference {name} on {env_id}" if progress else ""
             rows = validation_metrics(ctrl, settings["n_episodes"], kw, env_id, progress=desc)
             cache[name] = {"settings": settings, "episodes": rows, "means": validation_means(rows)}
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -451,7 +451,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
         f.write("python -m spine_gym.agents.benchmark " + " ".join(shlex.quote(a) for a in argv) + "\n")
     references = {
         env_id: reference_scores(
-            env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out
+            env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out,
+            progress=args.progress,
         )  # fmt: skip
         for env_id in plan.env_ids
     }
@@ -464,7 +465,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
           f"{len(pending)} to run {where}", flush=True)  # fmt: skip
     failed = []
     with tqdm(total=len(pending), desc="runs", unit="run", disable=not (pending and args.progress)) as bar:
-        for spec, record, error in execute(pending, out, args.workers, args.address if pending else None):
+        for spec, record, error in execute(pending, out, args.workers, args.address if pending else None, args.progress):
             bar.update(1)
             if record is None:
                 failed.append(spec.label)

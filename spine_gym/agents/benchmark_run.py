@@ -263,13 +263,14 @@ def _worker_init() -> None:
 
 
 def execute(
-    specs: list[RunSpec], out: Path, workers: int, address: str | None = None
+    specs: list[RunSpec], out: Path, workers: int, address: str | None = None, progress: bool = True
 ) -> Iterator[tuple[RunSpec, dict | None, str]]:
     """Run ``specs``, yielding ``(spec, record, error)`` as each finishes (``record`` None and the
     error's text if it failed; the others go on).
 
-    Without ``address``: ``workers`` 1 runs them in this process (with a step progress bar), more in
-    a pool of that many spawned processes (one torch thread each). With a Ray ``address``: one
+    Without ``address``: ``workers`` 1 runs them in this process (with a step progress bar if
+    ``progress``), more in a pool of that many spawned processes (one torch thread each). With a Ray
+    ``address``: one
     :func:`run_files` per Ray task (:func:`execute_on_ray`), the files written here by :func:`write_run`.
     """
     if address is not None:
@@ -284,7 +285,7 @@ def execute(
     if workers == 1:
         for spec in specs:
             try:
-                yield spec, run_one(spec, out, progress=True), ""
+                yield spec, run_one(spec, out, progress=progress), ""
             except Exception as e:  # noqa: BLE001 - one failed run must not stop the others
                 yield spec, None, f"{type(e).__name__}: {e}"
         return
