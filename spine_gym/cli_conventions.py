@@ -2,7 +2,8 @@
 ``python -m`` modules behind it).
 
 * :class:`Parser` — argparse with one-line usage errors (exit status 2, before any side effect),
-  the defaults shown in ``--help`` and an ``examples:`` epilog;
+  the defaults shown in ``--help`` and an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
+  one command a line);
 * :func:`add_env` — ``--env`` with the registered spine ids as choices, a misspelt id answered with
   "did you mean ...";
 * :class:`KeyValues` — ``--env-kwargs``/``--hyperparams`` pairs as ``key=value`` or RL Zoo's
@@ -67,14 +68,16 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (``<prog>: error: <message>`` on stderr, exit status 2),
-    :class:`HelpFormatter` and ``examples`` as the epilog."""
+    :class:`HelpFormatter` and ``examples`` as the epilog (commands: a text block with one a line,
+    or a sequence of lines)."""
 
-    def __init__(self, *args, examples: Sequence[str] = (), **kwargs):
+    def __init__(self, *args, examples: str | Sequence[str] = (), **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
         if "\n" not in kwargs.get("description", "\n"):
             kwargs["description"] = textwrap.fill(kwargs["description"], 100)
-        if examples:
-            kwargs["epilog"] = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+        lines = examples.strip("\n").splitlines() if isinstance(examples, str) else examples
+        if lines:
+            kwargs["epilog"] = "examples:\n" + "\n".join(f"  {e}" for e in lines)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):

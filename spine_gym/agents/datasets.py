@@ -304,11 +304,11 @@ def datasets_path(path: str | Path | None):
             os.environ["MINARI_DATASETS_PATH"] = old
 
 
-EXAMPLES = (
-    "spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20",
-    "spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0",
-    "spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari",
-)
+EXAMPLES = """
+spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20
+spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0
+spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.datasets") -> argparse.ArgumentParser:

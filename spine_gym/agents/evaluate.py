@@ -231,12 +231,12 @@ def plot_controller(
 
 
 # --------------------------------------------------------------------------- CLI
-EXAMPLES = (
-    "spine-gym evaluate                                   # shipped policies + step, bang-bang, PID",
-    "spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d",
-    "spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1",
-    "spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress",
-)
+EXAMPLES = """
+spine-gym evaluate                                   # shipped policies + step, bang-bang, PID
+spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d
+spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1
+spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.ArgumentParser:

@@ -117,12 +117,12 @@ from .training import (
 )
 from .zoo_config import ALGOS, ENV_ID, StoreDict
 
-EXAMPLES = (
-    "spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0",
-    "spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256",
-    "spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint",
-    "python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f",
-)
+EXAMPLES = """
+spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
+spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256
+spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint
+python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:

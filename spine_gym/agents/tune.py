@@ -120,11 +120,11 @@ def tune(
     }
 
 
-EXAMPLES = (
-    "spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml",
-    "spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml",
-    "spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains",
-)
+EXAMPLES = """
+spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
+spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
+spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains
+"""
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 
 
