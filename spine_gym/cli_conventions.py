@@ -12,18 +12,19 @@
   ``--progress/--no-progress`` and ``--workers``;
 * :func:`check_env_kwargs`, :func:`check_keys`, :func:`check_file` — the checks a command runs on
   its arguments before it creates a folder or starts work (``ValueError`` with a one-line message,
-  which the command passes to ``parser.error``).
+  which the command passes to ``parser.error``, e.g. with :func:`usage_errors`).
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import difflib
 import inspect
 import textwrap
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +50,7 @@ __all__ = [
     "check_keys",
     "check_file",
     "first_line",
+    "usage_errors",
 ]
 
 #: every registered spine env id (the ``--env`` choices)
@@ -82,6 +84,15 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {first_line(message)}\n")
+
+
+@contextlib.contextmanager
+def usage_errors(parser: argparse.ArgumentParser) -> Iterator[None]:
+    """A ``ValueError`` raised in the block becomes ``parser.error`` (a usage error, exit status 2)."""
+    try:
+        yield
+    except ValueError as e:
+        parser.error(str(e))
 
 
 def first_line(message: object) -> str:

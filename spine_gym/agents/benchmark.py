@@ -75,6 +75,7 @@ from spine_gym.cli_conventions import (
     add_progress,
     add_workers,
     check_env_kwargs,
+    usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
@@ -438,11 +439,9 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     out = Path(args.out)
-    try:
+    with usage_errors(parser):
         plan = make_plan(args)
         check_finished(plan.specs, out)
-    except ValueError as e:
-        parser.error(str(e))
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     torch.set_num_threads(1)
     out.mkdir(parents=True, exist_ok=True)

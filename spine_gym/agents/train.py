@@ -96,6 +96,7 @@ from spine_gym.cli_conventions import (
     check_file,
     check_keys,
     first_line,
+    usage_errors,
 )
 
 from .checkpoints import (
@@ -222,7 +223,7 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     resume = None
-    try:
+    with usage_errors(parser):
         if args.resume:
             if args.trained_agent:
                 raise ValueError("--resume continues a run from its own checkpoint: drop -i")
@@ -232,8 +233,6 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
         if args.algo is None:
             raise ValueError("--algo is required (or --resume RUN)")
         cfg = _checked_config(args, str(resume[1]) if resume else args.trained_agent)
-    except ValueError as e:
-        parser.error(str(e))
     return args, argv, resume, cfg
 
 

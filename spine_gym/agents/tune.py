@@ -173,10 +173,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
-    try:
+    with cli.usage_errors(parser):
         out = _check(args)
-    except ValueError as e:
-        parser.error(str(e))
     command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -146,7 +146,7 @@ def _cmd_params(args) -> int:
 def _cmd_sweep(args, parser) -> int:
     from .sweeps import sweep
 
-    try:
+    with usage_errors(parser):
         base = PRESETS[args.preset]()
         fixed = _fixed(args.set)
         protocol = _protocol(args.protocol)
@@ -168,8 +168,6 @@ def _cmd_sweep(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    except ValueError as e:
-        parser.error(str(e))
     out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     csv_path = res.to_csv(out / "sweep.csv")
     res.write_metadata(
@@ -209,7 +207,7 @@ def _cmd_optimize(args, parser) -> int:
         parser.error("give exactly one of --maximize METRIC or --minimize METRIC")
     out = args.out or Path("runs/design") / f"opt-{args.study_name}"
     storage = args.storage or str(out / "study.journal")
-    try:
+    with usage_errors(parser):
         problem = DesignProblem(
             space=tuple(args.space),
             metric=args.maximize or args.minimize,
@@ -234,8 +232,6 @@ def _cmd_optimize(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    except ValueError as e:
-        parser.error(str(e))
     print(res.summary())
     best_json = res.write_json(out / "best.json")
     trials_csv = res.write_trials_csv(out / "trials.csv")
@@ -257,10 +253,8 @@ def _cmd_optimize(args, parser) -> int:
 def _cmd_best(args, parser) -> int:
     from .optimizer import load_result
 
-    try:
+    with usage_errors(parser):
         res = load_result(args.storage, args.study_name)
-    except ValueError as e:
-        parser.error(str(e))
     print(res.summary())
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
