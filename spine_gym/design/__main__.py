@@ -286,6 +286,11 @@ EXAMPLES = {
 }
 
 
+def _add_axes(p: argparse.ArgumentParser, flag: str, help: str) -> None:
+    """``flag NAME=SPEC``, required and repeatable: one axis of a sweep or dimension of a search."""
+    p.add_argument(flag, action="append", required=True, metavar="NAME=SPEC", help=help)
+
+
 def _add_params_parser(sub) -> None:
     """The ``params`` subcommand."""
     p = sub.add_parser(
@@ -304,12 +309,10 @@ def _add_sweep_parser(sub) -> None:
         "(repeat for more axes; the last axis varies fastest).",
         examples=EXAMPLES["sweep"],
     )
-    p.add_argument(
+    _add_axes(
+        p,
         "--param",
-        action="append",
-        required=True,
-        metavar="NAME=SPEC",
-        help="sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2, "
+        "sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2, "
         "n_modules=1,2,3 (chained four-wire layouts)",
     )
     _add_common(p)
@@ -336,13 +339,7 @@ def _add_optimize_parser(sub) -> None:
         description="Search NAME=lo:hi | lo:hi:log | v1,v2,... (categorical).",
         examples=EXAMPLES["optimize"],
     )
-    p.add_argument(
-        "--space",
-        action="append",
-        required=True,
-        metavar="NAME=SPEC",
-        help="search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log",
-    )
+    _add_axes(p, "--space", "search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log")
     p.add_argument("--maximize", "--maximise", metavar="METRIC")
     p.add_argument("--minimize", "--minimise", metavar="METRIC")
     p.add_argument(
