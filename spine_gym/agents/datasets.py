@@ -48,8 +48,8 @@ import spine_gym
 from spine_gym import cli_conventions as cli
 from spine_gym.envs import ENV_SPECS, tier_of
 
-from .metrics import episode_metrics
 from . import runtime
+from .metrics import episode_metrics
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 
 __all__ = [
