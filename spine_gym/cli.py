@@ -70,12 +70,12 @@ COMMANDS: dict[str, Command] = {
     ),
 }
 
-EXAMPLES = (
-    "spine-gym train --algo ppo --env SmaSpine-v1 -n 300000 -o logs",
-    "spine-gym evaluate --models mine=logs/ppo/SmaSpine-v1_1",
-    "spine-gym reproduce --quick -o /tmp/repro",
-    "spine-gym <command> --help             # the options of one command",
-)
+EXAMPLES = """
+spine-gym train --algo ppo --env SmaSpine-v1 -n 300000 -o logs
+spine-gym evaluate --models mine=logs/ppo/SmaSpine-v1_1
+spine-gym reproduce --quick -o /tmp/repro
+spine-gym <command> --help             # the options of one command
+"""
 
 
 def alias(module: str) -> str:

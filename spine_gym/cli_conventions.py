@@ -2,7 +2,8 @@
 ``python -m`` modules behind it).
 
 * :class:`Parser` — argparse with one-line usage errors (exit status 2, before any side effect),
-  the defaults shown in ``--help`` and an ``examples:`` epilog;
+  the defaults shown in ``--help`` and an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
+  one command a line);
 * :func:`add_env` — ``--env`` with the registered spine ids as choices, a misspelt id answered with
   "did you mean ...";
 * :class:`KeyValues` — ``--env-kwargs``/``--hyperparams`` pairs as ``key=value`` or RL Zoo's
@@ -11,18 +12,19 @@
   ``--progress/--no-progress`` and ``--workers``;
 * :func:`check_env_kwargs`, :func:`check_keys`, :func:`check_file` — the checks a command runs on
   its arguments before it creates a folder or starts work (``ValueError`` with a one-line message,
-  which the command passes to ``parser.error``).
+  which the command passes to ``parser.error``, e.g. with :func:`usage_errors`).
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import difflib
 import inspect
 import textwrap
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +50,7 @@ __all__ = [
     "check_keys",
     "check_file",
     "first_line",
+    "usage_errors",
 ]
 
 #: every registered spine env id (the ``--env`` choices)
@@ -67,18 +70,29 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (``<prog>: error: <message>`` on stderr, exit status 2),
-    :class:`HelpFormatter` and ``examples`` as the epilog."""
+    :class:`HelpFormatter` and ``examples`` as the epilog (commands: a text block with one a line,
+    or a sequence of lines)."""
 
-    def __init__(self, *args, examples: Sequence[str] = (), **kwargs):
+    def __init__(self, *args, examples: str | Sequence[str] = (), **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
         if "\n" not in kwargs.get("description", "\n"):
             kwargs["description"] = textwrap.fill(kwargs["description"], 100)
-        if examples:
-            kwargs["epilog"] = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+        lines = examples.strip("\n").splitlines() if isinstance(examples, str) else examples
+        if lines:
+            kwargs["epilog"] = "examples:\n" + "\n".join(f"  {e}" for e in lines)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {first_line(message)}\n")
+
+
+@contextlib.contextmanager
+def usage_errors(parser: argparse.ArgumentParser) -> Iterator[None]:
+    """A ``ValueError`` raised in the block becomes ``parser.error`` (a usage error, exit status 2)."""
+    try:
+        yield
+    except ValueError as e:
+        parser.error(str(e))
 
 
 def first_line(message: object) -> str:

@@ -75,6 +75,7 @@ from spine_gym.cli_conventions import (
     add_progress,
     add_workers,
     check_env_kwargs,
+    usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
@@ -214,12 +215,12 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 
 
 # --------------------------------------------------------------------------- CLI
-EXAMPLES = (
-    "spine-gym benchmark --workers 2                  # every algorithm on the default env ids",
-    "spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI",
-    "spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000",
-    "spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster",
-)
+EXAMPLES = """
+spine-gym benchmark --workers 2                  # every algorithm on the default env ids
+spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI
+spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000
+spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.benchmark") -> argparse.ArgumentParser:
@@ -438,11 +439,9 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     out = Path(args.out)
-    try:
+    with usage_errors(parser):
         plan = make_plan(args)
         check_finished(plan.specs, out)
-    except ValueError as e:
-        parser.error(str(e))
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     torch.set_num_threads(1)
     out.mkdir(parents=True, exist_ok=True)

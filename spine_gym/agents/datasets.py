@@ -45,29 +45,12 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
-from spine_gym.cli_conventions import (
-    ENV_IDS,
-    Parser,
-    add_env,
-    add_env_kwargs,
-    add_out,
-    add_progress,
-    check_env_kwargs,
-    first_line,
-)
+from spine_gym import cli_conventions as cli
 from spine_gym.envs import ENV_SPECS, tier_of
 
+from . import runtime
 from .metrics import episode_metrics
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
-from .runtime import (
-    VALIDATION_SEED_BASE,
-    build_controller,
-    env_temperature_limit,
-    evaluation_env_kwargs,
-    load_policy,
-    make_env,
-    run_episode,
-)
 
 __all__ = [
     "DATASET_SEED_BASE",
@@ -87,7 +70,7 @@ __all__ = [
 
 DATASET_SEED_BASE = 300_000  # reset seeds of dataset episodes: above DAgger's (200 000 …), below validation's
 # the seeds stay below VALIDATION_SEED_BASE (500 000), itself below the suite's EVAL_SEED_BASE (900 000)
-MAX_DATASET_EPISODES = VALIDATION_SEED_BASE - DATASET_SEED_BASE
+MAX_DATASET_EPISODES = runtime.VALIDATION_SEED_BASE - DATASET_SEED_BASE
 NAMESPACE = "spine_gym"
 METADATA_KEY = "spine_gym"  # the dataset-metadata entry this module writes
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -145,7 +128,7 @@ def _check_int(name: str, value, low: int, high: int) -> None:
 
 def _make(env_id: str, env_kwargs: dict):
     try:
-        return make_env(env_kwargs, env_id=env_id)
+        return runtime.make_env(env_kwargs, env_id=env_id)
     except TypeError as e:  # an unknown keyword argument of the env class
         raise ValueError(f"env_kwargs {env_kwargs} do not fit {env_id}: {e}") from None
 
@@ -164,14 +147,15 @@ def _controller(controller: str, env_id: str, env_kwargs: dict):
             "tuned": load_tuned(env_id=env_id)[controller] if spec.tuned else None,
             "temperature_guard_margin_K": GUARD_MARGIN_K if spec.guard else None,
         }
-        return env, env_kwargs, build_controller(controller, env), settings
+        return env, env_kwargs, runtime.build_controller(controller, env), settings
     if not _is_path(controller):
         raise ValueError(
             f"controller must be one of {sorted(registry_for(env_id))} for {env_id} or a policy folder, "
             f"got {controller!r}"
         )
-    policy = load_policy(controller)
-    env_kwargs = {**evaluation_env_kwargs(policy.env_kwargs), **env_kwargs}  # what the policy observes
+    policy = runtime.load_policy(controller)
+    # what the policy observes
+    env_kwargs = {**runtime.evaluation_env_kwargs(policy.env_kwargs), **env_kwargs}
     env = _make(env_id, env_kwargs)
     obs, _ = env.reset(seed=DATASET_SEED_BASE)
     try:
@@ -198,7 +182,7 @@ def plan(
     if env_id not in ENV_SPECS:
         raise ValueError(f"env_id must be a registered spine_gym id {sorted(ENV_SPECS)}, got {env_id!r}")
     _check_int("episodes", episodes, 1, MAX_DATASET_EPISODES)
-    _check_int("seed_base", seed_base, DATASET_SEED_BASE, VALIDATION_SEED_BASE - episodes)
+    _check_int("seed_base", seed_base, DATASET_SEED_BASE, runtime.VALIDATION_SEED_BASE - episodes)
     _check_int("version", version, 0, 10**6)
     env_kwargs = dict(env_kwargs or {})
     did = dataset_id(env_id, controller, version)
@@ -249,11 +233,12 @@ def record(p: DatasetPlan, *, record_infos: bool = True, progress: bool = True, 
     An existing dataset of the same id (a plan made with ``overwrite``) is deleted only after the
     recording has finished."""
     collector = minari.DataCollector(p.env, record_infos=record_infos)
-    limit, dt = env_temperature_limit(p.env), float(p.env.control_period)
+    limit, dt = runtime.env_temperature_limit(p.env), float(p.env.control_period)
     rows = []
     try:
         for seed in tqdm(p.seeds, desc=p.dataset_id, unit="episode", disable=not progress):
-            m = episode_metrics(run_episode(collector, p.policy, seed=seed), temperature_limit=limit, dt=dt)
+            traj = runtime.run_episode(collector, p.policy, seed=seed)
+            m = episode_metrics(traj, temperature_limit=limit, dt=dt)
             rows.append({"seed": seed, "rmse": m["rmse_deg"], "energy_J": m["energy_J"]})
         if dataset_dir(p.dataset_id).exists():
             minari.delete_dataset(p.dataset_id)
@@ -319,34 +304,36 @@ def datasets_path(path: str | Path | None):
             os.environ["MINARI_DATASETS_PATH"] = old
 
 
-EXAMPLES = (
-    "spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20",
-    "spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0",
-    "spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari",
-)
+EXAMPLES = """
+spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20
+spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0
+spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.datasets") -> argparse.ArgumentParser:
-    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    add_env(p, nargs="+", required=True, help="env id(s), one dataset each; any of: " + ", ".join(ENV_IDS))
+    p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    cli.add_env(
+        p, nargs="+", required=True, help="env id(s), one dataset each; any of: " + ", ".join(cli.ENV_IDS)
+    )
     p.add_argument(
         "--controller", required=True, help="registry name (pid, mpc_oracle, ...) or policy folder"
     )
     p.add_argument(
         "--episodes", type=int, required=True, help=f"episodes per dataset (1..{MAX_DATASET_EPISODES})"
     )
-    add_env_kwargs(p, nargs="*")
+    cli.add_env_kwargs(p, nargs="*")
     p.add_argument(
         "--seed-base", type=int, default=DATASET_SEED_BASE, help="first reset seed (default: %(default)s)"
     )
     p.add_argument("--version", type=int, default=0, help="the dataset id's version (default: %(default)s)")
-    add_out(
+    cli.add_out(
         p, "--data-path", dest="data_path",
         help="Minari data directory (default: MINARI_DATASETS_PATH, else ~/.minari/datasets)",
     )  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace an existing dataset of the same id")
     p.add_argument("--no-infos", action="store_true", help="do not record the env's info dicts")
-    add_progress(p)
+    cli.add_progress(p)
     return p
 
 
@@ -369,14 +356,14 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     with datasets_path(args.data_path):
         try:
             for e in args.env:
-                check_env_kwargs(e, args.env_kwargs)
+                cli.check_env_kwargs(e, args.env_kwargs)
             plans = [
                 plan(e, args.controller, args.episodes, env_kwargs=args.env_kwargs,
                      seed_base=args.seed_base, version=args.version, overwrite=args.overwrite)
                 for e in args.env
             ]  # fmt: skip
         except ValueError as e:
-            print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)
+            print(f"{parser.prog}: error: {cli.first_line(e)}", file=sys.stderr)
             return 2
         for p in plans:
             ds = record(p, record_infos=not args.no_infos, progress=args.progress, command=command)

@@ -35,17 +35,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from spine_gym.cli_conventions import (
-    Parser,
-    add_env,
-    add_env_kwargs,
-    add_out,
-    add_progress,
-    check_env_kwargs,
-    check_file,
-    check_keys,
-    did_you_mean,
-)
+from spine_gym import cli_conventions as cli
 from spine_gym.envs import base_id
 from spine_gym.plotting import plot_episodes
 
@@ -241,18 +231,20 @@ def plot_controller(
 
 
 # --------------------------------------------------------------------------- CLI
-EXAMPLES = (
-    "spine-gym evaluate                                   # shipped policies + step, bang-bang, PID",
-    "spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d",
-    "spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1",
-    "spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress",
-)
+EXAMPLES = """
+spine-gym evaluate                                   # shipped policies + step, bang-bang, PID
+spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d
+spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1
+spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.ArgumentParser:
-    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    add_env(p, default=ENV_ID)
-    add_env_kwargs(p, help="env keyword arguments key=value of every controller's envs (over a policy's own)")
+    p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    cli.add_env(p, default=ENV_ID)
+    cli.add_env_kwargs(
+        p, help="env keyword arguments key=value of every controller's envs (over a policy's own)"
+    )
     p.add_argument(
         "--baselines",
         nargs="*",
@@ -279,8 +271,8 @@ def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.
     )
     p.add_argument("--groups", nargs="*", default=None, help="only these scenario groups")
     p.add_argument("--scenarios", nargs="*", default=None, help="only these scenario names")
-    add_out(p, default="results/eval")
-    add_progress(p)
+    cli.add_out(p, default="results/eval")
+    cli.add_progress(p)
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
     p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
@@ -320,7 +312,7 @@ def _models(items: list[str] | None, env_id: str) -> dict[str, Path]:
         name, sep, path = item.partition("=")
         if not sep:
             name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
-        check_file(path, f"--models {name}")
+        cli.check_file(path, f"--models {name}")
         models[name] = Path(path)
     return models
 
@@ -331,14 +323,15 @@ def _plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios, env_id=args.env)
     chosen = list(baselines_for(args.env)) if args.baselines is None else args.baselines
     baselines = list(dict.fromkeys(chosen + (list(MPC_CONTROLLERS) if args.mpc else [])))
-    check_keys(baselines, registry_for(args.env), "--baselines", what=f"controller of {args.env}")
+    cli.check_keys(baselines, registry_for(args.env), "--baselines", what=f"controller of {args.env}")
     models = _models(args.models, args.env)
     if not baselines and not models:
         raise ValueError("nothing to evaluate: no baselines and no models")
     names = [*baselines, *models]
     if args.relative_to and args.relative_to not in names:
-        raise ValueError(f"--relative-to {args.relative_to!r} is not one of {names}{did_you_mean(args.relative_to, names)}")
-    check_env_kwargs(args.env, args.env_kwargs)
+        hint = cli.did_you_mean(args.relative_to, names)
+        raise ValueError(f"--relative-to {args.relative_to!r} is not one of {names}{hint}")
+    cli.check_env_kwargs(args.env, args.env_kwargs)
     if args.video:
         require_ffmpeg()  # before the evaluation, not after it
     return scenarios, baselines, models

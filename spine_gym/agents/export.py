@@ -346,10 +346,10 @@ class OneUlpUp:
         return self.policy.predict(moved, state, episode_start, deterministic)
 
 
-EXAMPLES = (
-    "spine-gym export spine_gym/agents/policies/ppo -o exported/ppo",
-    "spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best",
-)
+EXAMPLES = """
+spine-gym export spine_gym/agents/policies/ppo -o exported/ppo
+spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.ArgumentParser:

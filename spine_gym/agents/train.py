@@ -96,6 +96,7 @@ from spine_gym.cli_conventions import (
     check_file,
     check_keys,
     first_line,
+    usage_errors,
 )
 
 from .checkpoints import (
@@ -117,12 +118,12 @@ from .training import (
 )
 from .zoo_config import ALGOS, ENV_ID, StoreDict
 
-EXAMPLES = (
-    "spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0",
-    "spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256",
-    "spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint",
-    "python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f",
-)
+EXAMPLES = """
+spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
+spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256
+spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint
+python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:
@@ -222,7 +223,7 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     resume = None
-    try:
+    with usage_errors(parser):
         if args.resume:
             if args.trained_agent:
                 raise ValueError("--resume continues a run from its own checkpoint: drop -i")
@@ -232,8 +233,6 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
         if args.algo is None:
             raise ValueError("--algo is required (or --resume RUN)")
         cfg = _checked_config(args, str(resume[1]) if resume else args.trained_agent)
-    except ValueError as e:
-        parser.error(str(e))
     return args, argv, resume, cfg
 
 

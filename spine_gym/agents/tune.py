@@ -29,15 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from spine_gym.cli_conventions import (
-    Parser,
-    add_env,
-    add_env_kwargs,
-    add_out,
-    add_progress,
-    check_env_kwargs,
-    check_keys,
-)
+from spine_gym import cli_conventions as cli
 from spine_gym.envs import base_id
 
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
@@ -128,25 +120,25 @@ def tune(
     }
 
 
-EXAMPLES = (
-    "spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml",
-    "spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml",
-    "spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains",
-)
+EXAMPLES = """
+spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
+spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
+spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains
+"""
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 
 
 def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.ArgumentParser:
-    p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    add_env(p, default=ENV_ID)
+    p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
+    cli.add_env(p, default=ENV_ID)
     p.add_argument(
         "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
     )
     p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
     p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
     p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
-    add_env_kwargs(p)
-    add_out(
+    cli.add_env_kwargs(p)
+    cli.add_out(
         p, metavar="FILE",
         help=f"output YAML (default: {DEFAULT_OUT}/<name of the env's shipped file>, e.g. {DEFAULT_OUT}/baselines.yml)",
     )  # fmt: skip
@@ -155,7 +147,7 @@ def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.Argu
         action="store_true",
         help="update an existing --out (the tuned controllers' entries are replaced, the others kept)",
     )
-    add_progress(p)
+    cli.add_progress(p)
     return p
 
 
@@ -163,7 +155,7 @@ def _check(args) -> Path:
     """The output file, every argument checked (ValueError, one line) before any tuning."""
     tunable = list(tunable_for(args.env))
     args.controllers = tunable if args.controllers is None else args.controllers
-    check_keys(args.controllers, tunable, "--controllers", what=f"tuned controller of {args.env}")
+    cli.check_keys(args.controllers, tunable, "--controllers", what=f"tuned controller of {args.env}")
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     if not 1 <= args.episodes <= 10_000:
@@ -173,7 +165,7 @@ def _check(args) -> Path:
         raise ValueError(f"--out {out} is a folder; give a file name (.yml)")
     if out.exists() and not args.overwrite:
         raise ValueError(f"--out {out} exists; pass --overwrite to update it or give another --out")
-    check_env_kwargs(args.env, args.env_kwargs)
+    cli.check_env_kwargs(args.env, args.env_kwargs)
     return out
 
 
@@ -181,10 +173,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
-    try:
+    with cli.usage_errors(parser):
         out = _check(args)
-    except ValueError as e:
-        parser.error(str(e))
     command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:

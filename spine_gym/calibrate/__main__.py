@@ -98,11 +98,11 @@ def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ..
     return resolve_parameters(params, start)
 
 
-EXAMPLES = (
-    "spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration",
-    "spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2",
-    "spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires --no-progress",
-)
+EXAMPLES = """
+spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration
+spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
+spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires --no-progress
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.ArgumentParser:

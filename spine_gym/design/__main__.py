@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -146,7 +146,7 @@ def _cmd_params(args) -> int:
 def _cmd_sweep(args, parser) -> int:
     from .sweeps import sweep
 
-    try:
+    with usage_errors(parser):
         base = PRESETS[args.preset]()
         fixed = _fixed(args.set)
         protocol = _protocol(args.protocol)
@@ -168,8 +168,6 @@ def _cmd_sweep(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    except ValueError as e:
-        parser.error(str(e))
     out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     csv_path = res.to_csv(out / "sweep.csv")
     res.write_metadata(
@@ -209,7 +207,7 @@ def _cmd_optimize(args, parser) -> int:
         parser.error("give exactly one of --maximize METRIC or --minimize METRIC")
     out = args.out or Path("runs/design") / f"opt-{args.study_name}"
     storage = args.storage or str(out / "study.journal")
-    try:
+    with usage_errors(parser):
         problem = DesignProblem(
             space=tuple(args.space),
             metric=args.maximize or args.minimize,
@@ -234,8 +232,6 @@ def _cmd_optimize(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    except ValueError as e:
-        parser.error(str(e))
     print(res.summary())
     best_json = res.write_json(out / "best.json")
     trials_csv = res.write_trials_csv(out / "trials.csv")
@@ -257,10 +253,8 @@ def _cmd_optimize(args, parser) -> int:
 def _cmd_best(args, parser) -> int:
     from .optimizer import load_result
 
-    try:
+    with usage_errors(parser):
         res = load_result(args.storage, args.study_name)
-    except ValueError as e:
-        parser.error(str(e))
     print(res.summary())
     if args.json:
         print(json.dumps(res.to_dict(), indent=2))
@@ -292,6 +286,11 @@ EXAMPLES = {
 }
 
 
+def _add_axes(p: argparse.ArgumentParser, flag: str, help: str) -> None:
+    """``flag NAME=SPEC``, required and repeatable: one axis of a sweep or dimension of a search."""
+    p.add_argument(flag, action="append", required=True, metavar="NAME=SPEC", help=help)
+
+
 def _add_params_parser(sub) -> None:
     """The ``params`` subcommand."""
     p = sub.add_parser(
@@ -310,12 +309,10 @@ def _add_sweep_parser(sub) -> None:
         "(repeat for more axes; the last axis varies fastest).",
         examples=EXAMPLES["sweep"],
     )
-    p.add_argument(
+    _add_axes(
+        p,
         "--param",
-        action="append",
-        required=True,
-        metavar="NAME=SPEC",
-        help="sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2, "
+        "sweep axis, e.g. a=6e-3:14e-3:9, n_w=1,2,3, E_t=10e6:100e6:5:log, voltage=2.8,3.2, "
         "n_modules=1,2,3 (chained four-wire layouts)",
     )
     _add_common(p)
@@ -342,13 +339,7 @@ def _add_optimize_parser(sub) -> None:
         description="Search NAME=lo:hi | lo:hi:log | v1,v2,... (categorical).",
         examples=EXAMPLES["optimize"],
     )
-    p.add_argument(
-        "--space",
-        action="append",
-        required=True,
-        metavar="NAME=SPEC",
-        help="search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log",
-    )
+    _add_axes(p, "--space", "search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log")
     p.add_argument("--maximize", "--maximise", metavar="METRIC")
     p.add_argument("--minimize", "--minimise", metavar="METRIC")
     p.add_argument(

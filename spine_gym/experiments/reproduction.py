@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 
 from .. import plotting
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
-from ..cli_conventions import Parser, add_out, add_progress
+from ..cli_conventions import Parser, add_out, add_progress, usage_errors
 from ..params import ModelParams, SolverOptions
 from ..simulate import SimulationResult
 from .references import (
@@ -264,11 +264,11 @@ def _reference_metrics(case: str) -> dict[str, float]:
 
 
 # ------------------------------------------------------------------------------------- CLI
-EXAMPLES = (
-    "spine-gym reproduce                           # every experiment, tables and plots in runs/experiments",
-    "spine-gym reproduce --quick -o /tmp/repro --no-progress",
-    "spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off",
-)
+EXAMPLES = """
+spine-gym reproduce                           # every experiment, tables and plots in runs/experiments
+spine-gym reproduce --quick -o /tmp/repro --no-progress
+spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off
+"""
 
 
 def build_parser(prog: str = "python -m spine_gym.experiments") -> argparse.ArgumentParser:
@@ -306,7 +306,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.exp
     """
     ap = build_parser(prog)
     args = ap.parse_args(argv)
-    try:
+    with usage_errors(ap):
         rep = reproduce(
             args.out,
             quick=args.quick,
@@ -314,8 +314,6 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.exp
             progress=args.progress,
             plots=not args.no_plots,
         )
-    except ValueError as e:
-        ap.error(str(e))
     print(rep.markdown())
     print(f"Wrote {len(rep.files)} files to {args.out} in {rep.seconds:.1f} s:")
     for p in rep.files:
