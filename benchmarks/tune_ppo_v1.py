@@ -1,17 +1,20 @@
 """Study: PPO's learner throughput vs its sample efficiency on the -v1 tier ids, on tuning seeds.
 
-PPO's shipped ``-v1`` entry (``spine_gym/agents/hyperparams/ppo.yml``) spends most of its wall
-time in SGD: 10 epochs of minibatch 256 over each 2 048-sample rollout are 80 gradient steps per
-rollout. This study trains each candidate override of that entry on every benchmark id
-(``spine_gym.envs.BENCHMARK_IDS``) with the tuning seeds ``--seeds`` (default 100 and 101, never the
-benchmark's seeds 0-4), validates every ``--eval-freq`` steps on the benchmark's validation
+PPO spends most of its wall time in SGD when it makes many gradient steps per rollout: 10 epochs of
+minibatch 256 over each 2 048-sample rollout are 80. This study trains each candidate override of
+the ``-v1`` entry (``spine_gym/agents/hyperparams/ppo.yml``) on every benchmark id
+(``spine_gym.envs.BENCHMARK_IDS``, or ``--envs``) with the tuning seeds ``--seeds`` (default 100
+and 101, never the benchmark's seeds 0-4), validates every ``--eval-freq`` steps on the benchmark's validation
 episodes (reset seeds 500 000+, :mod:`spine_gym.agents.benchmark`; the evaluation suite is never
 touched) and reports, per candidate and id, the median training wall time and steps to the tuned
 PID's validation RMSE and the final RMSE and energy as ratios to the PID's. Each run is one
 :func:`spine_gym.agents.benchmark_run.run_one`, so runs are resumable (finished ones are skipped) and
 measured exactly as the benchmark measures them (validation time excluded, torch on one thread).
 
-    PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2 \
+        --candidates batch256_epochs10 epochs5 batch512 batch512_epochs5
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2 --envs SmaSpine3DHard-v1 \
+        --candidates batch512_epochs5_envs16 batch512_epochs5_lr6e-4
 
 Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``).
 The PID's validation scores are read from the benchmark's reference cache
@@ -42,10 +45,13 @@ VAL_EPISODES = 10  # the benchmark's default
 
 # name -> overrides of the shipped -v1 entry; gradient steps per 2 048-sample rollout in the comment
 CANDIDATES = {
-    "yml": {},  # 80: the shipped entry (10 epochs x 8 minibatches of 256)
+    "batch256_epochs10": {"batch_size": 256, "n_epochs": 10},  # 80: the -v1 entry before this study
     "epochs5": {"n_epochs": 5},  # 40
     "batch512": {"batch_size": 512},  # 40
     "batch512_epochs5": {"batch_size": 512, "n_epochs": 5},  # 20
+    # the chosen setting with twice the sub-envs (same 2 048-sample rollout), or twice the step size
+    "batch512_epochs5_envs16": {"batch_size": 512, "n_epochs": 5, "n_envs": 16, "n_steps": 128},
+    "batch512_epochs5_lr6e-4": {"batch_size": 512, "n_epochs": 5, "learning_rate": 6e-4},
 }
 
 
@@ -53,11 +59,11 @@ def _worker_init() -> None:
     torch.set_num_threads(1)
 
 
-def plan(names: list[str], seeds: list[int], eval_freq: int) -> list[tuple[str, RunSpec]]:
+def plan(names: list[str], seeds: list[int], eval_freq: int, env_ids: list[str]) -> list[tuple[str, RunSpec]]:
     """Every (candidate, run) pair, seed by seed, so that a partial study covers every candidate."""
     out = []
     for seed in seeds:
-        for env_id in BENCHMARK_IDS:
+        for env_id in env_ids:
             n = resolve_config("ppo", env_id).n_timesteps
             for name in names:
                 hp = dict(CANDIDATES[name])
@@ -89,7 +95,8 @@ def summarise(runs: list[tuple[str, RunSpec]]) -> list[dict]:
         _, cpu = stats.time_to_level(c["step"], c["train_cpu_s"], c["rmse"], ref["rmse"])
         groups.setdefault((name, spec.env_id), []).append({
             "steps": steps, "wall": wall, "cpu": cpu, "total_wall": float(c["train_wall_s"][-1]),
-            "rmse_ratio": float(c["rmse"][-1]) / ref["rmse"], "energy_ratio": float(c["energy_J"][-1]) / ref["energy_J"],
+            "rmse_ratio": float(c["rmse"][-1]) / ref["rmse"],
+            "energy_ratio": float(c["energy_J"][-1]) / ref["energy_J"],
         })  # fmt: skip
     rows = []
     for (name, env_id), g in groups.items():
@@ -123,8 +130,10 @@ def write(rows: list[dict]) -> None:
     ]
     for r in sorted(rows, key=lambda r: (r["env_id"], r["candidate"])):
         lines.append(
-            f"| {r['candidate']} | {r['env_id']} | {r['reached']}/{r['runs']} | {r['median_wall_to_pid_s']:.1f} s | {r['median_cpu_to_pid_s']:.1f} s | "
-            f"{r['median_steps_to_pid']:,.0f} | {r['mean_total_wall_s']:.0f} s | {r['mean_final_rmse_ratio']:.2f} | "
+            f"| {r['candidate']} | {r['env_id']} | {r['reached']}/{r['runs']} | "
+            f"{r['median_wall_to_pid_s']:.1f} s | {r['median_cpu_to_pid_s']:.1f} s | "
+            f"{r['median_steps_to_pid']:,.0f} | {r['mean_total_wall_s']:.0f} s | "
+            f"{r['mean_final_rmse_ratio']:.2f} | "
             f"{r['mean_final_energy_ratio']:.2f} |"
         )  # fmt: skip
     (OUT / "summary.md").write_text("\n".join(lines) + "\n")
@@ -136,12 +145,13 @@ def main() -> None:
     p.add_argument("--candidates", nargs="+", choices=list(CANDIDATES), default=list(CANDIDATES))
     p.add_argument("--seeds", nargs="+", type=int, default=[100, 101], help="tuning seeds (not 0-4)")
     p.add_argument("--eval-freq", type=int, default=10_000, help="env steps between validations")
+    p.add_argument("--envs", nargs="+", choices=BENCHMARK_IDS, default=list(BENCHMARK_IDS), help="env ids")
     p.add_argument("--workers", type=int, default=2, help="runs in parallel processes")
     p.add_argument("--summary-only", action="store_true", help="train nothing; summarise finished runs")
     args = p.parse_args()
     if any(0 <= s < 5 for s in args.seeds):
         p.error(f"--seeds must avoid the benchmark's seeds 0-4, got {args.seeds}")
-    runs = plan(args.candidates, args.seeds, args.eval_freq)
+    runs = plan(args.candidates, args.seeds, args.eval_freq, args.envs)
     if not args.summary_only:
         run(runs, args.workers)
     write(summarise(runs))
