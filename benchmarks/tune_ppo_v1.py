@@ -14,7 +14,8 @@ measured exactly as the benchmark measures them (validation time excluded, torch
     PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2 \
         --candidates batch256_epochs10 epochs5 batch512 batch512_epochs5
     PYTHONPATH=$PWD .venv/bin/python benchmarks/tune_ppo_v1.py --workers 2 --envs SmaSpine3DHard-v1 \
-        --candidates batch512_epochs5_envs16 batch512_epochs5_lr6e-4
+        --candidates batch512_epochs5_envs16 batch512_epochs5_lr6e-4 batch512_epochs5_envs32 \
+        batch1024_epochs5_envs16 batch512_epochs5_envs16_steps64 batch512_epochs5_envs16_steps32
 
 Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``).
 The PID's validation scores are read from the benchmark's reference cache
@@ -52,6 +53,12 @@ CANDIDATES = {
     # the chosen setting with twice the sub-envs (same 2 048-sample rollout), or twice the step size
     "batch512_epochs5_envs16": {"batch_size": 512, "n_epochs": 5, "n_envs": 16, "n_steps": 128},
     "batch512_epochs5_lr6e-4": {"batch_size": 512, "n_epochs": 5, "learning_rate": 6e-4},
+    # more sub-envs again (fewer policy calls per env step), or half the gradient steps at 16
+    "batch512_epochs5_envs32": {"batch_size": 512, "n_epochs": 5, "n_envs": 32, "n_steps": 64},
+    "batch1024_epochs5_envs16": {"batch_size": 1024, "n_epochs": 5, "n_envs": 16, "n_steps": 128},  # 10
+    # 16 sub-envs with half the rollout (1 024 samples): as many gradient steps per sample, twice the updates
+    "batch512_epochs5_envs16_steps64": {"batch_size": 512, "n_epochs": 5, "n_envs": 16, "n_steps": 64},
+    "batch512_epochs5_envs16_steps32": {"batch_size": 512, "n_epochs": 5, "n_envs": 16, "n_steps": 32},  # 5 per 512
 }
 
 
