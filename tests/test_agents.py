@@ -303,6 +303,19 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
         validation_scores(Off(), 0, kw)
 
 
+def test_selection_scores_a_model_with_what_the_suite_keeps_of_its_own_kwargs():
+    from spine_gym.agents.selection import model_env_kwargs
+
+    own = {"v_max": 6.0, "target_preview": 3.0, "payload_range": (0.0, 0.1), "episode_duration": 30.0}
+    given = {"domain_randomization": True, "payload_range": (0.05, 0.09), "target_preview": 1.0}
+    # its own distribution without the episode length; on a given one, its ceiling and preview go along
+    assert model_env_kwargs(own, None) == {"v_max": 6.0, "target_preview": 3.0, "payload_range": (0.0, 0.1)}
+    assert model_env_kwargs(own, given) == {
+        "domain_randomization": True, "payload_range": (0.05, 0.09), "target_preview": 3.0, "v_max": 6.0,
+    }  # fmt: skip
+    assert model_env_kwargs(own, given) == {**given, **ev.evaluation_env_kwargs(own)}
+
+
 def test_hard_group_has_the_documented_disturbances_and_randomised_plants():
     from spine_gym.agents.scenarios import HARD_PAYLOAD_KG, HARD_PUSH_N, HARD_TILT_DEG
     from spine_gym.envs import default_randomization

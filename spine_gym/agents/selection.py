@@ -14,8 +14,9 @@ energy [J] per model, and the ratio of both to the PID's.
 
 ``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
 model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
-default observation, each model with its own (``spine_gym.agents.runtime.OBSERVATION_KWARGS`` such as
-``target_preview`` are the policy's, not the reference's: a model's own value wins over a given one).
+default observation, each model with what it was trained with beyond the task distribution, as in
+the evaluation suite (:func:`model_env_kwargs`: e.g. its ``target_preview`` or ``v_max``; a model's
+own value wins over a given one).
 
 Selecting the shipped policies this way keeps the evaluation suite a test set: the suite's numbers
 are not what the models were picked by.
@@ -32,13 +33,24 @@ from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
     build_controller,
+    evaluation_env_kwargs,
     load_policy,
     make_env,
     validation_scores,
 )
 from .zoo_config import ENV_ID, ENV_IDS, StoreDict
 
-__all__ = ["VALIDATION_SEED_BASE", "validation_scores", "main"]
+__all__ = ["VALIDATION_SEED_BASE", "validation_scores", "model_env_kwargs", "main"]
+
+
+def model_env_kwargs(own: dict, given: dict | None) -> dict:
+    """The env kwargs a model trained with ``own`` is scored with: ``own`` (without its episode
+    length) if no distribution is ``given``, else ``given`` with what the evaluation suite keeps of
+    ``own`` (:func:`spine_gym.agents.runtime.evaluation_env_kwargs`: its observation, voltage ceiling,
+    ...) on top."""
+    if given is None:
+        return {k: v for k, v in own.items() if k != "episode_duration"}
+    return {**given, **evaluation_env_kwargs(own)}
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -72,11 +84,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
         for t in targets:
             pol = load_policy(t)
-            own = getattr(pol, "env_kwargs", {})
-            if args.env_kwargs is None:
-                kw = {k: v for k, v in own.items() if k != "episode_duration"}
-            else:  # the given distribution, observed as the model was trained to (its preview)
-                kw = {**args.env_kwargs, **{k: own[k] for k in OBSERVATION_KWARGS if k in own}}
+            kw = model_env_kwargs(getattr(pol, "env_kwargs", {}), args.env_kwargs)
             r, e = validation_scores(pol, args.episodes, kw, args.env)
             rows.append(
                 {
