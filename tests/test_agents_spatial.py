@@ -118,6 +118,16 @@ def test_spatial_suites_are_seeded_apart_and_inside_the_env_task(env_id):
 
 
 # --------------------------------------------------------------------------- the shipped 3-D policy
+class RandomPolicy:
+    """Uniform random actions in [-1, 1] for ``n`` wires, seeded: the floor a shipped policy must clear."""
+
+    def __init__(self, n: int):
+        self.n, self.rng = n, np.random.default_rng(0)
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        return self.rng.uniform(-1, 1, (np.atleast_2d(obs).shape[0], self.n)).astype(np.float32), None
+
+
 SHIPPED_3D = sorted(ev.shipped_policies(SPATIAL_ENV_ID))
 
 
@@ -139,17 +149,10 @@ def test_shipped_3d_policy_beats_a_random_policy(name):
     pol = load_policy(POLICIES_DIR / name)
     env = make_env({**pol.env_kwargs, "episode_duration": scenario.duration}, env_id=SPATIAL_ENV_ID)
 
-    class Random:
-        def __init__(self):
-            self.rng = np.random.default_rng(0)
-
-        def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            return self.rng.uniform(-1, 1, (np.atleast_2d(obs).shape[0], 4)).astype(np.float32), None
-
     def rmse(p):
         return np.sqrt(np.mean(run_episode(env, p, scenario).error ** 2))
 
-    assert rmse(pol) < 0.5 * rmse(Random())
+    assert rmse(pol) < 0.5 * rmse(RandomPolicy(4))
     env.close()
 
 
@@ -180,17 +183,9 @@ def test_shipped_v1_policy_runs_in_its_own_env_and_beats_a_random_policy(env_id,
     env = make_env({**kw, "episode_duration": scenario.duration}, env_id=env_id)
     if "v_max" in pol.env_kwargs:
         assert env.v_max == pytest.approx(float(pol.env_kwargs["v_max"]))
-    n = env.action_space.shape[0]
-
-    class Random:
-        def __init__(self):
-            self.rng = np.random.default_rng(0)
-
-        def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            return self.rng.uniform(-1, 1, (np.atleast_2d(obs).shape[0], n)).astype(np.float32), None
 
     def rmse(p):
         return np.sqrt(np.mean(run_episode(env, p, scenario).error ** 2))
 
-    assert rmse(pol) < 0.5 * rmse(Random())
+    assert rmse(pol) < 0.5 * rmse(RandomPolicy(env.action_space.shape[0]))
     env.close()
