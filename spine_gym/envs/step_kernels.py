@@ -2,7 +2,7 @@
 
 A step of every env id is four jitted pieces — :func:`begin_step` (clipped actions,
 voltages, loads, resolve flags), the plant's per-spine control period
-(:func:`spine_gym.physics.env_kernels.step_spine` or its spatial twin), the plant's probe
+(:func:`spine_gym.physics.planar.control.step_spine` or the spatial core's ``step_spine``), the plant's probe
 (:func:`.readout.planar_probe`, :func:`.readout.spatial_probe`) and the table-driven
 writer (:func:`.readout.finish_rows`) — and this module runs them in one call from Python, so
 a vector step pays numba's dispatch and argument unboxing once, not four times. Nothing is
@@ -38,7 +38,8 @@ import numpy as np
 
 from ..physics._deal import counter, take
 from ..physics._jit import jit, pjit
-from ..physics.env_kernels import step_spine, step_spine_spatial
+from ..physics.planar.control import step_spine
+from ..physics.spatial.control import step_spine as step_spine_spatial
 from . import readout as ro
 
 __all__ = [
