@@ -236,15 +236,15 @@ def physics_call(fn, args) -> tuple:
     active[rows] = True
     resolve = drive[3].copy()
     if fn in PLANAR_KERNELS:
-        p = dict(zip(sk.PLANAR_PLANT, plant, strict=True))
+        p = sk.PlanarPlant(*plant)
         volts = (st.volts[:, 0].copy(), st.volts[:, 1].copy())
-        kernel, head = step_many_serial, (p["kps"], p["ks"])
+        kernel, head = step_many_serial, (p.kps, p.ks)
     else:
-        p = dict(zip(sk.SPATIAL_PLANT, plant, strict=True))
+        p = sk.SpatialPlant(*plant)
         volts = (st.volts.copy(),)
-        kernel, head = step_many_spatial_serial, (p["kps"], p["ks"], p["kws"], p["kms"])
-    tail = (st.loads.copy(), resolve, active, p["physics_dt"], p["n_sub"], st.status, p["meas"])
-    return kernel, (p["states"], p["backup"], *head, *volts, *tail)
+        kernel, head = step_many_spatial_serial, (p.kps, p.ks, p.kws, p.kms)
+    tail = (st.loads.copy(), resolve, active, p.physics_dt, p.n_sub, st.status, p.meas)
+    return kernel, (p.states, p.backup, *head, *volts, *tail)
 
 
 def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.ndarray, np.ndarray]:

@@ -18,7 +18,7 @@ import pytest
 
 import spine_gym  # noqa: F401  (registers the ids)
 from spine_gym.physics import columns as L
-from spine_gym.physics.spatial.columns import F_EPS, F_QC, F_QJ, F_QL, F_SIG, F_T, F_XM, F_XP, W_L0, W_LAMS
+from spine_gym.physics.spatial.columns import F_SIG, F_XM, F_XP, W_L0, W_LAMS
 from spine_gym.physics.spatial.composite import composite, solve_mechanics
 from spine_gym.physics.spatial.integrate import _load_rates, wire_constants
 from spine_gym.physics.spatial.stability import (
@@ -28,7 +28,17 @@ from spine_gym.physics.spatial.stability import (
     stability_work,
 )
 from spine_gym.physics.spatial.substep import _substep_coupled
-from spine_gym.physics.spatial.work import WK_JNUM, WK_KPW, WK_RT, WK_XS, make_work, sizes, views, wire_block
+from spine_gym.physics.spatial.work import (
+    WK_JNUM,
+    WK_KPW,
+    WK_RT,
+    WK_XS,
+    make_work,
+    sizes,
+    views,
+    wire_block,
+    wire_blocks,
+)
 
 SOLVER_LIMITS = (L.ERR_SHAPE, L.ERR_ROOT, L.ERR_SUBSTEPS)
 # (id, seed, tip_force_count): the first two ended with ERR_SHAPE before SPATIAL.md §8.11 (a 0.1-s
@@ -81,12 +91,10 @@ def replay_substeps(r):
     state = r["state"].copy()
     wk = make_work(nw, nm, ns)
     mw, omega, sens = views(state, nw, nm, ns)
-    wb = tuple(
-        wire_block(state, f, nw) for f in (F_XP, F_XM, F_T, F_SIG, F_EPS, F_QJ, F_QC, F_QL)
-    )
+    wb = wire_blocks(state, nw)
     if r["resolve"]:
         check = needs_stability_check(vf, kp, km)
-        st, _ = solve_mechanics(mw, omega, sens, wb[0], wb[1], wb[4], wb[3], vf, kp, ks, kw, km, wk, check)
+        st, _ = solve_mechanics(mw, omega, sens, wb.xp, wb.xm, wb.eps, wb.sig, vf, kp, ks, kw, km, wk, check)
         assert st == L.OK, "the load change itself failed, yet the start was found stable"
     wire_constants(kp, kw, wk[WK_KPW])
     wk[WK_JNUM][:] = r["volts"] ** 2 / kw[:, W_L0] ** 2 / kw[:, W_LAMS]

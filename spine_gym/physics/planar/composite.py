@@ -87,14 +87,10 @@ def composite_bracketed(dth, m_prev, xpr, xmr, xpl, xml, vforce, kp, ks, illinoi
         g_lo = 0.0
     if not illinois:
         for _ in range(max_root):
-            if hi - lo <= tol_m:
-                m = 0.5 * (lo + hi)
-                st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
-                return st, m, passes + it
             m = 0.5 * (lo + hi)
             st, it, gm = _residual_full(dth, m, xpr, xmr, xpl, xml, vforce, kp, tol_th, max_shape, new)
             passes += it
-            if st != OK:
+            if st != OK or hi - lo <= tol_m:  # failed, or converged: the midpoint of the bracket
                 return st, m, passes
             if gm > 0.0:
                 lo = m

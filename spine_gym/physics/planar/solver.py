@@ -2,64 +2,25 @@
 
 The module was split by role: the wire mechanics of a shape are :mod:`.mechanics`, the composite
 solve :mod:`.composite`, the sub-steps :mod:`.substep`, their scratch :mod:`.work` and the time
-integration (:func:`advance`, :func:`advance_held`, :func:`init_state`) :mod:`.integrate`. Import
-from those; this module only re-exports their public names.
+integration (``advance``, ``advance_held``, ``init_state``) :mod:`.integrate`. Import from those;
+this module only hands out their public names (and the state columns of :mod:`.columns`).
 """
 
 from __future__ import annotations
 
-from .composite import (
-    NEWTON_HALVINGS,
-    composite,
-    composite_bracketed,
-    composite_full_newton,
-    composite_in,
-    composite_newton,
-)
-from .integrate import advance, advance_held, init_state
-from .mechanics import length_per_moment, mechanics_and_gain, moment_gain, stress_sensitivity, wire_mechanics
-from .work import (
-    COUPLED_WORK_SIZE,
-    CW_A_T,
-    CW_B_T,
-    CW_BACKUP,
-    CW_LU,
-    CW_PIV,
-    CW_RT,
-    CW_RT_NEW,
-    CW_SENS,
-    CW_VEC,
-    CW_X0,
-    CW_XS,
-    coupled_work,
-)
+from . import columns as _columns
+from . import composite as _composite
+from . import integrate as _integrate
+from . import mechanics as _mechanics
+from . import substep as _substep
+from . import work as _work
 
-__all__ = [
-    "COUPLED_WORK_SIZE",
-    "CW_A_T",
-    "CW_BACKUP",
-    "CW_B_T",
-    "CW_LU",
-    "CW_PIV",
-    "CW_RT",
-    "CW_RT_NEW",
-    "CW_SENS",
-    "CW_VEC",
-    "CW_X0",
-    "CW_XS",
-    "NEWTON_HALVINGS",
-    "advance",
-    "advance_held",
-    "composite",
-    "composite_bracketed",
-    "composite_full_newton",
-    "composite_in",
-    "composite_newton",
-    "coupled_work",
-    "init_state",
-    "length_per_moment",
-    "mechanics_and_gain",
-    "moment_gain",
-    "stress_sensitivity",
-    "wire_mechanics",
-]
+_HOMES = (_integrate, _composite, _mechanics, _substep, _work, _columns)
+
+
+def __getattr__(name: str):
+    """A public name of the modules that replaced this one."""
+    for home in _HOMES:
+        if not name.startswith("_") and hasattr(home, name):
+            return getattr(home, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -32,9 +32,6 @@ from ..dense import interpolate, output_fraction
 from ..sma import rates_and_slopes
 from .columns import (
     F_EPS,
-    F_QC,
-    F_QJ,
-    F_QL,
     F_SIG,
     F_T,
     F_XM,
@@ -70,6 +67,7 @@ from .work import (
     sizes,
     views,
     wire_block,
+    wire_blocks,
 )
 
 
@@ -216,25 +214,16 @@ def _advance_in(state, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, ou
     """
     nw, nm, ns = sizes(kw, km)
     mw, omega, sens = views(state, nw, nm, ns)
-    wb = (
-        wire_block(state, F_XP, nw),
-        wire_block(state, F_XM, nw),
-        wire_block(state, F_T, nw),
-        wire_block(state, F_SIG, nw),
-        wire_block(state, F_EPS, nw),
-        wire_block(state, F_QJ, nw),
-        wire_block(state, F_QC, nw),
-        wire_block(state, F_QL, nw),
-    )
+    wb = wire_blocks(state, nw)
     return _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0)
 
 
 @hot
 def _span(state, mw, omega, sens, wb, kp, ks, kw, km, volts, vforce, dt, n_out, resolve, wk, out, row0):
     """The span loop of :func:`_advance_in` on the state's views (M_w, ω, S) and wire blocks ``wb``
-    (x+, x-, T, σ, ε, Q_J, Q_C, Q_L); no allocation (the work tuple ``wk`` holds the scratch)."""
+    (:data:`.work.WireBlocks`); no allocation (the work tuple ``wk`` holds the scratch)."""
     nw, nm, ns = sizes(kw, km)
-    xp, xm, sig, eps = wb[0], wb[1], wb[3], wb[4]
+    xp, xm, sig, eps = wb.xp, wb.xm, wb.sig, wb.eps
     passes = 0
     check = needs_stability_check(vforce, kp, km)
     if resolve:

@@ -5,148 +5,26 @@ The module was split by role, with the planar core's module names: state views a
 :mod:`.work`, the wire mechanics of a shape :mod:`.mechanics`, the composite solve
 :mod:`.composite`, the sub-steps :mod:`.substep`, the time integration :mod:`.integrate`, the
 record row :mod:`.record` and the recorded time loop :mod:`.run`. Import from those; this module
-only re-exports their public names.
+only hands out their public names (and the state columns of :mod:`.columns`).
 """
 
 from __future__ import annotations
 
-from .composite import (
-    FD_DM,
-    MAX_HALVINGS,
-    SAFE_TOL,
-    composite,
-    composite_full_newton,
-    composite_newton,
-    composite_safeguard,
-    newton_step,
-    newton_update,
-    refresh_sensitivity,
-    slack_fold,
-    solve_mechanics,
-)
-from .integrate import INIT_DM, advance, advance_held_in, advance_in, init_state, wire_constants
-from .mechanics import loop_gain, shape_mechanics, strain_mechanics, stress_sensitivity, wire_mechanics
-from .record import record, record_size
-from .run import run
-from .substep import MECH_RETRY, wire_error
-from .work import (
-    WK_ACT,
-    WK_AT,
-    WK_BACKUP,
-    WK_BT,
-    WK_CHORDS,
-    WK_DM,
-    WK_DMDX,
-    WK_EPS,
-    WK_FRAMES,
-    WK_G,
-    WK_GAIN,
-    WK_INV,
-    WK_JAC,
-    WK_JNUM,
-    WK_KPW,
-    WK_LU,
-    WK_MID,
-    WK_MTRIAL,
-    WK_NEW,
-    WK_PIV,
-    WK_RATES,
-    WK_RT,
-    WK_RT_NEW,
-    WK_RTA,
-    WK_SA,
-    WK_SAVED_M,
-    WK_SAVED_S,
-    WK_SAVED_W,
-    WK_SIG,
-    WK_STAB,
-    WK_START,
-    WK_STEP,
-    WK_SUMS,
-    WK_VEC,
-    WK_WTRIAL,
-    WK_X0,
-    WK_XA,
-    WK_XNEW,
-    WK_XS,
-    copy_pairs,
-    make_work,
-    sizes,
-    views,
-    wire_block,
-)
+from . import columns as _columns
+from . import composite as _composite
+from . import integrate as _integrate
+from . import mechanics as _mechanics
+from . import record as _record
+from . import run as _run
+from . import substep as _substep
+from . import work as _work
 
-__all__ = [
-    "FD_DM",
-    "INIT_DM",
-    "MAX_HALVINGS",
-    "MECH_RETRY",
-    "SAFE_TOL",
-    "WK_ACT",
-    "WK_AT",
-    "WK_BACKUP",
-    "WK_BT",
-    "WK_CHORDS",
-    "WK_DM",
-    "WK_DMDX",
-    "WK_EPS",
-    "WK_FRAMES",
-    "WK_G",
-    "WK_GAIN",
-    "WK_INV",
-    "WK_JAC",
-    "WK_JNUM",
-    "WK_KPW",
-    "WK_LU",
-    "WK_MID",
-    "WK_MTRIAL",
-    "WK_NEW",
-    "WK_PIV",
-    "WK_RATES",
-    "WK_RT",
-    "WK_RTA",
-    "WK_RT_NEW",
-    "WK_SA",
-    "WK_SAVED_M",
-    "WK_SAVED_S",
-    "WK_SAVED_W",
-    "WK_SIG",
-    "WK_STAB",
-    "WK_START",
-    "WK_STEP",
-    "WK_SUMS",
-    "WK_VEC",
-    "WK_WTRIAL",
-    "WK_X0",
-    "WK_XA",
-    "WK_XNEW",
-    "WK_XS",
-    "advance",
-    "advance_held_in",
-    "advance_in",
-    "composite",
-    "composite_full_newton",
-    "composite_newton",
-    "composite_safeguard",
-    "copy_pairs",
-    "init_state",
-    "loop_gain",
-    "make_work",
-    "newton_step",
-    "newton_update",
-    "record",
-    "record_size",
-    "refresh_sensitivity",
-    "run",
-    "shape_mechanics",
-    "sizes",
-    "slack_fold",
-    "solve_mechanics",
-    "strain_mechanics",
-    "stress_sensitivity",
-    "views",
-    "wire_block",
-    "wire_constants",
-    "wire_error",
-    "wire_mechanics",
-]
+_HOMES = (_run, _record, _integrate, _composite, _mechanics, _substep, _work, _columns)
+
+
+def __getattr__(name: str):
+    """A public name of the modules that replaced this one."""
+    for home in _HOMES:
+        if not name.startswith("_") and hasattr(home, name):
+            return getattr(home, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

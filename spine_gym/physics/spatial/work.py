@@ -1,15 +1,32 @@
 """State views and work arrays of one spatial spine: its sizes (W, K, N), the views of M_w, ω and S
-and of the per-wire blocks into the state (:mod:`.columns`), and the preallocated work tuple
-(WK_* order) of :func:`make_work`, so that no kernel allocates inside the sub-step loop.
+and of the per-wire blocks into the state (:mod:`.columns`; all blocks at once, by name:
+:data:`WireBlocks`), and the preallocated work tuple (WK_* order) of :func:`make_work`, so that no
+kernel allocates inside the sub-step loop.
 """
 
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 
 from .._jit import hot, jit
 from ..columns import KP_SIZE
-from .columns import M_NSEG, moment_offset, omega_offset, sens_offset, wire_offset
+from .columns import (
+    F_EPS,
+    F_QC,
+    F_QJ,
+    F_QL,
+    F_SIG,
+    F_T,
+    F_XM,
+    F_XP,
+    M_NSEG,
+    moment_offset,
+    omega_offset,
+    sens_offset,
+    wire_offset,
+)
 from .stability import stability_work
 
 
@@ -40,6 +57,26 @@ def wire_block(state, field, nw):
     """View of the per-wire block ``field`` (F_*) of the state."""
     o = wire_offset(field, nw)
     return state[o : o + nw]
+
+
+# the state's per-wire blocks by name (views, F_* order): fractions x+ and x-, temperature [K],
+# stress [Pa], strain, accumulated Joule heat, convective loss and latent heat [J/m^3]
+WireBlocks = namedtuple("WireBlocks", "xp xm temp sig eps qj qc ql")
+
+
+@jit
+def wire_blocks(state, nw):
+    """Every per-wire block of the state, as :data:`WireBlocks` of views."""
+    return WireBlocks(
+        wire_block(state, F_XP, nw),
+        wire_block(state, F_XM, nw),
+        wire_block(state, F_T, nw),
+        wire_block(state, F_SIG, nw),
+        wire_block(state, F_EPS, nw),
+        wire_block(state, F_QJ, nw),
+        wire_block(state, F_QC, nw),
+        wire_block(state, F_QL, nw),
+    )
 
 
 # indices of the work tuple of make_work
