@@ -26,10 +26,10 @@ from pathlib import Path
 
 import pytest
 from ray_cluster import cluster_pids, free_ports, node_ports, stop_cluster
+from repo import ROOT
 
 pytest.importorskip("ray", reason="Ray is not installed (it runs in .venv-rllib, see .ci/run)")
 
-ROOT = Path(__file__).resolve().parents[1]
 RAY = str(Path(sys.executable).with_name("ray"))
 ENV_ID = "SmaSpineEasy-v1"
 PLAN = ["--quick", "--envs", ENV_ID, "--algos", "ppo", "sac"]
