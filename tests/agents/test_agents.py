@@ -179,7 +179,8 @@ def test_evaluate_cli_writes_tables_csv_and_plots(tmp_path):
 
 
 # --------------------------------------------------------------------------- shipped policies
-SHIPPED = sorted(ev.shipped_policies())  # the SmaSpine-v0 policies (tests/test_agents_spatial.py: the others)
+# the SmaSpine-v0 policies (tests/agents/test_agents_spatial.py: the others)
+SHIPPED = sorted(ev.shipped_policies())
 
 
 def test_policies_are_shipped_small_and_documented():

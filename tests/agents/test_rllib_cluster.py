@@ -7,8 +7,8 @@ steps sampled, on both nodes.
 
 The cluster lives in a temp dir (its own ``HOME`` for the token, its own ``--temp-dir``) on ports
 picked free, not Ray's defaults; whatever happens, its processes (those whose command line names the
-temp dir) are stopped by id (tests/ray_cluster.py); ``ray stop`` is not used: it stops every Ray process of
-the machine.
+temp dir) are stopped by id (tests/support/ray_cluster.py); ``ray stop`` is not used: it stops every
+Ray process of the machine.
 
 Runs where ``ray[rllib]`` is installed (``.ci/run``'s ``.venv-rllib``); skipped in the main venv.
 """

@@ -154,7 +154,8 @@ def test_sweep_reproduces_model_md_10_4_trends():
 
     Compared to the table's printed precision, so with the sub-steps cut at every output step: dense
     output (the default) moves θ_s by up to 0.011°, inside the §10.4 tolerance of 0.5° that
-    test_experiments.py::test_reproduction_is_within_the_model_md_gates checks for the default.
+    tests/experiments/test_experiments.py::test_reproduction_is_within_the_model_md_gates checks for
+    the default.
     """
     stepped = SolverOptions(dense_output=False)
     ra = sweep({"a": [6e-3, 10e-3, 14e-3]}, n_workers=1, solver=stepped)

@@ -15,6 +15,8 @@ TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-episodes", "1", "-v", "0
 
 def run_cli(*args, cwd=ROOT, timeout=240):
     """Run ``python *args`` and return the finished process; fail with the tail of its output if it failed."""
-    proc = subprocess.run([sys.executable, *args], cwd=cwd, env=ENV, capture_output=True, text=True, timeout=timeout)
+    proc = subprocess.run(
+        [sys.executable, *args], cwd=cwd, env=ENV, capture_output=True, text=True, timeout=timeout
+    )
     assert proc.returncode == 0, f"{args} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     return proc
