@@ -12,8 +12,8 @@ last valid values for the rest of the horizon and reports the status
 (:mod:`spine_gym.physics.rollout_rows`), so the caller can reject it.
 
 Compiled twice from one body, so that the serial twin the tests compare the parallel loop with
-(tests/test_mpc.py) runs the same code: :data:`rollout_many` runs the rollouts in parallel with
-``prange`` (dealt out to the threads one at a time, :mod:`spine_gym.physics._deal`: sampled
+(tests/controllers/test_mpc.py) runs the same code: :data:`rollout_many` runs the rollouts in parallel
+with ``prange`` (dealt out to the threads one at a time, :mod:`spine_gym.physics._deal`: sampled
 voltage sequences differ in cost); :data:`rollout_many_serial` is the serial twin. The spatial
 twin is :mod:`spine_gym.physics.spatial.rollout`.
 """
