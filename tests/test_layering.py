@@ -10,7 +10,7 @@ import tomllib
 from repo import ROOT
 
 PHYSICS = ROOT / "spine_gym" / "physics"
-ALLOWED = {"numpy", "numba", "math", "__future__", "functools"}
+ALLOWED = {"numpy", "numba", "math", "__future__", "functools", "collections"}
 
 
 def test_physics_modules_import_only_numpy_and_numba():
