@@ -41,9 +41,11 @@ def test_a_bad_argument_for_one_family_stops_the_command_before_any_episode(tmp_
 
 
 def test_the_command_runs_each_envelope_prints_no_warning_and_says_where_its_files_went(tmp_path):
+    # one 20-s scenario of the 3-D id: its default table and the 6-V one of ppo_3d_v1_eco
     out = tmp_path / "eval"
     proc = subprocess.run(
-        [sys.executable, "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1", "-o", str(out),
+        [sys.executable, "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1",
+         "-o", str(out),
          "--suite", "quick", "--scenarios", "step_diag", "--baselines", "pid", "--no-trajectories", "--plain",
          "--no-progress"],
         capture_output=True, text=True, cwd=tmp_path, timeout=600,

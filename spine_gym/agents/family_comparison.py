@@ -3,7 +3,7 @@ main command, ``bash scripts/run.sh``).
 
 Example::
 
-    python -m spine_gym.agents.family_comparison                 # SmaSpine-v1, SmaSpine3D-v1, SmaSpineChain-v1
+    python -m spine_gym.agents.family_comparison        # SmaSpine-v1, SmaSpine3D-v1, SmaSpineChain-v1
     python -m spine_gym.agents.family_comparison --suite quick -o /tmp/eval --no-plots
 
 For each env id it runs :mod:`spine_gym.agents.evaluate` once per actuator envelope of the id's
@@ -57,7 +57,8 @@ class Comparison:
 
     def label(self) -> str:
         values = ", ".join(f"{k}={v:g}" for k, v in {**self.defaults, **self.envelope}.items())
-        return f"{self.env_id}, {values} ({'the policies’ own, given to the baselines too' if self.envelope else 'the env default'})"
+        whose = "the policies' own, given to the baselines too" if self.envelope else "the env default"
+        return f"{self.env_id}, {values} ({whose})"
 
 
 def policy_envelope(folder: Path, defaults: dict) -> dict:
@@ -135,7 +136,8 @@ def main(argv: list[str] | None = None) -> list[Comparison]:
     except ValueError as e:
         parser.error(str(e))
     for run in runs:
-        print(f"\n=== {run.label()}: the baselines and {', '.join(run.models) or 'no shipped policy'}", flush=True)
+        names = ", ".join(run.models) or "no shipped policy"
+        print(f"\n=== {run.label()}: the baselines and {names}", flush=True)
         ev.main(run.argv(extra))
     print("\n" + "\n".join(summary_lines(runs, time.perf_counter() - t0)))
     return runs

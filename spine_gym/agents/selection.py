@@ -99,8 +99,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
             rmse_ratio, energy_ratio = row["rmse_deg"] / ref["rmse_deg"], row["energy_J"] / ref["energy_J"]
             rows.append({**row, "rmse_ratio": rmse_ratio, "energy_ratio": energy_ratio})
             print(
-                f"{str(t):<55s} RMSE {row['rmse_deg']:6.2f} ({rmse_ratio:5.2f} x PID)  energy "
-                f"{row['energy_J']:6.1f} J ({energy_ratio:5.2f} x PID)  T>limit {row['time_over_limit_s']:5.2f} s",
+                f"{str(t):<55s} RMSE {row['rmse_deg']:6.2f} ({rmse_ratio:5.2f} x PID)  "
+                f"energy {row['energy_J']:6.1f} J ({energy_ratio:5.2f} x PID)  "
+                f"T>limit {row['time_over_limit_s']:5.2f} s",
                 flush=True,
             )
     print(
