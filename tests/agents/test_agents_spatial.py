@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+from random_policy import RandomPolicy
 from repo import ROOT
 
 from spine_gym.agents import evaluate as ev
@@ -117,16 +118,6 @@ def test_spatial_suites_are_seeded_apart_and_inside_the_env_task(env_id):
 
 
 # --------------------------------------------------------------------------- the shipped 3-D policy
-class RandomPolicy:
-    """Uniform random actions in [-1, 1] for ``n`` wires, seeded: the floor a shipped policy must clear."""
-
-    def __init__(self, n: int):
-        self.n, self.rng = n, np.random.default_rng(0)
-
-    def predict(self, obs, state=None, episode_start=None, deterministic=True):
-        return self.rng.uniform(-1, 1, (np.atleast_2d(obs).shape[0], self.n)).astype(np.float32), None
-
-
 SHIPPED_3D = sorted(ev.shipped_policies(SPATIAL_ENV_ID))
 
 

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from test_agents_spatial import RandomPolicy
+from random_policy import RandomPolicy
 
 from spine_gym.agents import evaluate as ev
 from spine_gym.agents.family_comparison import FAMILY_IDS

@@ -2,17 +2,12 @@
 every family, equal terms, no warnings, a closing summary of where the files went."""
 
 import csv
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
+from agent_cli import run_cli
 
 from spine_gym.agents import evaluate as ev
 from spine_gym.agents import family_comparison as fc
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_every_family_is_compared_and_no_policy_is_ranked_against_baselines_with_another_ceiling(tmp_path):
@@ -43,15 +38,11 @@ def test_a_bad_argument_for_one_family_stops_the_command_before_any_episode(tmp_
 def test_the_command_runs_each_envelope_prints_no_warning_and_says_where_its_files_went(tmp_path):
     # one 20-s scenario of the 3-D id: its default table and the 6-V one of ppo_3d_v1_eco
     out = tmp_path / "eval"
-    proc = subprocess.run(
-        [sys.executable, "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1",
-         "-o", str(out),
-         "--suite", "quick", "--scenarios", "step_diag", "--baselines", "pid", "--no-trajectories", "--plain",
-         "--no-progress"],
-        capture_output=True, text=True, cwd=tmp_path, timeout=600,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    proc = run_cli(
+        "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1", "-o", str(out), "--suite", "quick",
+        "--scenarios", "step_diag", "--baselines", "pid", "--no-trajectories", "--plain", "--no-progress",
+        cwd=tmp_path, timeout=600,
     )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
     assert "warn" not in (proc.stdout + proc.stderr).lower()
     default, six = out / "SmaSpine3D-v1", out / "SmaSpine3D-v1_v_max_6"
     tail = proc.stdout[proc.stdout.index("tables and plots:") :]
