@@ -114,7 +114,9 @@ def summary_lines(runs: list[Comparison], seconds: float) -> list[str]:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m spine_gym.agents.family_comparison",
-        description=__doc__.split("\n\n")[0].replace("\n", " "),
+        description=__doc__.split("\n\n")[0].replace("\n", " ").replace("``", ""),
+        epilog="Any other argument goes to every python -m spine_gym.agents.evaluate run "
+        "(e.g. --suite quick, --no-plots, --plain, --mpc).",
         allow_abbrev=False,
     )
     p.add_argument(
