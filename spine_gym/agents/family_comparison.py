@@ -33,6 +33,8 @@ from .zoo_config import ENV_IDS
 FAMILY_IDS = ("SmaSpine-v1", "SmaSpine3D-v1", "SmaSpineChain-v1")
 #: env kwargs that set what the actuators may do: a policy and the baselines it is ranked against share them
 ENVELOPE_KWARGS = ("v_max",)
+#: evaluate's options each comparison sets itself
+OWN_OPTIONS = ("--env", "--models", "--env-kwargs")
 #: what a run writes, in the order the closing summary names it
 OUTPUTS = ("summary.csv", "relative.csv", "metrics.csv", "plots", "trajectories")
 
@@ -132,6 +134,10 @@ def main(argv: list[str] | None = None) -> list[Comparison]:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     t0 = time.perf_counter()
+    own = [a for a in extra if a.split("=")[0] in OWN_OPTIONS]
+    if own:
+        name = own[0].split("=")[0]
+        parser.error(f"{name} is set per comparison (the id, its policies, their envelope); use --envs")
     runs = comparisons(args.envs, Path(args.out))
     try:
         check(runs, extra)

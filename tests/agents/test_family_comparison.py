@@ -33,14 +33,18 @@ def test_a_bad_argument_for_one_family_stops_the_command_before_any_episode(tmp_
         fc.main(["--envs", "SmaSpine-v1", "SmaSpine3D-v1", "--groups", "hard", "-o", str(tmp_path / "out")])
     assert e.value.code == 2 and "hard" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+    with pytest.raises(SystemExit) as e:  # the comparisons set the env, the policies and the envelope
+        fc.main(["--env", "SmaSpine-v0", "-o", str(tmp_path / "out")])
+    assert e.value.code == 2 and "--envs" in capsys.readouterr().err
 
 
 def test_the_command_runs_each_envelope_prints_no_warning_and_says_where_its_files_went(tmp_path):
     # one 20-s scenario of the 3-D id: its default table and the 6-V one of ppo_3d_v1_eco
     out = tmp_path / "eval"
     proc = run_cli(
-        "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1", "-o", str(out), "--suite", "quick",
-        "--scenarios", "step_diag", "--baselines", "pid", "--no-trajectories", "--plain", "--no-progress",
+        "-m", "spine_gym.agents.family_comparison", "--envs", "SmaSpine3D-v1", "-o", str(out),
+        "--suite", "quick", "--scenarios", "step_diag", "--baselines", "pid", "--no-trajectories", "--plain",
+        "--no-progress",
         cwd=tmp_path, timeout=600,
     )  # fmt: skip
     assert "warn" not in (proc.stdout + proc.stderr).lower()
