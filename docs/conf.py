@@ -60,6 +60,10 @@ autodoc_typehints = "description"
 autodoc_typehints_format = "short"
 autodoc_preserve_defaults = True
 autosummary_generate = False
+# viewcode: a source page per module that defines a documented object. Not following imports: an
+# object documented under a module that only imports it would give that module's source page links
+# to anchors of the wrong module (and a page for ``builtins``).
+viewcode_follow_imported_members = False
 napoleon_google_docstring = True
 napoleon_numpy_docstring = True
 napoleon_use_rtype = False

@@ -1,8 +1,8 @@
 """Sphinx extension of the spine_gym docs: pages generated at build time (all gitignored).
 
-* ``docs/envs/<id>.md`` — one page per registered env id (``spine_gym.envs.ids.ENV_SPECS``), made
-  of a table of what the id's registration sets (family, version, tier, keyword arguments) and the
-  entry point's class docstring, which is the env's documentation page (Gymnasium's convention).
+* ``docs/envs/<id>.md`` — one page per registered env id (``spine_gym.envs.ids.ENV_SPECS``): its
+  observation and action spaces, reward coefficients and task settings read from
+  ``gymnasium.make(id)``, and the entry point's class docstring (:mod:`env_pages`).
 * ``docs/envs/index.md`` — the table of every id and the toctree of those pages.
 * ``docs/notebooks/*.ipynb`` — copies of ``notebooks/*.ipynb`` (the source directory is ``docs/``),
   rendered by myst-nb from their stored outputs.
@@ -14,10 +14,10 @@ In the API reference an env class's docstring is replaced by a link to its env p
 from __future__ import annotations
 
 import functools
-import importlib
-import inspect
 import shutil
 from pathlib import Path
+
+import env_pages
 
 DOCS = Path(__file__).resolve().parents[1]
 ROOT = DOCS.parent
@@ -30,47 +30,11 @@ def _write_if_changed(path: Path, text: str) -> None:
         path.write_text(text, encoding="utf-8")
 
 
-def _entry_class(entry_point: str):
-    module, name = entry_point.split(":")
-    return getattr(importlib.import_module(module), name)
-
-
-def _value(v) -> str:
-    return f"`{v!r}`".replace("|", "\\|")
-
-
 def env_page(spec) -> str:
-    """The Markdown page of one :class:`spine_gym.envs.ids.EnvSpec`."""
+    """The Markdown page of one :class:`spine_gym.envs.ids.EnvSpec` (:func:`env_pages.env_page`)."""
     from spine_gym.envs.ids import _TRACKS
 
-    cls = _entry_class(spec.entry_point)
-    doc = inspect.cleandoc(cls.__doc__ or "")
-    summary, _, body = doc.partition("\n\n")
-    lines = [
-        f"# {spec.id}",
-        "",
-        summary.strip(),
-        "",
-        "| property | value |",
-        "|---|---|",
-        f"| make | `gymnasium.make(\"{spec.id}\")`, `gymnasium.make_vec(\"{spec.id}\", num_envs=N)` |",
-        f"| class | `{cls.__module__}.{cls.__qualname__}` |",
-        f"| vector class | `{spec.vector_entry_point.replace(':', '.')}` |",
-        f"| family | {spec.family} (tracks the {_TRACKS[spec.family]}) |",
-        f"| version | v{spec.version} |",
-        f"| tier | {spec.tier} |",
-        "",
-        "## Keyword arguments of the registration",
-        "",
-    ]
-    if spec.kwargs:
-        lines += ["| keyword argument | value |", "|---|---|"]
-        lines += [f"| `{k}` | {_value(v)} |" for k, v in spec.kwargs.items()]
-        lines += ["", "Any other keyword argument of the class keeps its default; all can be overridden in `make`."]
-    else:
-        lines += ["None: the class defaults. Any keyword argument of the class can be passed to `make`."]
-    lines += ["", body.strip(), ""]
-    return "\n".join(lines)
+    return env_pages.env_page(spec, _TRACKS[spec.family])
 
 
 def envs_index(specs) -> str:
@@ -79,16 +43,18 @@ def envs_index(specs) -> str:
     lines = [
         "# Environment ids",
         "",
-        "One page per registered id, generated from the class docstring of its entry point and the",
-        "keyword arguments its registration passes (`spine_gym.envs.ids.ENV_SPECS`). The user guide to",
-        "the environments is [Environments](../envs.md).",
+        "One page per registered id, generated when the site is built: its spaces, reward coefficients",
+        "and settings from `gymnasium.make(id)`, the rest from the class docstring of its entry point.",
+        "The user guide to the environments is [Environments](../envs.md).",
         "",
-        "| id | tracks | version | tier | keyword arguments set |",
-        "|---|---|---|---|---|",
+        "| id | tracks | version | tier | observation | keyword arguments set |",
+        "|---|---|---|---|---|---|",
     ]
     for s in specs:
-        n = len(s.kwargs)
-        lines.append(f"| [{s.id}]({s.id}.md) | {_TRACKS[s.family]} | v{s.version} | {s.tier} | {n or 'none'} |")
+        n, shape = len(s.kwargs), env_pages.observation_shape(s.id)
+        lines.append(
+            f"| [{s.id}]({s.id}.md) | {_TRACKS[s.family]} | v{s.version} | {s.tier} | `{shape}` | {n or 'none'} |"
+        )
     lines += ["", "```{toctree}", ":hidden:", ""] + [s.id for s in specs] + ["```", ""]
     return "\n".join(lines)
 
@@ -121,7 +87,7 @@ def _env_classes() -> dict[object, str]:
 
     pages: dict[object, str] = {}
     for s in ENV_SPECS.values():
-        pages.setdefault(_entry_class(s.entry_point), s.id)
+        pages.setdefault(env_pages.entry_class(s.entry_point), s.id)
     return pages
 
 
