@@ -60,15 +60,14 @@ autodoc_typehints = "description"
 autodoc_typehints_format = "short"
 autodoc_preserve_defaults = True
 autosummary_generate = False
-# viewcode: a source page per module that defines a documented object. Not following imports: an
-# object documented under a module that only imports it would give that module's source page links
-# to anchors of the wrong module (and a page for ``builtins``).
-viewcode_follow_imported_members = False
 napoleon_google_docstring = True
 napoleon_numpy_docstring = True
 napoleon_use_rtype = False
 
 html_theme = "furo"
 html_title = f"spine_gym {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+# wide tables: a scroll hint; figures: at most the page's width (docs/_static/spine_docs.*)
+html_css_files = ["spine_docs.css"]
+html_js_files = ["spine_docs.js"]
 html_theme_options = {"navigation_with_keys": True}

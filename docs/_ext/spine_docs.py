@@ -101,7 +101,31 @@ def env_docstring(app, what, name, obj, options, lines) -> None:
         lines[:] = [first, "", f"The documentation page of this class is :doc:`/envs/{pages[obj]}`.", ""]
 
 
+def viewcode_backlinks(app, env) -> None:
+    """``env-updated``: make viewcode's source pages link back to anchors that exist.
+
+    viewcode keeps one prefix per source module for the links from its source page back to the
+    documentation (``#<prefix>.<name>``): the module under which the first object of it was
+    documented. When an object is documented under a module that re-exports it (``spine_gym.envs``
+    for ``spine_gym.envs.ids.EnvSpec``) before the defining module's own objects, every link back
+    gets the wrong prefix. Here each module gets the candidate prefix (its recorded one, or its own
+    name) under which most of its documented names exist. Modules viewcode could not read
+    (``builtins``) are dropped: the index of source pages would link to a page that is not written.
+    """
+    modules = getattr(env, "_viewcode_modules", {})
+    objects = env.get_domain("py").objects
+    for modname in list(modules):
+        entry = modules[modname]
+        if not entry:
+            del modules[modname]
+            continue
+        code, tags, used, refname = entry
+        best = max((refname, modname), key=lambda p: sum(f"{p}.{n}" in objects for n in used))
+        modules[modname] = (code, tags, used, best)
+
+
 def setup(app):
     app.connect("builder-inited", generate)
     app.connect("autodoc-process-docstring", env_docstring)
+    app.connect("env-updated", viewcode_backlinks)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
