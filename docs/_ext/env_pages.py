@@ -245,5 +245,11 @@ def env_page(spec, tracks: str) -> str:
         f"| observation shape | `{obs_shape}` |",
         f"| action shape | `{act_shape}` |",
         "",
+        f"![A frame of {spec.family}-v1 (render_mode=\"rgb_array\"): the spine, its wires coloured by "
+        f"temperature, the target and the tip force](../images/frame_{spec.family}-v1.png)",
+        "",
+        f"What `env.render()` draws for the {spec.family} family (`render_mode=\"rgb_array\"`; "
+        "`scripts/render_doc_frames.py`).",
+        "",
     ]
     return "\n".join(head + _placed(sections, generated))

@@ -53,6 +53,7 @@ def plot_experiment_fit(exp: Experiment | Samples, traces: dict, path: str | Pat
             axr.axhline(s * exp.noise[c], color="tab:red", lw=0.8, ls=":")
         axr.set_ylabel(f"residual [{unit}]")
         axr.set_xlabel("time [s]")
+        axr.tick_params(labelbottom=True)  # every row of panels keeps its time axis
         axr.grid(alpha=0.3)
     return _save(fig, path, dpi)
 
