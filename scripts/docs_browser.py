@@ -9,6 +9,8 @@ Playwright. A page fails on
 * a console error or an uncaught JavaScript exception;
 * a request of the site that fails or answers 400 or more (a missing stylesheet, script, image);
 * an image that does not load (``naturalWidth`` 0 once the page has loaded);
+* a table wider than the page without the scroll hint of ``docs/_static/spine_docs.js``, or a
+  page wider than the window (its right edge cut off);
 * a link to a page of the site that does not exist, or to an anchor (``page.html#id``) that the
   page does not have. Links to other hosts are counted, not followed (no network is needed).
 
@@ -54,6 +56,9 @@ _PAGE_FACTS_JS = """() => ({
   links: Array.from(document.querySelectorAll('a[href]')).map(a => a.href),
   ids: Array.from(document.querySelectorAll('[id]')).map(e => e.id)
     .concat(Array.from(document.querySelectorAll('a[name]')).map(a => a.name)),
+  unhintedWideTables: Array.from(document.querySelectorAll('.table-wrapper'))
+    .filter(w => w.scrollWidth > w.clientWidth + 1 && !w.classList.contains('is-wide')).length,
+  pageOverflow: document.documentElement.scrollWidth - window.innerWidth,
 })"""
 
 
@@ -125,6 +130,10 @@ def _visit(page, url: str, rel: str, report: Report) -> dict:
         for event, fn in handlers.items():
             page.remove_listener(event, fn)
     errors += [f"image does not load: {src}" for src in facts["badImages"]]
+    if facts["unhintedWideTables"]:
+        errors.append(f"{facts['unhintedWideTables']} table(s) wider than the page without the scroll hint")
+    if facts["pageOverflow"] > 0:
+        errors.append(f"the page is {facts['pageOverflow']} px wider than the window (content cut off)")
     report.problems += [f"{rel}: {e}" for e in errors]
     return facts
 

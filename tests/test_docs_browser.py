@@ -70,6 +70,9 @@ def test_clean_site_passes_and_keeps_screenshots(tmp_path):
         ("<script>console.error('boom')</script>", "console error: boom"),
         ("<script>undefined_function()</script>", "JavaScript exception"),
         ('<script src="_static/missing.js"></script>', "HTTP 404"),
+        ('<div class="table-wrapper" style="width:200px;overflow-x:auto"><table><tr><td style="min-width:900px">'
+         "wide</td></tr></table></div>", "table(s) wider than the page without the scroll hint"),
+        ('<div style="width:3000px">wide</div>', "px wider than the window"),
     ],
 )
 def test_each_breakage_is_reported(tmp_path, body, expected):
