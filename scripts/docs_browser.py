@@ -45,7 +45,14 @@ BROWSER_ARGS = [
     "--no-first-run",
 ]
 # pages kept as screenshots (those that exist), relative to the site
-SCREENSHOTS = ("index.html", "getting_started.html", "envs.html", "envs/SmaSpine-v1.html", "benchmark.html", "results.html")
+SCREENSHOTS = (
+    "index.html",
+    "getting_started.html",
+    "envs.html",
+    "envs/SmaSpine-v1.html",
+    "benchmark.html",
+    "results.html",
+)
 VIEWPORT = {"width": 1280, "height": 900}
 
 # What a page reports once loaded: its images that did not load, its links and its anchors.
@@ -120,7 +127,12 @@ def _visit(page, url: str, rel: str, report: Report) -> dict:
     on_pageerror = lambda e: errors.append(f"JavaScript exception: {e}")  # noqa: E731
     on_failed = lambda r: errors.append(f"request failed: {r.url} ({r.failure})")  # noqa: E731
     on_response = lambda r: r.status >= 400 and errors.append(f"HTTP {r.status}: {r.url}")  # noqa: E731
-    handlers = {"console": on_console, "pageerror": on_pageerror, "requestfailed": on_failed, "response": on_response}
+    handlers = {
+        "console": on_console,
+        "pageerror": on_pageerror,
+        "requestfailed": on_failed,
+        "response": on_response,
+    }
     for event, fn in handlers.items():
         page.on(event, fn)
     try:
@@ -138,7 +150,9 @@ def _visit(page, url: str, rel: str, report: Report) -> dict:
     return facts
 
 
-def _check_links(base: str, site: Path, links: dict[str, list[str]], ids: dict[str, set[str]], report: Report) -> None:
+def _check_links(
+    base: str, site: Path, links: dict[str, list[str]], ids: dict[str, set[str]], report: Report
+) -> None:
     """Every link of the site to the site: the file exists, and so does the anchor if there is one."""
     host = urlparse(base).netloc
     for rel, hrefs in links.items():
@@ -187,7 +201,9 @@ def check_site(site: Path = SITE, screenshots: Path | None = None) -> Report:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("site", nargs="?", type=Path, default=SITE, help=f"the built site (default: {SITE.relative_to(ROOT)})")
+    ap.add_argument(
+        "site", nargs="?", type=Path, default=SITE, help=f"the built site (default: {SITE.relative_to(ROOT)})"
+    )
     ap.add_argument(
         "--screenshots",
         type=Path,

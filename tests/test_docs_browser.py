@@ -21,7 +21,9 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import docs_browser  # noqa: E402
 
 pytestmark = [
-    pytest.mark.skipif(importlib.util.find_spec("playwright") is None, reason="needs playwright (docs extra)"),
+    pytest.mark.skipif(
+        importlib.util.find_spec("playwright") is None, reason="needs playwright (docs extra)"
+    ),
     pytest.mark.skipif(
         not any(shutil.which(c) for c in ("chromium-headless-shell", "chromium")),
         reason="needs Debian's chromium-headless-shell",
@@ -51,8 +53,8 @@ def _site(tmp_path: Path, index_body: str) -> Path:
 
 
 def test_clean_site_passes_and_keeps_screenshots(tmp_path):
-    site = _site(tmp_path, '<img src="pixel.png" alt="p"><a href="sub/other.html#part">other</a>'
-                 '<a href="https://example.org/">outside</a>')
+    body = '<img src="pixel.png" alt="p"><a href="sub/other.html#part">other</a>'
+    site = _site(tmp_path, body + '<a href="https://example.org/">outside</a>')
     shots = tmp_path / "shots"
     report = docs_browser.check_site(site, shots)
     assert report.problems == []
@@ -70,8 +72,11 @@ def test_clean_site_passes_and_keeps_screenshots(tmp_path):
         ("<script>console.error('boom')</script>", "console error: boom"),
         ("<script>undefined_function()</script>", "JavaScript exception"),
         ('<script src="_static/missing.js"></script>', "HTTP 404"),
-        ('<div class="table-wrapper" style="width:200px;overflow-x:auto"><table><tr><td style="min-width:900px">'
-         "wide</td></tr></table></div>", "table(s) wider than the page without the scroll hint"),
+        (
+            '<div class="table-wrapper" style="width:200px;overflow-x:auto"><table><tr>'
+            '<td style="min-width:900px">wide</td></tr></table></div>',
+            "table(s) wider than the page without the scroll hint",
+        ),
         ('<div style="width:3000px">wide</div>', "px wider than the window"),
     ],
 )
@@ -85,7 +90,9 @@ def test_missing_site_is_one_clear_error(tmp_path):
         docs_browser.check_site(tmp_path / "nothing")
 
 
-@pytest.mark.skipif(not (docs_browser.SITE / "index.html").is_file(), reason="the site is not built (bash scripts/docs.sh)")
+@pytest.mark.skipif(
+    not (docs_browser.SITE / "index.html").is_file(), reason="the site is not built (bash scripts/docs.sh)"
+)
 def test_built_site_has_no_broken_page():
     report = docs_browser.check_site(docs_browser.SITE)
     assert report.problems == []

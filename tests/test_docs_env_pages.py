@@ -68,7 +68,8 @@ def test_observation_table_is_the_space_of_make(pages, env_id):
 
 def test_v1_pages_show_the_v1_observation_and_reward(pages):
     """The observed errors and the reward ÷ 10 of the -v1 ids (MODEL.md: error_scale 100°)."""
-    for family, (n0, unit) in {"SmaSpine": (10, "deg"), "SmaSpine3D": (20, "deg"), "SmaSpineChain": (40, "mm")}.items():
+    v0_sizes = {"SmaSpine": (10, "deg"), "SmaSpine3D": (20, "deg"), "SmaSpineChain": (40, "mm")}
+    for family, (n0, unit) in v0_sizes.items():
         v0, v1 = ENV_SPECS[f"{family}-v0"], ENV_SPECS[f"{family}-v1"]
         assert len(_table(_section(pages[v0.id], "Observation space"))) == n0
         v1_rows = _table(_section(pages[v1.id], "Observation space"))
@@ -87,9 +88,8 @@ def test_reward_and_settings_are_the_config_of_make(pages, env_id):
     assert coefficients["`energy_weight`"] == f"{cfg.energy_weight:g}"
     assert coefficients["`cost_weight`"] == f"{cfg.cost_weight:g} 1/K"
     settings = dict(r[:2] for r in _table(_section(pages[env_id], "Task and plant settings")))
-    assert settings["**`sensor_delay`**" if "sensor_delay" in ENV_SPECS[env_id].kwargs else "`sensor_delay`"].startswith(
-        str(cfg.sensor_delay)
-    )
+    delay_key = "**`sensor_delay`**" if "sensor_delay" in ENV_SPECS[env_id].kwargs else "`sensor_delay`"
+    assert settings[delay_key].startswith(str(cfg.sensor_delay))
     for key in ENV_SPECS[env_id].kwargs:  # every setting of the registration is marked as such
         assert f"**`{key}`**" in settings or f"`{key}`" in coefficients
     env.close()

@@ -117,7 +117,8 @@ def observation_section(env: gym.Env) -> list[str]:
         "| index | observation | description | unit | low | high |",
         "|---|---|---|---|---|---|",
     ]
-    lines += [f"| {i} | `{n}` | {d} | {u} | {lo:g} | {hi:.6g} |" for i, n, d, u, lo, hi in observation_rows(env)]
+    rows = observation_rows(env)
+    lines += [f"| {i} | `{n}` | {d} | {u} | {lo:g} | {hi:.6g} |" for i, n, d, u, lo, hi in rows]
     return lines + [""]
 
 

@@ -52,9 +52,9 @@ def envs_index(specs) -> str:
     ]
     for s in specs:
         n, shape = len(s.kwargs), env_pages.observation_shape(s.id)
-        lines.append(
-            f"| [{s.id}]({s.id}.md) | {_TRACKS[s.family]} | v{s.version} | {s.tier} | `{shape}` | {n or 'none'} |"
-        )
+        link = f"[{s.id}]({s.id}.md)"
+        cells = [link, _TRACKS[s.family], f"v{s.version}", s.tier, f"`{shape}`", str(n or "none")]
+        lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "```{toctree}", ":hidden:", ""] + [s.id for s in specs] + ["```", ""]
     return "\n".join(lines)
 
