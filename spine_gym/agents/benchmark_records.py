@@ -50,7 +50,8 @@ def pack_records(folder: Path) -> Path:
 def _member_path(name: str) -> PurePosixPath:
     path = PurePosixPath(name)
     if path.is_absolute() or ".." in path.parts or path.name not in RECORD_FILES:
-        raise ValueError(f"{ARCHIVE}: {name!r} is not a run record ({', '.join(RECORD_FILES)} inside the folder)")
+        allowed = ", ".join(RECORD_FILES)
+        raise ValueError(f"{ARCHIVE}: {name!r} is not a run record ({allowed} inside the folder)")
     return path
 
 
