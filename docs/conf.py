@@ -62,5 +62,8 @@ napoleon_use_rtype = False
 
 html_theme = "furo"
 html_title = f"spine_gym {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+# wide tables: a scroll hint; figures: at most the page's width (docs/_static/spine_docs.*)
+html_css_files = ["spine_docs.css"]
+html_js_files = ["spine_docs.js"]
 html_theme_options = {"navigation_with_keys": True}
