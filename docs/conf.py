@@ -37,10 +37,6 @@ exclude_patterns = [
     "Thumbs.db",
     ".DS_Store",
     "**.ipynb_checkpoints",
-    # data and study folders: CSV, PNG and scripts (docs/calibration/spatial/report.md is a page)
-    "ceiling/**",
-    "policy_selection_budget/**",
-    "policy_selection_dagger/**",
 ]
 
 # MyST: headings get anchors (links such as agents.md#some-heading), $…$ maths, ::: fences.
