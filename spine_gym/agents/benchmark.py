@@ -90,7 +90,7 @@ from .benchmark_run import (
     read_curve,
     validation_means,
 )
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,

@@ -25,7 +25,7 @@ checkpoint carries them. RLlib's own ``MeanStdFilter`` is not used: with several
 merged statistics drift (ray 2.60: after a few iterations the stored mean wire temperature was
 116 K, below the 293 K ambient that no observation goes under).
 :class:`RLlibPolicy` loads a checkpoint's module and normaliser behind SB3's ``predict``, so
-:func:`spine_gym.agents.evaluate.evaluate` scores it like the shipped policies.
+:func:`spine_gym.agents.evaluation.evaluate` scores it like the shipped policies.
 
 Needs ``ray[rllib]`` (which pins its own gymnasium, e.g. 1.2.2); install it in a separate venv
 (``.ci/run`` builds ``.venv-rllib``).
@@ -58,7 +58,7 @@ from tqdm.auto import tqdm
 
 from spine_gym.envs import SmaSpineVectorEnv
 
-from .evaluate import evaluate, format_tables, summarize
+from .evaluation import evaluate, format_tables, summarize
 from .scenarios import SUITES, get_suite
 from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 

@@ -28,7 +28,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
