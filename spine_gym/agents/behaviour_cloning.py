@@ -229,7 +229,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the report is ``<out>/bc.json``)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     torch.set_num_threads(1)
@@ -246,8 +247,8 @@ def main(argv: list[str] | None = None) -> dict:
         report.update(compare(policy, meta, args.val_episodes))
     (out / "bc.json").write_text(json.dumps(report, indent=2, default=np.asarray))
     print(json.dumps(report, indent=2))
-    return report
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -174,8 +174,9 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     return controllers, env_kwargs, limit
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.evaluate") -> list[dict]:
-    """Run the CLI; returns the summary rows. Usage errors exit with status 2 before any work."""
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.evaluate") -> int:
+    """Run the CLI; exit status 0 (the summary rows are ``summary.csv``). Usage errors exit with
+    status 2 before any work."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     t_start = time.perf_counter()
@@ -214,8 +215,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
         print(f"wrote {len(videos)} videos to {out / 'videos'}")
     wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")
     print(f"wrote {wrote} to {out} in {time.perf_counter() - t_start:.1f} s total")
-    return summary
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

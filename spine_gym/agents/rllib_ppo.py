@@ -342,7 +342,8 @@ def _train(algo: Algorithm, iterations: int) -> list[dict]:
     return history
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the result is ``<out>/result.json``)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.iterations < 0:
@@ -395,7 +396,7 @@ def main(argv: list[str] | None = None) -> dict:
         result["evaluation"] = rows
     (out / "result.json").write_text(json.dumps(result, indent=2, default=float) + "\n")
     print(f"checkpoint {ckpt}; wrote {out / 'result.json'}")
-    return result
+    return 0
 
 
 if __name__ == "__main__":
@@ -403,4 +404,4 @@ if __name__ == "__main__":
     # ships to the runners and pickles into checkpoints must be importable as spine_gym.agents.rllib_ppo
     from spine_gym.agents.rllib_ppo import main as package_main
 
-    package_main()
+    sys.exit(package_main())
