@@ -64,6 +64,9 @@ MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym evaluate                                   # shipped policies + step, bang-bang, PID
 spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d
@@ -72,7 +75,7 @@ spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-pro
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     cli.add_env(p, default=ENV_ID)
     cli.add_env_kwargs(
@@ -174,7 +177,7 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     return controllers, env_kwargs, limit
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.evaluate") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (the summary rows are ``summary.csv``). Usage errors exit with
     status 2 before any work."""
     parser = build_parser(prog)
