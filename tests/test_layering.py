@@ -59,6 +59,7 @@ CLI_MODULES = (
     "spine_gym.agents.datasets",
     "spine_gym.agents.behaviour_cloning",
     "spine_gym.agents.rllib_ppo",
+    "spine_gym.agents.family_comparison",
     "spine_gym.design.__main__",
     "spine_gym.calibrate.__main__",
     "spine_gym.experiments.reproduction",
@@ -68,6 +69,9 @@ DISPATCH = {
     "spine_gym.__main__": {"spine_gym.cli"},
     "spine_gym.experiments": {"spine_gym.experiments.reproduction"},
     "spine_gym.experiments.__main__": {"spine_gym.experiments.reproduction"},
+    # runs the evaluate command once per comparison, with evaluate's own arguments (a composition of
+    # command lines; its checks and runs are evaluate's until they have a library function of their own)
+    "spine_gym.agents.family_comparison": {"spine_gym.agents.evaluate"},
 }
 
 
