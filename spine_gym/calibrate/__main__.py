@@ -20,7 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line, positive_int
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
@@ -135,9 +135,15 @@ def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.Argume
         "--layout", default="seed", help="spatial CSVs: the layout, 'seed' (four-wire module) or 'chain:<n>'"
     )
     add_out(ap, default="results/calibration")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--n-starts", type=int, default=2)
-    ap.add_argument("--cma-evals", type=int, default=None, help="CMA-ES budget in candidates")
+    ap.add_argument("--seed", type=int, default=0, help="random seed of the CMA-ES stage and of the random starts")
+    ap.add_argument(
+        "--n-starts", type=positive_int, default=2,
+        help="least-squares starts: the CMA-ES optimum, the start preset, then random points",
+    )  # fmt: skip
+    ap.add_argument(
+        "--cma-evals", type=positive_int, default=None,
+        help="CMA-ES budget in candidates (default: 30 generations of its default population)",
+    )  # fmt: skip
     ap.add_argument("--no-global", action="store_true", help="skip the CMA-ES global stage")
     ap.add_argument("--max-nfev", type=int, default=30, help="evaluations per least-squares start")
     ap.add_argument("--loss", default="linear", help="least_squares loss (linear, soft_l1, huber, ...)")

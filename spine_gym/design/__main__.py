@@ -111,8 +111,11 @@ def _add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--solver", action="append", metavar="KEY=VALUE", help="SolverOptions overrides, e.g. method=bisect"
     )
-    add_workers(p, "--n-workers", dest="n_workers", help="parallel worker processes (-1 = all cores)")
-    p.add_argument("--mp-context", choices=("spawn", "forkserver"), default="spawn")
+    add_workers(p, "--n-workers", dest="n_workers", all_cores=True, help="parallel worker processes (-1 = all cores)")
+    p.add_argument(
+        "--mp-context", choices=("spawn", "forkserver"), default="spawn",
+        help="how worker processes start (multiprocessing start method)",
+    )  # fmt: skip
     add_out(p, type=Path, help="output folder (default: runs/design/<sweep-time> or runs/design/opt-<study>)")
     add_progress(p)
 
@@ -327,7 +330,7 @@ def _add_sweep_parser(sub) -> None:
         default=None,
         help="comma-separated metrics to plot/print (default stable angle, responding time, ability)",
     )
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
 def _add_optimize_parser(sub) -> None:
@@ -340,8 +343,9 @@ def _add_optimize_parser(sub) -> None:
         examples=EXAMPLES["optimize"],
     )
     _add_axes(p, "--space", "search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log")
-    p.add_argument("--maximize", "--maximise", metavar="METRIC")
-    p.add_argument("--minimize", "--minimise", metavar="METRIC")
+    metrics = ", ".join(METRICS)
+    p.add_argument("--maximize", "--maximise", metavar="METRIC", help=f"the objective to maximise, one of: {metrics}")
+    p.add_argument("--minimize", "--minimise", metavar="METRIC", help="the objective to minimise (give one of the two)")
     p.add_argument(
         "--constraint",
         action="append",
@@ -361,8 +365,8 @@ def _add_optimize_parser(sub) -> None:
         help="journal file path or RDB URL (sqlite:///..., postgresql+psycopg2://..., "
         "mysql+pymysql://...); default OUT/study.journal",
     )
-    p.add_argument("--study-name", default="spine-design")
-    p.add_argument("--sampler", choices=("tpe", "nsga2", "random"), default="tpe")
+    p.add_argument("--study-name", default="spine-design", help="the study's name in --storage")
+    p.add_argument("--sampler", choices=("tpe", "nsga2", "random"), default="tpe", help="Optuna sampler")
     p.add_argument("--n-startup-trials", type=int, default=10, help="random trials before TPE (per worker)")
     p.add_argument("--seed", type=int, default=0, help="sampler seed (worker i uses seed+i)")
     p.add_argument("--timeout", type=float, default=None, help="per-worker time limit [s]")
@@ -375,8 +379,8 @@ def _add_best_parser(sub) -> None:
         "best", help="print the best design of a stored study",
         description="The best design of a stored study.", examples=EXAMPLES["best"],
     )  # fmt: skip
-    p.add_argument("--storage", required=True)
-    p.add_argument("--study-name", default="spine-design")
+    p.add_argument("--storage", required=True, help="journal file path or RDB URL of the study")
+    p.add_argument("--study-name", default="spine-design", help="the study's name in --storage")
     p.add_argument("--json", action="store_true", help="also print the full summary as JSON")
 
 
