@@ -310,4 +310,7 @@ def check_out_file(path: str | Path, flag: str = "-o/--out") -> None:
         raise ValueError(f"{flag}: {path} is a folder, not a file")
     if target.exists() and not os.access(target, os.W_OK):
         raise ValueError(f"{flag}: {path} is not writable")
-    check_out_dir(target.parent, flag)
+    try:
+        check_out_dir(target.parent, flag)
+    except ValueError as e:
+        raise ValueError(f"{flag}: cannot write {path}: {str(e).split(': ', 1)[1]}") from None

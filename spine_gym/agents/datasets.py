@@ -347,8 +347,10 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     except SystemExit as e:  # argparse's exit (2 on a bad argument, 0 after --help)
         return int(e.code or 0)
     command = "python -m spine_gym.agents.datasets " + " ".join(shlex.quote(a) for a in argv)
-    if args.data_path is not None and Path(args.data_path).exists() and not Path(args.data_path).is_dir():
-        print(f"{parser.prog}: error: --out/--data-path {args.data_path} is not a directory", file=sys.stderr)
+    try:
+        cli.check_out_dir(args.data_path or data_dir(), "--out/--data-path")
+    except ValueError as e:
+        print(f"{parser.prog}: error: {e}", file=sys.stderr)
         return 2
     if len(set(args.env)) != len(args.env):
         print(f"{parser.prog}: error: --env names an id twice: {args.env}", file=sys.stderr)

@@ -54,7 +54,7 @@ from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
 import spine_gym
-from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
+from spine_gym.cli_conventions import Parser, add_out, check_file, check_out_dir, first_line
 
 from . import numpy_policy
 from .export_c import write_c
@@ -368,6 +368,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     args = parser.parse_args(argv)
     try:
         check_file(args.policy, "policy")
+        check_out_dir(args.out)
         paths = export_policy(load_policy(args.policy), args.out, source=args.policy)
     except ValueError as e:  # UnsupportedPolicyError is one
         print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)

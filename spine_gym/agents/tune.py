@@ -163,6 +163,7 @@ def _check(args) -> Path:
     out = Path(args.out) if args.out else DEFAULT_OUT / tuned_file(args.env).name
     if out.is_dir():
         raise ValueError(f"--out {out} is a folder; give a file name (.yml)")
+    cli.check_out_file(out)
     if out.exists() and not args.overwrite:
         raise ValueError(f"--out {out} exists; pass --overwrite to update it or give another --out")
     cli.check_env_kwargs(args.env, args.env_kwargs)

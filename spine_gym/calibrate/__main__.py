@@ -20,7 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line, positive_int
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, check_out_dir, first_line, positive_int
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
@@ -161,6 +161,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.calibra
     try:
         for path in args.csv:
             check_file(path, "csv")
+        check_out_dir(args.out)
         start, start_name = _start(args.start)
         noise = _noise(args.noise)
         experiments, start = _experiments(args.csv, noise, args.layout, start)

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_out_dir, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -149,7 +149,9 @@ def _cmd_params(args) -> int:
 def _cmd_sweep(args, parser) -> int:
     from .sweeps import sweep
 
+    out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     with usage_errors(parser):
+        check_out_dir(out)
         base = PRESETS[args.preset]()
         fixed = _fixed(args.set)
         protocol = _protocol(args.protocol)
@@ -171,7 +173,6 @@ def _cmd_sweep(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     csv_path = res.to_csv(out / "sweep.csv")
     res.write_metadata(
         out / "sweep.json", command=shlex.join([sys.executable, "-m", "spine_gym.design", *sys.argv[1:]])
@@ -211,6 +212,7 @@ def _cmd_optimize(args, parser) -> int:
     out = args.out or Path("runs/design") / f"opt-{args.study_name}"
     storage = args.storage or str(out / "study.journal")
     with usage_errors(parser):
+        check_out_dir(out)
         problem = DesignProblem(
             space=tuple(args.space),
             metric=args.maximize or args.minimize,

@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 
 from .. import plotting
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
-from ..cli_conventions import Parser, add_out, add_progress, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, check_out_dir, usage_errors
 from ..params import ModelParams, SolverOptions
 from ..simulate import SimulationResult
 from .references import (
@@ -307,6 +307,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.exp
     ap = build_parser(prog)
     args = ap.parse_args(argv)
     with usage_errors(ap):
+        check_out_dir(args.out)
         rep = reproduce(
             args.out,
             quick=args.quick,
