@@ -116,8 +116,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"give a command, one of: {', '.join(COMMANDS)} (spine-gym --help)")
     args = parser.parse_args(argv)
     module = importlib.import_module(COMMANDS[args.command].module)
-    status = module.main(args.args, prog=f"spine-gym {args.command}")
-    return status if isinstance(status, int) else 0
+    return module.main(args.args, prog=f"spine-gym {args.command}")
 
 
 if __name__ == "__main__":

@@ -90,7 +90,7 @@ from .benchmark_run import (
     read_curve,
     validation_means,
 )
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
@@ -432,9 +432,9 @@ def make_plan(args: argparse.Namespace) -> Plan:
                 s["bootstrap_reps"], units)  # fmt: skip
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> list[dict]:
-    """Run the CLI; returns the summary rows of the table. Usage errors exit with status 2 before any
-    folder is made."""
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> int:
+    """Run the CLI; exit status 0 (the summary rows are ``table.csv``, :func:`write_report` returns
+    them). Usage errors exit with status 2 before any folder is made."""
     t_start = time.perf_counter()
     parser = build_parser(prog)
     args = parser.parse_args(argv)
@@ -480,8 +480,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     print(f"wrote the table and curves to {out} ({time.perf_counter() - t_start:.0f} s in all)")
     if failed:
         raise SystemExit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
-    return summary
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

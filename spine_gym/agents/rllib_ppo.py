@@ -25,7 +25,7 @@ checkpoint carries them. RLlib's own ``MeanStdFilter`` is not used: with several
 merged statistics drift (ray 2.60: after a few iterations the stored mean wire temperature was
 116 K, below the 293 K ambient that no observation goes under).
 :class:`RLlibPolicy` loads a checkpoint's module and normaliser behind SB3's ``predict``, so
-:func:`spine_gym.agents.evaluate.evaluate` scores it like the shipped policies.
+:func:`spine_gym.agents.evaluation.evaluate` scores it like the shipped policies.
 
 Needs ``ray[rllib]`` (which pins its own gymnasium, e.g. 1.2.2); install it in a separate venv
 (``.ci/run`` builds ``.venv-rllib``).
@@ -58,7 +58,7 @@ from tqdm.auto import tqdm
 
 from spine_gym.envs import SmaSpineVectorEnv
 
-from .evaluate import evaluate, format_tables, summarize
+from .evaluation import evaluate, format_tables, summarize
 from .scenarios import SUITES, get_suite
 from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
@@ -342,7 +342,8 @@ def _train(algo: Algorithm, iterations: int) -> list[dict]:
     return history
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the result is ``<out>/result.json``)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.iterations < 0:
@@ -395,7 +396,7 @@ def main(argv: list[str] | None = None) -> dict:
         result["evaluation"] = rows
     (out / "result.json").write_text(json.dumps(result, indent=2, default=float) + "\n")
     print(f"checkpoint {ckpt}; wrote {out / 'result.json'}")
-    return result
+    return 0
 
 
 if __name__ == "__main__":
@@ -403,4 +404,4 @@ if __name__ == "__main__":
     # ships to the runners and pickles into checkpoints must be importable as spine_gym.agents.rllib_ppo
     from spine_gym.agents.rllib_ppo import main as package_main
 
-    package_main()
+    sys.exit(package_main())

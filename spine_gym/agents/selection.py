@@ -28,7 +28,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
@@ -53,7 +53,8 @@ def model_env_kwargs(own: dict, given: dict | None) -> dict:
     return {**given, **evaluation_env_kwargs(own)}
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the scores are printed and, with ``--out``, written as CSV)."""
     p = argparse.ArgumentParser(prog="python -m spine_gym.agents.selection", description=__doc__.split("\n")[0])
     p.add_argument("runs", nargs="+", help="run folders of spine_gym.agents.train")
     p.add_argument(
@@ -99,8 +100,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     print(f"{'pid':<55s} RMSE {ref_rmse:6.2f} deg  energy {ref_energy:6.1f} J")
     if args.out:
         write_csv(Path(args.out), rows)
-    return rows
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

@@ -170,8 +170,9 @@ def _check(args) -> Path:
     return out
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> dict:
-    """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
+def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> int:
+    """Run the CLI; exit status 0 (the record is the YAML file written). Usage errors exit with
+    status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     with cli.usage_errors(parser):
@@ -192,8 +193,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(header + yaml.safe_dump(record, sort_keys=False))
     print(f"wrote {out}")
-    return record
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
