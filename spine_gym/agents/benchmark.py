@@ -68,6 +68,7 @@ import torch
 from tqdm import tqdm
 
 from spine_gym.cli_conventions import (
+    check_out_dir,
     ENV_IDS,
     Parser,
     add_env_kwargs,
@@ -440,6 +441,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     args = parser.parse_args(argv)
     out = Path(args.out)
     with usage_errors(parser):
+        check_out_dir(out)
         plan = make_plan(args)
         check_finished(plan.specs, out)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
