@@ -71,9 +71,9 @@ COMMANDS: dict[str, Command] = {
 }
 
 EXAMPLES = """
-spine-gym train --algo ppo --env SmaSpine-v1 -n 300000 -o logs
-spine-gym evaluate --models mine=logs/ppo/SmaSpine-v1_1
-spine-gym reproduce --quick -o /tmp/repro
+spine-gym train --algo ppo --env SmaSpine-v1 -n 20000 -o logs     # a first run (the YAML's budget without -n)
+spine-gym evaluate --suite quick --models mine=logs/ppo/SmaSpine-v1_1
+spine-gym reproduce --quick -o runs/repro
 spine-gym <command> --help             # the options of one command
 """
 

@@ -70,8 +70,8 @@ _LITERAL = re.compile(r"``([^`]+)``")
 
 
 def plain_text(text: str) -> str:
-    """``text`` without reST markup: ``\`\`x\`\``` -> ``x``, ``:mod:`a.b``` -> ``a.b``,
-    ``:func:`~a.b``` -> ``b`` (``--help`` is read in a terminal, not rendered)."""
+    """``text`` without reST markup: a literal in double backquotes -> its text, a role such as
+    ``:mod:`a.b``` -> ``a.b`` and ``:func:`~a.b``` -> ``b`` (``--help`` is read in a terminal)."""
 
     def role(m: re.Match) -> str:
         target = m.group(1)

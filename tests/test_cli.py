@@ -4,9 +4,12 @@
 from __future__ import annotations
 
 import argparse
+import csv
 import importlib
 import os
+import re
 import shutil
+import warnings
 import subprocess
 import sys
 import zipfile
@@ -18,6 +21,7 @@ from spine_gym import cli
 from spine_gym.cli_conventions import ENV_IDS, KeyValues, did_you_mean
 
 ROOT = Path(__file__).resolve().parents[1]
+V0_POLICY = ROOT / "spine_gym" / "agents" / "policies" / "ppo"  # trained on SmaSpine-v0
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 TAKES_ENV = ("train", "evaluate", "tune", "benchmark", "datasets")
 
@@ -85,10 +89,22 @@ BAD = {
     "train missing conf": (["train", "--algo", "ppo", "-conf", "missing.yml"], "missing.yml does not exist"),
     "train steps": (["train", "--algo", "ppo", "-n", "0"], "-n must be a positive integer"),
     "train no algo": (["train"], "--algo is required"),
+    "train workers 0": (["train", "--algo", "ppo", "--workers", "0"], "must be an integer >= 1"),
+    "train model of another env": (
+        ["train", "--algo", "ppo", "--env", "SmaSpine-v1", "-i", str(V0_POLICY / "model.zip")],
+        "was trained on SmaSpine-v0, not on SmaSpine-v1",
+    ),
     "evaluate unknown env": (["evaluate", "--env", "SmaSpin-v1"], "did you mean 'SmaSpine-v1'?"),
     "evaluate controller": (["evaluate", "--baselines", "pdi"], "did you mean 'pid'?"),
     "evaluate missing model": (["evaluate", "--baselines", "--models", "mine=missing"], "missing does not exist"),
     "evaluate env kwarg": (["evaluate", "--env-kwargs", "sensor_dely=1"], "did you mean 'sensor_delay'?"),
+    "evaluate model without path": (["evaluate", "--models", "mine"], "--models takes NAME=PATH"),
+    "evaluate model of another env": (
+        ["evaluate", "--env", "SmaSpine-v1", "--models", f"mine={V0_POLICY}"], "was trained on SmaSpine-v0"
+    ),
+    "benchmark workers 0": (["benchmark", "--quick", "--workers", "0"], "must be an integer >= 1"),
+    "calibrate starts 0": (["calibrate", "missing.csv", "--n-starts", "0"], "must be an integer >= 1"),
+    "design workers 0": (["design", "sweep", "--param", "a=6e-3,7e-3", "--workers", "0"], "-1 (all cores) or"),
     "tune controller": (["tune", "--controllers", "pdi"], "did you mean 'pid'?"),
     "tune env kwarg": (["tune", "--env-kwargs", "episode_duraton:3"], "did you mean 'episode_duration'?"),
     "benchmark unknown env": (["benchmark", "--env", "SmaSpineHard-v2"], "did you mean 'SmaSpineHard-v1'?"),
@@ -136,7 +152,7 @@ def test_reproduce_refuses_an_out_that_is_a_file(tmp_path, capsys):
     f.write_text("x")
     assert run(["reproduce", "-o", str(f), "--no-progress"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "out_dir must be a directory" in err
+    assert err.count("\n") == 1 and "is a file, not a folder" in err
     assert [p.name for p in tmp_path.iterdir()] == ["file.txt"]
 
 
@@ -209,3 +225,111 @@ def test_wheel_has_only_spine_gym_at_top_level_and_the_console_script(tmp_path):
     tops = {n.split("/")[0] for n in names} - {info}
     assert tops == {"spine_gym"} and set(top_level) <= {"spine_gym"}
     assert "spine-gym = spine_gym.cli:main" in entry_points
+
+
+# --------------------------------------------------------------------------- output folders, models, help text
+OUT_CASES = {
+    "train": ["train", "--algo", "ppo"],
+    "evaluate": ["evaluate", "--suite", "quick"],
+    "tune": ["tune"],
+    "benchmark": ["benchmark", "--quick"],
+    "export": ["export", str(V0_POLICY)],
+    "datasets": ["datasets", "--env", "SmaSpine-v1", "--controller", "pid", "--episodes", "1"],
+    "reproduce": ["reproduce", "--no-progress"],
+    "design": ["design", "sweep", "--param", "a=6e-3,7e-3", "--no-progress"],
+}
+
+
+@pytest.mark.parametrize("argv", list(OUT_CASES.values()), ids=list(OUT_CASES))
+def test_an_output_below_a_file_is_one_line_exit_2_before_any_work(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file.txt").write_text("x")
+    assert run([*argv, "-o", "file.txt/out" + ("/tuned.yml" if argv[0] == "tune" else "")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "file.txt is a file" in err and "-o/--out" in err, err
+    assert [p.name for p in tmp_path.iterdir()] == ["file.txt"]
+
+
+def test_an_unwritable_output_is_refused(tmp_path, capsys):
+    from spine_gym.cli_conventions import check_out_dir, check_out_file
+
+    with pytest.raises(ValueError, match="is not writable"):
+        check_out_dir("/proc/1/spine-gym-out")  # not writable even by root
+    with pytest.raises(ValueError, match="is a folder, not a file"):
+        check_out_file(tmp_path)
+    check_out_dir(tmp_path / "new" / "deeper")  # creatable
+    assert not (tmp_path / "new").exists()
+
+
+def test_a_model_without_meta_is_checked_by_its_spaces(tmp_path):
+    from spine_gym.agents.policy_files import check_policy_env
+
+    shutil.copy(V0_POLICY / "model.zip", tmp_path / "m.zip")
+    check_policy_env(tmp_path / "m.zip", "SmaSpine-v0", "-i")
+    with pytest.raises(ValueError, match=r"observation \(10,\).*SmaSpine-v1 has observation \(12,\)"):
+        check_policy_env(tmp_path / "m.zip", "SmaSpine-v1", "-i")
+
+
+def test_evaluate_defaults_to_the_one_models_env():
+    evaluate = importlib.import_module("spine_gym.agents.evaluate")
+    args = evaluate.build_parser().parse_args(["--models", f"mine={V0_POLICY}"])
+    assert evaluate._env(args) == "SmaSpine-v0"
+    args = evaluate.build_parser().parse_args([])
+    assert evaluate._env(args) == "SmaSpine-v1"
+
+
+def test_evaluate_replaces_an_earlier_runs_outputs_and_prints_no_gymnasium_warning(tmp_path, capsys):
+    out = tmp_path / "eval"
+    for stale in ("plots/old_x.png", "trajectories/old/x.csv", "relative.csv"):
+        (out / stale).parent.mkdir(parents=True, exist_ok=True)
+        (out / stale).write_text("stale")
+    (out / "notes.txt").write_text("mine")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        argv = ["evaluate", "--suite", "quick", "--baselines", "step", "--no-plots", "--no-progress", "-o", str(out)]
+        assert run(argv) == 0
+    assert not [w for w in caught if "out of date" in str(w.message)]
+    assert not (out / "plots").exists() and not (out / "relative.csv").exists()
+    assert not (out / "trajectories" / "old").exists() and (out / "notes.txt").read_text() == "mine"
+    assert (out / "summary.csv").exists() and (out / "trajectories" / "step").is_dir()
+    with open(next((out / "trajectories" / "step").glob("*.csv"))) as f:
+        times = [row["time_s"] for row in csv.DictReader(f)]
+    digits = [len(re.sub(r"e.*|[-.]", "", t).strip("0")) for t in times]
+    assert len(times) > 20 and max(digits) <= 12, times
+
+
+@pytest.mark.parametrize("name", [*cli.COMMANDS, None])
+def test_help_has_no_rest_markup(name, capsys):
+    assert run([name, "--help"] if name else ["--help"]) == 0
+    out = capsys.readouterr().out
+    assert "``" not in out and not re.search(r":[a-z]+:`", out), out
+
+
+def test_csv_numbers_are_rounded_to_12_significant_digits(tmp_path):
+    import numpy as np
+
+    from spine_gym.agents.evaluation import write_csv
+    from spine_gym.csv_numbers import csv_number
+
+    drift = sum([0.1] * 32)  # 3.2000000000000015
+    assert drift != 3.2 and csv_number(drift) == "3.2" and csv_number(3.1999999999999993) == "3.2"
+    assert csv_number(np.float32(0.1)) == "0.1" and csv_number(1.234567890123456e-9) == "1.23456789012e-09"
+    assert csv_number(float("nan")) == "nan" and csv_number(7) == 7 and csv_number("pid") == "pid"
+    write_csv(tmp_path / "t.csv", [{"name": "pid", "t": drift, "e": np.float64(1 / 3)}])
+    assert (tmp_path / "t.csv").read_text().splitlines() == ["name,t,e", "pid,3.2,0.333333333333"]
+
+
+@pytest.mark.slow
+def test_train_prints_a_progress_line_and_the_next_step(tmp_path):
+    proc = _subprocess(
+        [sys.executable, "-m", "spine_gym", "train", "--algo", "ppo", "-n", "256", "--n-envs", "2", "-o", "logs",
+         "--eval-freq", "0", "--save-freq", "0", "--no-tensorboard"],
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.strip().splitlines()
+    assert len(lines) <= 6 and lines[0].startswith("training: "), proc.stdout
+    run_folder = tmp_path / "logs" / "ppo" / "SmaSpine-v1_1"
+    assert lines[-1].startswith("saved logs/ppo/SmaSpine-v1_1/model.zip after ")
+    assert lines[-1].endswith("— next: spine-gym evaluate --models ppo=logs/ppo/SmaSpine-v1_1 --suite quick")
+    assert (run_folder / "model.zip").exists()

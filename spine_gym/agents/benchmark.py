@@ -218,7 +218,7 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 # --------------------------------------------------------------------------- CLI
 EXAMPLES = """
 spine-gym benchmark --workers 2                  # every algorithm on the default env ids
-spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI
+spine-gym benchmark --quick -o runs/bench      # the smoke run of CI
 spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000
 spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster
 """

@@ -40,9 +40,9 @@ __all__ = ["build_parser", "main"]
 
 
 EXAMPLES = """
-spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20
-spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0
-spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari
+spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 2
+spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 1 --env-kwargs episode_duration=2.0
+spine-gym datasets --env SmaSpine-v1 --controller logs/ppo/SmaSpine-v1_1 --episodes 2 -o runs/minari
 """
 
 

@@ -347,8 +347,8 @@ class OneUlpUp:
 
 
 EXAMPLES = """
-spine-gym export spine_gym/agents/policies/ppo -o exported/ppo
-spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best
+spine-gym export logs/ppo/SmaSpine-v1_1 -o exported/ppo          # a run folder (or a shipped policy's)
+spine-gym export logs/ppo/SmaSpine-v1_1/model.zip -o exported/zip   # a model file
 """
 
 

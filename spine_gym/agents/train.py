@@ -127,10 +127,10 @@ from .policy_files import check_policy_env, trained_env_id
 from .zoo_config import ALGOS, DEFAULT_ENV_ID, ENV_ID, StoreDict
 
 EXAMPLES = """
-spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
-spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256
-spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint
-python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f
+spine-gym train --algo ppo -n 4000 --seed 1 --n-envs 8 --save-freq 2000 -o logs --env-kwargs episode_duration=60.0
+spine-gym train --algo sac --env SmaSpine-v1 -n 2000 -params learning_starts=1000 batch_size=256
+spine-gym train --resume logs/ppo/SmaSpine-v1_1           # an interrupted run, from its newest checkpoint
+python -m spine_gym.agents.train --algo ppo -n 2000 -f logs        # the same module, RL Zoo's -f
 """
 
 

@@ -100,7 +100,7 @@ def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ..
 
 EXAMPLES = """
 spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration
-spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
+spine-gym calibrate run1.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
 spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires --no-progress
 """
 

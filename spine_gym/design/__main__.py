@@ -280,8 +280,8 @@ def _cmd_best(args, parser) -> int:
 EXAMPLES = {
     "params": ("spine-gym design params --preset alternative",),
     "sweep": (
-        "spine-gym design sweep --param a=6e-3:14e-3:9 --param n_w=1,2,3 --workers 2 -o runs/design/grid",
-        "spine-gym design sweep --param n_modules=1,2,3 --param a=6e-3:12e-3:4   # chained layouts",
+        "spine-gym design sweep --param a=6e-3:14e-3:3 --param n_w=1,2 --workers 2 -o runs/design/grid",
+        "spine-gym design sweep --param n_modules=1,2 --param a=6e-3:12e-3:2 -o runs/design/chain   # chained layouts",
     ),
     "optimize": (
         'spine-gym design optimize --space a=6e-3:14e-3 --space n_w=1,2,3 --maximize stable_angle '

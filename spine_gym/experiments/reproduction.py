@@ -266,7 +266,7 @@ def _reference_metrics(case: str) -> dict[str, float]:
 # ------------------------------------------------------------------------------------- CLI
 EXAMPLES = """
 spine-gym reproduce                           # every experiment, tables and plots in runs/experiments
-spine-gym reproduce --quick -o /tmp/repro --no-progress
+spine-gym reproduce --quick -o runs/repro --no-progress
 spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off
 """
 
