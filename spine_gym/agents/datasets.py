@@ -35,6 +35,7 @@ from .minari_datasets import (  # noqa: F401
     record,
     transitions,
 )
+from .policy_files import check_policy_env
 
 __all__ = ["build_parser", "main"]
 
@@ -94,6 +95,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
         try:
             for e in args.env:
                 cli.check_env_kwargs(e, args.env_kwargs)
+                if Path(args.controller).exists():
+                    check_policy_env(args.controller, e, "--controller")
             plans = [
                 plan(e, args.controller, args.episodes, env_kwargs=args.env_kwargs,
                      seed_base=args.seed_base, version=args.version, overwrite=args.overwrite)
