@@ -246,7 +246,7 @@ def test_an_output_below_a_file_is_one_line_exit_2_before_any_work(argv, tmp_pat
     (tmp_path / "file.txt").write_text("x")
     assert run([*argv, "-o", "file.txt/out" + ("/tuned.yml" if argv[0] == "tune" else "")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "file.txt is a file" in err and "-o/--out" in err, err
+    assert err.count("\n") == 1 and "file.txt is a file" in err and "--out" in err, err
     assert [p.name for p in tmp_path.iterdir()] == ["file.txt"]
 
 
