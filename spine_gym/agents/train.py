@@ -377,7 +377,7 @@ class ProgressLine(BaseCallback):
         return f"training: {done}/{self.total} steps ({100 * done // self.total} %), {time.perf_counter() - self.t0:.0f} s"
 
     def _on_step(self) -> bool:
-        done = self.num_timesteps - self.start
+        done = min(self.num_timesteps - self.start, self.total)  # the last rollout may run past -n
         if self.tty and done % 512 < self.training_env.num_envs:
             print("\r" + self._line(), end="", flush=True)
         elif not self.tty and 4 * done // self.total > self.shown:
