@@ -251,6 +251,13 @@ def test_an_output_below_a_file_is_one_line_exit_2_before_any_work(argv, tmp_pat
     assert [p.name for p in tmp_path.iterdir()] == ["file.txt"]
 
 
+def test_design_best_of_a_missing_journal_creates_none(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert run(["design", "best", "--storage", "missing.journal"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing.journal does not exist" in err and not list(tmp_path.iterdir())
+
+
 def test_an_unwritable_output_is_refused(tmp_path, capsys):
     from spine_gym.cli_conventions import check_out_dir, check_out_file
 

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_out_dir, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, check_out_dir, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -259,6 +259,8 @@ def _cmd_best(args, parser) -> int:
     from .optimizer import load_result
 
     with usage_errors(parser):
+        if "://" not in args.storage:  # a journal file, which reading would create
+            check_file(args.storage, "--storage")
         res = load_result(args.storage, args.study_name)
     print(res.summary())
     if args.json:
