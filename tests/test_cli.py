@@ -4,8 +4,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import importlib
+import io
 import os
 import re
 import shutil
@@ -349,11 +351,10 @@ ORDER = ("train", "evaluate", "export", "datasets", "tune", "benchmark", "reprod
 
 def help_examples(argv: list[str]) -> list[str]:
     """The lines of the ``examples:`` section of ``spine-gym argv --help``."""
-    proc = subprocess.run(
-        [sys.executable, "-m", "spine_gym", *argv, "--help"], capture_output=True, text=True, env=_env(ROOT)
-    )  # a subprocess: the full width and the exact text a user sees
-    assert proc.returncode == 0, proc.stderr
-    lines = proc.stdout.split("examples:\n", 1)[1].splitlines()
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        assert run([*argv, "--help"]) == 0
+    lines = text.getvalue().split("examples:\n", 1)[1].splitlines()
     return [s.strip() for s in lines if s.startswith("  ") and s.strip()]
 
 

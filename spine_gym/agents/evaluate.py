@@ -73,7 +73,7 @@ MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on
 # --------------------------------------------------------------------------- CLI
 EXAMPLES = """
 spine-gym evaluate --suite quick                     # shipped policies + step, bang-bang, PID
-spine-gym evaluate --env SmaSpine3D-v1 --suite quick -o results/eval_3d
+spine-gym evaluate --env SmaSpine3D-v1 --suite quick --no-plots -o results/eval_3d
 spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v1_1
 spine-gym evaluate --suite quick --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
 """
