@@ -1,5 +1,7 @@
-"""Numbers as the package's CSV files write them: a float to 12 significant digits, so that a
-sum of time steps reads ``3.2``, not ``3.1999999999999993``; everything else as ``str`` does."""
+"""Numbers as the package's report CSVs write them (:func:`spine_gym.agents.evaluation.write_csv`:
+the evaluation's and the benchmark's tables): a float to 12 significant digits, so that a sum of time
+steps reads ``3.2``, not ``3.1999999999999993``; everything else as ``str`` does. Files that are read
+back as data (a sweep, a calibration experiment, a benchmark run's ``curve.csv``) keep every digit."""
 
 from __future__ import annotations
 

@@ -31,8 +31,6 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.utils import set_random_seed
 from tqdm import tqdm
 
-from spine_gym.csv_numbers import csv_cells
-
 from . import benchmark_stats as stats
 from .runtime import OBSERVATION_KWARGS, SavedPolicy, validation_metrics, wrap_policy
 from .training import build_envs, build_model, lagrangian_callbacks, resolve_config
@@ -156,7 +154,7 @@ class ValidationCallback(BaseCallback):
         }
         self.rows.append(row)
         with open(self.path, "a", newline="") as f:
-            csv.writer(f).writerow(csv_cells(row[k] for k in CURVE_COLUMNS))
+            csv.writer(f).writerow([row[k] for k in CURVE_COLUMNS])
         while self.next_eval <= self.num_timesteps:
             self.next_eval += self.eval_freq
 
