@@ -35,6 +35,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
+from spine_gym.cli_conventions import module_prog
+
 from .minari_datasets import datasets_path, load_metadata, transitions
 from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
 from .vec_env import make_vec_env
@@ -216,8 +218,12 @@ def compare(policy, meta: dict, n_episodes: int) -> dict:
     return out
 
 
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.behaviour_cloning", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0], allow_abbrev=False)
     p.add_argument("--dataset", required=True, help="dataset id (spine_gym/<env id>/<controller>-v<n>)")
     p.add_argument("--out", required=True, help="folder of the cloned policy")
     p.add_argument("--data-path", default=None, help="data directory (default: MINARI_DATASETS_PATH)")
@@ -234,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     torch.set_num_threads(1)
-    command = "python -m spine_gym.agents.behaviour_cloning " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     with datasets_path(args.data_path):
         dataset = minari.load_dataset(args.dataset)
     meta = load_metadata(dataset)

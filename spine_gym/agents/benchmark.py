@@ -76,6 +76,7 @@ from spine_gym.cli_conventions import (
     add_progress,
     add_workers,
     check_env_kwargs,
+    module_prog,
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
@@ -216,6 +217,9 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym benchmark --workers 2                  # every algorithm on the default env ids
 spine-gym benchmark --quick -o runs/bench      # the smoke run of CI
@@ -224,7 +228,7 @@ spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.benchmark") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
     p.add_argument(
@@ -433,7 +437,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
                 s["bootstrap_reps"], units)  # fmt: skip
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (the summary rows are ``table.csv``, :func:`write_report` returns
     them). Usage errors exit with status 2 before any folder is made."""
     t_start = time.perf_counter()
@@ -449,7 +453,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     out.mkdir(parents=True, exist_ok=True)
     argv = sys.argv[1:] if argv is None else list(argv)
     with open(out / "command.txt", "a") as f:
-        f.write("python -m spine_gym.agents.benchmark " + " ".join(shlex.quote(a) for a in argv) + "\n")
+        f.write(f"{PROG} " + " ".join(shlex.quote(a) for a in argv) + "\n")
     references = {
         env_id: reference_scores(
             env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out,

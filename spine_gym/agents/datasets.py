@@ -40,6 +40,9 @@ from .policy_files import check_policy_env
 __all__ = ["build_parser", "main"]
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 2
 spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 1 --env-kwargs episode_duration=2.0
@@ -47,7 +50,7 @@ spine-gym datasets --env SmaSpine-v1 --controller logs/ppo/SmaSpine-v1_1 --episo
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.datasets") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     cli.add_env(
         p, nargs="+", required=True, help="env id(s), one dataset each; any of: " + ", ".join(cli.ENV_IDS)
@@ -73,7 +76,7 @@ def build_parser(prog: str = "python -m spine_gym.agents.datasets") -> argparse.
     return p
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.datasets") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0, or 2 (one line on stderr) on a bad argument, before anything is
     recorded or written."""
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -82,7 +85,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
         args = parser.parse_args(argv)
     except SystemExit as e:  # argparse's exit (2 on a bad argument, 0 after --help)
         return int(e.code or 0)
-    command = "python -m spine_gym.agents.datasets " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     try:
         cli.check_out_dir(args.data_path or data_dir(), "--out/--data-path")
     except ValueError as e:

@@ -71,6 +71,9 @@ MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym evaluate --suite quick                     # shipped policies + step, bang-bang, PID
 spine-gym evaluate --env SmaSpine3D-v1 --suite quick --no-plots -o results/eval_3d
@@ -79,7 +82,7 @@ spine-gym evaluate --suite quick --baselines pid --models --env-kwargs sensor_de
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.evaluate") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     cli.add_env(
         p, help=f"environment id (default: the env of the one model of --models, else {DEFAULT_ENV_ID}), "
@@ -220,7 +223,7 @@ def remove_outputs(out: Path) -> None:
             path.unlink()
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.evaluate") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (the summary rows are ``summary.csv``). Usage errors exit with
     status 2 before any work."""
     parser = build_parser(prog)

@@ -56,6 +56,7 @@ from ray.rllib.core.rl_module.rl_module import RLModule
 from ray.rllib.utils.spaces.space_utils import unsquash_action
 from tqdm.auto import tqdm
 
+from spine_gym.cli_conventions import module_prog
 from spine_gym.envs import SmaSpineVectorEnv
 
 from .evaluation import evaluate, format_tables, summarize
@@ -296,8 +297,12 @@ class RLlibPolicy:
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.rllib_ppo", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("--env-runners", type=int, default=2, help="remote env runners (default 2)")
     p.add_argument("--envs-per-runner", type=int, default=8, help="sub-envs per runner (default 8)")
     p.add_argument("--vectorize", choices=sorted(VECTORIZE), default="native")
@@ -382,7 +387,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         ray.shutdown()
     result = {
-        "command": shlex.join([sys.executable, "-m", "spine_gym.agents.rllib_ppo", *(argv or sys.argv[1:])]),
+        "command": shlex.join([sys.executable, "-m", __spec__.name, *(argv or sys.argv[1:])]),
         "runner_envs": envs,
         "runner_nodes": placement,
         "cluster_nodes": nodes,

@@ -28,6 +28,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from spine_gym.cli_conventions import module_prog
+
 from .evaluation import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
@@ -53,9 +55,13 @@ def model_env_kwargs(own: dict, given: dict | None) -> dict:
     return {**given, **evaluation_env_kwargs(own)}
 
 
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; exit status 0 (the scores are printed and, with ``--out``, written as CSV)."""
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.selection", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0], allow_abbrev=False)
     p.add_argument("runs", nargs="+", help="run folders of spine_gym.agents.train")
     p.add_argument(
         "--env", default=ENV_ID, choices=ENV_IDS, help="env id the runs were trained on (default: %(default)s)"

@@ -90,6 +90,7 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
 from stable_baselines3.common.utils import set_random_seed
 
+from spine_gym.cli_conventions import PROG as SPINE_GYM
 from spine_gym.cli_conventions import (
     ENV_IDS,
     Parser,
@@ -103,6 +104,7 @@ from spine_gym.cli_conventions import (
     check_keys,
     check_out_dir,
     first_line,
+    module_prog,
     usage_errors,
 )
 
@@ -126,6 +128,9 @@ from .training import (
 from .policy_files import check_policy_env, trained_env_id
 from .zoo_config import ALGOS, DEFAULT_ENV_ID, ENV_ID, StoreDict
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym train --algo ppo -n 4000 --seed 1 --n-envs 8 --save-freq 2000 -o logs --env-kwargs episode_duration=60.0
 spine-gym train --algo sac --env SmaSpine-v1 -n 2000 -params learning_starts=1000 batch_size=256
@@ -134,7 +139,7 @@ python -m spine_gym.agents.train --algo ppo -n 2000 -f logs        # the same mo
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
     add_env(p, help=f"environment id (default: -i's env, else {DEFAULT_ENV_ID}), one of: " + ", ".join(ENV_IDS))
@@ -226,7 +231,7 @@ def _resume_target(path: Path) -> tuple[Path, Path]:
     return run, ckpt
 
 
-def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train"):
+def _parse(argv: list[str] | None, prog: str = PROG):
     """(arguments, argv, resume target or None, run config). With ``--resume`` the run's first command
     line comes first and this one's flags after it, so they override. Every argument is checked here,
     before a run folder exists: a bad one is a one-line usage error (exit status 2)."""
@@ -297,7 +302,7 @@ def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] 
     """(run folder, meta): a new folder with ``command.txt``, ``args.yml``, ``config.yml``; or with
     ``resume`` the run's folder, this command line appended to ``command.txt`` and a new entry in
     ``meta["resumes"]``."""
-    command = "python -m spine_gym.agents.train " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     if resume:
         run = resume[0]
         with open(run / "command.txt", "a") as f:
@@ -392,10 +397,10 @@ class ProgressLine(BaseCallback):
 
 def _next_step(run: Path, args) -> str:
     """The command that evaluates the run's model."""
-    return f"spine-gym evaluate --models {args.algo}={shlex.quote(str(run))} --suite quick"
+    return f"{SPINE_GYM} evaluate --models {args.algo}={shlex.quote(str(run))} --suite quick"
 
 
-def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> Path:
+def train(argv: list[str] | None = None, prog: str = PROG) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``; ``prog``: the name in its messages);
     returns the run folder."""
     args, argv, resume, cfg = _parse(argv, prog)
@@ -471,7 +476,7 @@ def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents
     return run
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """The command line (``spine-gym train``); exit status 0 (usage errors exit with 2)."""
     train(argv, prog)
     return 0

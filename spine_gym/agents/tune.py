@@ -120,6 +120,9 @@ def tune(
     }
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
 spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
@@ -128,7 +131,7 @@ spine-gym tune --env SmaSpine-v0 -o spine_gym/agents/hyperparams/baselines.yml -
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     cli.add_env(p, default=DEFAULT_ENV_ID)
     p.add_argument(
@@ -170,14 +173,14 @@ def _check(args) -> Path:
     return out
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (the record is the YAML file written). Usage errors exit with
     status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     with cli.usage_errors(parser):
         out = _check(args)
-    command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = f"{PROG} " + " ".join(sys.argv[1:] if argv is None else argv)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:
         rec = tune(
