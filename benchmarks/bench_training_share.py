@@ -41,6 +41,7 @@ The load average at start and end is recorded. Writes ``benchmarks/results/train
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_training_share.py --rollouts 6   # ~5-10 min loaded
     .venv/bin/python benchmarks/bench_training_share.py --omp-passive --tag _passive
+    .venv/bin/python benchmarks/bench_training_share.py --plot-only   # the .png from the recorded .json
 """
 
 from __future__ import annotations
@@ -479,10 +480,7 @@ def plot(res: dict, path: Path) -> None:
     ax3.set_title("serial vs parallel kernel, 1 and 2 numba threads")
     ax3.legend(fontsize=8)
     ax3.grid(True, which="both", alpha=0.3)
-    la = res["machine"]["load_average_start"][0]
-    fig.suptitle(
-        f"env targets ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)"
-    )
+    fig.suptitle(f"the env's share of PPO training and its speed ({res['machine']['cpu_count']} cores)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -564,7 +562,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--omp-passive", action="store_true", help="OMP_WAIT_POLICY=PASSIVE (see bench_env.py)")
     ap.add_argument("--tag", default="", help="suffix of the output file names")
+    ap.add_argument(
+        "--plot-only", action="store_true", help="redraw the .png from the recorded .json; measure nothing"
+    )
     args = ap.parse_args(argv)
+    if args.plot_only:
+        js, png = args.out / f"training_share{args.tag}.json", args.out / f"training_share{args.tag}.png"
+        plot(json.loads(js.read_text()), png)
+        print(f"wrote {png} from {js}")
+        return 0
     for name in ("rollouts", "steps", "repeats", "warm"):
         if getattr(args, name) < (0 if name == "warm" else 1):
             ap.error(f"--{name} must be >= {0 if name == 'warm' else 1}, got {getattr(args, name)}")

@@ -31,6 +31,9 @@ Output folder (``--out``, default ``results/benchmark``):
   comes), ``model.zip`` + ``vecnormalize.pkl`` + ``meta.json`` (loadable with
   :func:`spine_gym.agents.runtime.load_policy`), ``done.json`` (the run's settings and result; a run that
   has it is skipped on the next invocation, one without it starts over);
+* ``records.tar.xz`` (a study's folder only) — its runs' records (``curve.csv``, ``meta.json``,
+  ``done.json``) as one archive (:mod:`spine_gym.agents.benchmark_records`), unpacked into
+  ``runs/`` on start wherever a run folder is missing, so the study resumes from it;
 * ``references/<env id>.json`` — the reference controllers' validation episodes;
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
   CI over seeds per evaluation), ``curves_<env id>.png``;
@@ -83,6 +86,7 @@ from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.envs import BENCHMARK_IDS
 
 from . import benchmark_stats as stats
+from .benchmark_records import restore_records
 from .benchmark_run import (
     CURVE_COLUMNS,
     DONE,
@@ -447,6 +451,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     with usage_errors(parser):
         check_out_dir(out)
         plan = make_plan(args)
+        restore_records(out)  # the runs of out/records.tar.xz, if any, resume as run folders
         check_finished(plan.specs, out)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     torch.set_num_threads(1)

@@ -1,6 +1,7 @@
 """Evaluate baselines and saved policies on the fixed scenario suite of :mod:`spine_gym.agents.scenarios`.
 
-Example (the README's main command; ``spine-gym evaluate`` is the same command)::
+Example (``spine-gym evaluate`` is the same command; the README's main command, ``bash scripts/run.sh``, runs it
+per family and voltage ceiling: :mod:`spine_gym.agents.family_comparison`)::
 
     python -m spine_gym.agents.evaluate            # shipped policies + step, bang-bang, PID on SmaSpine-v1
     python -m spine_gym.agents.evaluate --env SmaSpine3D-v1      # the spatial spine's suite and policies

@@ -83,7 +83,8 @@ class SmaSpineEnv(EnvFacts, gym.Env):
 
         r = −|e| / error_scale − energy_weight · E / E_ref − cost_weight · cost
 
-    With the defaults (``error_scale`` = 10°, ``energy_weight`` = 0.5, ``cost_weight`` = 0) a step
+    With the class defaults, those of ``SmaSpine-v0`` (``error_scale`` = 10°, ``energy_weight`` = 0.5,
+    ``cost_weight`` = 0; the ``-v1`` ids divide the reward by 10), a step
     earns −0.1 per degree of error and at most −0.5 for energy: between about −11 (target 45° one
     way, spine 63° the other, both wires at 5 V) and 0; typical values are −4 to 0.
     ``info["reward_tracking"]`` and ``info["reward_energy"]`` hold the first two terms.
