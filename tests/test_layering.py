@@ -69,9 +69,6 @@ DISPATCH = {
     "spine_gym.__main__": {"spine_gym.cli"},
     "spine_gym.experiments": {"spine_gym.experiments.reproduction"},
     "spine_gym.experiments.__main__": {"spine_gym.experiments.reproduction"},
-    # runs the evaluate command once per comparison, with evaluate's own arguments (a composition of
-    # command lines; its checks and runs are evaluate's until they have a library function of their own)
-    "spine_gym.agents.family_comparison": {"spine_gym.agents.evaluate"},
 }
 
 

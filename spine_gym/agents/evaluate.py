@@ -30,15 +30,10 @@ These outputs of an earlier run in the same folder are removed first (other file
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
 import time
-from pathlib import Path
-
-import torch
 
 from spine_gym import cli_conventions as cli
-from spine_gym.envs import base_id
 
 # the library's names stay importable from here for one release (they moved to .evaluation)
 from .evaluation import (  # noqa: F401
@@ -54,7 +49,12 @@ from .evaluation import (  # noqa: F401
     write_csv,
     write_trajectories,
 )
-from .registry import BASELINES, REGISTRY, baselines_for, registry_for
+from .evaluation_job import MPC_CONTROLLERS, OUTPUTS, add_arguments, plan, remove_outputs, run  # noqa: F401
+from .evaluation_job import controllers_of as _controllers  # noqa: F401  (the old names, for one release)
+from .evaluation_job import env_of as _env  # noqa: F401
+from .evaluation_job import models_of as _models  # noqa: F401
+from .evaluation_job import plan as _plan  # noqa: F401
+from .registry import BASELINES, REGISTRY  # noqa: F401
 from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported for one release)
     build_controller,
     env_temperature_limit,
@@ -63,12 +63,6 @@ from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported fo
     make_env,
     run_episode,
 )
-from .scenarios import SUITES, Scenario, get_suite
-from .video import require_ffmpeg, write_videos
-from .policy_files import check_policy_env, trained_env_id
-from .zoo_config import DEFAULT_ENV_ID
-
-MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
 
 # --------------------------------------------------------------------------- CLI
@@ -84,144 +78,7 @@ spine-gym evaluate --suite quick --baselines pid --models --env-kwargs sensor_de
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
-    p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    cli.add_env(
-        p, help=f"environment id (default: the env of the one model of --models, else {DEFAULT_ENV_ID}), "
-        "one of: " + ", ".join(cli.ENV_IDS),
-    )  # fmt: skip
-    cli.add_env_kwargs(
-        p, help="env keyword arguments key=value of every controller's envs (over a policy's own)"
-    )
-    p.add_argument(
-        "--baselines",
-        nargs="*",
-        default=None,
-        help=f"registered controllers to run (default for the planar ids: {' '.join(BASELINES)}; "
-        f"all: {' '.join(REGISTRY)}; other envs: their registry)",
-    )
-    p.add_argument(
-        "--mpc",
-        action="store_true",
-        help=f"also run {' and '.join(MPC_CONTROLLERS)} (MPPI, on every env id: ~0.1 s per step, "
-        "~15-30 min per mode on a full suite)",
-    )
-    p.add_argument(
-        "--models",
-        nargs="*",
-        default=None,
-        metavar="NAME=PATH",
-        help="saved models NAME=PATH (PATH: a run folder, shipped folder or .zip); default: every policy in "
-        "spine_gym/agents/policies/ trained on --env",
-    )
-    p.add_argument(
-        "--suite", default="full", choices=sorted(SUITES), help="scenario suite (default: %(default)s)"
-    )
-    p.add_argument("--groups", nargs="*", default=None, help="only these scenario groups")
-    p.add_argument("--scenarios", nargs="*", default=None, help="only these scenario names")
-    cli.add_out(p, default="results/eval", help="output folder (an earlier evaluation's outputs there are replaced)")
-    cli.add_progress(p)
-    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
-    p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
-    p.add_argument("--plain", action="store_true", help="plain-text tables (no rich)")
-    p.add_argument(
-        "--relative-to",
-        default=None,
-        metavar="NAME",
-        help="also print RMSE/energy ratios and T>limit differences to this controller (e.g. mpc_estimated)",
-    )
-    p.add_argument("--video", action="store_true", help="also write videos/<controller>/<scenario>.mp4")
-    p.add_argument("--video-speed", type=float, default=1.0, help="video playback speed (default: real time)")
-    return p
-
-
-def _models(items: list[str] | None, env_id: str) -> dict[str, Path]:
-    """``--models`` as {name: path} (None: the shipped policies of ``env_id``); ValueError if a path
-    does not exist."""
-    if items is None:
-        return shipped_policies(env_id)
-    models = {}
-    for item in items:
-        name, sep, path = item.partition("=")
-        if not sep and not Path(item).exists():
-            raise ValueError(f"--models takes NAME=PATH (e.g. mine=logs/ppo/SmaSpine-v1_1), got {item!r}")
-        if not sep:
-            name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
-        cli.check_file(path, f"--models {name}")
-        models[name] = Path(path)
-    return models
-
-
-def _env(args) -> str:
-    """``--env``, else the trained env of the one model of ``--models`` (ValueError if it is not
-    a registered id), else :data:`DEFAULT_ENV_ID`."""
-    if args.env:
-        return args.env
-    if args.models and len(args.models) == 1:
-        path = args.models[0].partition("=")[2] or args.models[0]
-        if Path(path).exists():
-            trained = trained_env_id(path)
-            if trained is not None and trained not in cli.ENV_IDS:
-                raise ValueError(f"--models: {path} was trained on {trained}, not a registered id; pass --env")
-            return trained or DEFAULT_ENV_ID
-    return DEFAULT_ENV_ID
-
-
-def _plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
-    """(scenarios, baselines, models) of the arguments, every one checked (ValueError, one line)
-    before anything is built or written."""
-    args.env = _env(args)
-    cli.check_out_dir(args.out)
-    scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios, env_id=args.env)
-    chosen = list(baselines_for(args.env)) if args.baselines is None else args.baselines
-    baselines = list(dict.fromkeys(chosen + (list(MPC_CONTROLLERS) if args.mpc else [])))
-    cli.check_keys(baselines, registry_for(args.env), "--baselines", what=f"controller of {args.env}")
-    models = _models(args.models, args.env)
-    if args.models:
-        for name, path in models.items():
-            check_policy_env(path, args.env, f"--models {name}")
-    if not baselines and not models:
-        raise ValueError("nothing to evaluate: no baselines and no models")
-    names = [*baselines, *models]
-    if args.relative_to and args.relative_to not in names:
-        hint = cli.did_you_mean(args.relative_to, names)
-        raise ValueError(f"--relative-to {args.relative_to!r} is not one of {names}{hint}")
-    cli.check_env_kwargs(args.env, args.env_kwargs)
-    if args.video:
-        require_ffmpeg()  # before the evaluation, not after it
-    return scenarios, baselines, models
-
-
-def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[dict, dict, float]:
-    """(controllers, their env kwargs, the env's temperature limit [K])."""
-    controllers: dict[str, object] = {}
-    env_kwargs: dict[str, dict] = {}
-    probe = make_env(args.env_kwargs, env_id=args.env)
-    limit = env_temperature_limit(probe)
-    for b in baselines:
-        controllers[b] = build_controller(b, probe)
-        env_kwargs[b] = dict(args.env_kwargs)
-    if models:
-        torch.set_num_threads(1)
-    for name, path in models.items():
-        pol = load_policy(path, name=name)
-        controllers[name] = pol
-        env_kwargs[name] = {**evaluation_env_kwargs(pol.env_kwargs), **args.env_kwargs}
-    probe.close()
-    return controllers, env_kwargs, limit
-
-
-#: what an evaluation writes into --out (removed before a new one writes there)
-OUTPUTS = ("metrics.csv", "summary.csv", "relative.csv", "trajectories", "plots", "videos")
-
-
-def remove_outputs(out: Path) -> None:
-    """Remove an earlier evaluation's :data:`OUTPUTS` from ``out`` (nothing else)."""
-    for name in OUTPUTS:
-        path = out / name
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path)
-        elif path.exists() or path.is_symlink():
-            path.unlink()
+    return add_arguments(cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES))
 
 
 def main(argv: list[str] | None = None, prog: str = PROG) -> int:
@@ -231,42 +88,10 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     args = parser.parse_args(argv)
     t_start = time.perf_counter()
     try:
-        scenarios, baselines, models = _plan(args)
+        planned = plan(args)
     except (ValueError, RuntimeError) as e:
         parser.error(str(e))
-    controllers, env_kwargs, limit = _controllers(args, baselines, models)
-    print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
-    rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=args.progress)
-    summary = summarize(rows)
-    print()
-    unit = ERROR_UNIT.get(base_id(args.env), "deg")
-    print(format_tables(summary, use_rich=not args.plain, error_unit=unit))
-    out = Path(args.out)
-    remove_outputs(out)
-    if args.relative_to:
-        rel = relative_rows(summary, args.relative_to)
-        print(format_relative(rel, args.relative_to))
-        write_csv(out / "relative.csv", rel)
-    write_csv(out / "metrics.csv", rows)
-    write_csv(out / "summary.csv", summary)
-    if not args.no_trajectories:
-        write_trajectories(out, trajs)
-    if not args.no_plots:
-        groups = list(dict.fromkeys(s.group for s in scenarios))
-        for ctrl in controllers:
-            for g in groups:
-                scs = [s for s in scenarios if s.group == g]
-                plot_controller(out / "plots" / f"{ctrl}_{g}.png", ctrl, g, scs, trajs, limit)
-    if args.video:
-        videos = write_videos(
-            controllers, scenarios, out / "videos", env_kwargs,
-            make_env=lambda kw: make_env(kw, env_id=args.env), run_episode=run_episode,
-            speed=args.video_speed,
-        )  # fmt: skip
-        print(f"wrote {len(videos)} videos to {out / 'videos'}")
-    wrote = "metrics.csv, summary.csv" + ("" if args.no_plots else ", plots/")
-    print(f"wrote {wrote} to {out} in {time.perf_counter() - t_start:.1f} s total")
-    return 0
+    return run(args, planned, t_start)
 
 
 if __name__ == "__main__":

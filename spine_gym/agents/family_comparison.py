@@ -25,9 +25,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from spine_gym import cli_conventions as cli
 from spine_gym.cli_conventions import module_prog
 
-from . import evaluate as ev
+from . import evaluation_job as job
+from .evaluation import shipped_policies
 from .runtime import evaluation_env_kwargs, make_env
 from .zoo_config import ENV_IDS
 
@@ -88,7 +90,7 @@ def comparisons(env_ids: list[str], out: Path) -> list[Comparison]:
     for env_id in env_ids:
         defaults = env_envelope(env_id)
         groups: dict[tuple, dict] = {(): {}}
-        for name, folder in ev.shipped_policies(env_id).items():
+        for name, folder in shipped_policies(env_id).items():
             key = tuple(sorted(policy_envelope(folder, defaults).items()))
             groups.setdefault(key, {})[name] = folder
         for key, models in groups.items():
@@ -99,9 +101,14 @@ def comparisons(env_ids: list[str], out: Path) -> list[Comparison]:
 
 def check(runs: list[Comparison], extra: list[str]) -> None:
     """Parse and check every evaluation's arguments (ValueError or SystemExit, one line) before any runs."""
-    parser = ev.build_parser()
+    parser = evaluate_parser()
     for run in runs:
-        ev._plan(parser.parse_args(run.argv(extra)))
+        job.plan(parser.parse_args(run.argv(extra)))
+
+
+def evaluate_parser() -> argparse.ArgumentParser:
+    """The evaluate command's parser (its usage errors name that command)."""
+    return job.add_arguments(cli.Parser(prog=job.PROG))
 
 
 def summary_lines(runs: list[Comparison], seconds: float) -> list[str]:
@@ -152,7 +159,9 @@ def main(argv: list[str] | None = None) -> int:
     for run in runs:
         names = ", ".join(run.models) or "no shipped policy"
         print(f"\n=== {run.label()}: the baselines and {names}", flush=True)
-        ev.main(run.argv(extra))
+        t_start = time.perf_counter()
+        args = evaluate_parser().parse_args(run.argv(extra))
+        job.run(args, job.plan(args), t_start)
     print("\n" + "\n".join(summary_lines(runs, time.perf_counter() - t0)))
     return 0
 
