@@ -266,7 +266,7 @@ def plot_table(path, summary: list[dict], units: dict[str, str]) -> None:
         f"over {TIME_OVER_LIMIT_CAP_S} s per episode above the temperature limit (not ranked)",
         fontsize=10,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))  # room for the title
     fig.savefig(path, dpi=90)
 
 
