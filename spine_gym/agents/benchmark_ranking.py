@@ -72,7 +72,8 @@ def tuning_budget(env_id: str, name: str) -> str:
     entry = (yaml.safe_load(path.read_text()) or {}).get(name) if path.exists() else None
     if not entry or "n_trials" not in entry:
         return "defaults (not tuned)"
-    return f"{entry['n_trials']} trials × {entry['n_episodes']} episodes ({entry.get('env_id', base_id(env_id))})"
+    tuned_on = entry.get("env_id", base_id(env_id))
+    return f"{entry['n_trials']} trials × {entry['n_episodes']} episodes ({tuned_on})"
 
 
 def with_envelope(summary: list[dict], env_kwargs: dict[str, dict]) -> list[dict]:
@@ -86,7 +87,10 @@ def with_envelope(summary: list[dict], env_kwargs: dict[str, dict]) -> list[dict
         key = (r["env_id"], guard)
         if key not in envelopes:
             envelopes[key] = envelope(r["env_id"], env_kwargs.get(r["env_id"], {}), guard)
-        budget = f"{r['steps']:,} steps × {r['n_seeds']} seeds" if rl else tuning_budget(r["env_id"], r["method"])
+        if rl:
+            budget = f"{r['steps']:,} steps × {r['n_seeds']} seeds"
+        else:
+            budget = tuning_budget(r["env_id"], r["method"])
         out.append({**r, **envelopes[key], "budget": budget})
     return out
 
@@ -125,7 +129,9 @@ def constrained_markdown(summary: list[dict], units: dict[str, str]) -> str:
         head += [f"T>limit [s] IQM [{pct} % CI]", "v_max [V]", "guard", "budget"]
         split = constrained_split(summary, env_id)
         lines += [f"### {env_id}", ""]
-        ranked = [[str(k + 1), _name(r), *_metric_cells(r), *_envelope_cells(r)] for k, r in enumerate(split[RANKED])]
+        ranked = [
+            [str(k + 1), _name(r), *_metric_cells(r), *_envelope_cells(r)] for k, r in enumerate(split[RANKED])
+        ]
         lines += [f"Ranked: at most {cap} over the temperature limit per episode, by RMSE IQM.", ""]
         lines += [*stats.md_table(["rank", "method", *head], ranked), ""] if ranked else ["(none)", ""]
         if split[OVER_CAP]:

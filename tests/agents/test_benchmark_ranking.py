@@ -25,7 +25,8 @@ def _runs(algo: str, rmse: list[float], over: list[float | None], env_id: str = 
     out = []
     for seed, (e, t) in enumerate(zip(rmse, over, strict=True)):
         r = {"algo": algo, "env_id": env_id, "seed": seed, "steps": 1000, "wall_s": 10.0, "cpu_s": 9.0,
-             "final_rmse": e, "final_energy_J": 100.0 + 10 * seed, "steps_to_pid": None, "wall_to_pid_s": None}  # fmt: skip
+             "final_rmse": e, "final_energy_J": 100.0 + 10 * seed,
+             "steps_to_pid": None, "wall_to_pid_s": None}  # fmt: skip
         if t is not None:
             r["final_time_over_limit_s"] = t
         out.append(r)
@@ -77,7 +78,8 @@ def test_ranked_methods_are_ordered_by_rmse_iqm_not_by_mean_or_table_order():
     rows = _rows(runs, refs)
     assert _ranked_names(rows) == ["outlier", "pid", "steady"]
     md = ranking.constrained_markdown(rows, UNITS)
-    assert md.index("| 1 | outlier |") < md.index("| 2 | pid (reference, 10 episodes) |") < md.index("| 3 | steady |")
+    first, second = md.index("| 1 | outlier |"), md.index("| 2 | pid (reference, 10 episodes) |")
+    assert first < second < md.index("| 3 | steady |")
 
 
 def test_the_cells_are_iqm_and_95_percent_ci_of_rmse_energy_and_time_over_the_limit():
@@ -89,7 +91,8 @@ def test_the_cells_are_iqm_and_95_percent_ci_of_rmse_energy_and_time_over_the_li
     j, j_lo, j_hi = stats.iqm_interval([100.0, 110.0, 120.0, 130.0, 140.0], reps=300)
     t, t_lo, t_hi = stats.iqm_interval(over, reps=300)
     assert e_lo < e < e_hi and t_lo < t < t_hi
-    cells = f"| {e:.2f} [{e_lo:.2f}, {e_hi:.2f}] | {j:.0f} [{j_lo:.0f}, {j_hi:.0f}] | {t:.1f} [{t_lo:.1f}, {t_hi:.1f}] |"
+    cells = f"| {e:.2f} [{e_lo:.2f}, {e_hi:.2f}] | {j:.0f} [{j_lo:.0f}, {j_hi:.0f}] | "
+    cells += f"{t:.1f} [{t_lo:.1f}, {t_hi:.1f}] |"
     assert f"| 1 | ppo {cells}" in md
 
 
@@ -105,7 +108,8 @@ def test_a_missing_or_nan_time_over_the_limit_is_listed_apart_not_ranked(missing
     assert "Not ranked: time over the temperature limit (or RMSE) not recorded: old." in md
     assert "| old |" not in md
     refs = {ENV_ID: {"pid": {"rmse": 3.5, "energy_J": 80.0, "n_episodes": 10}}}  # a cache without it
-    assert ranking.cap_status(next(r for r in _rows(runs, refs) if r["method"] == "pid")) == ranking.NOT_RECORDED
+    pid = next(r for r in _rows(runs, refs) if r["method"] == "pid")
+    assert ranking.cap_status(pid) == ranking.NOT_RECORDED
 
 
 def test_envelope_and_budget_columns_on_a_real_env_id(tmp_path):
