@@ -94,7 +94,7 @@ class ControllerSpec:
             None (not tuned); tuned entries read their settings from :func:`load_tuned`.
         guard: give it the temperature guard (env limit − :data:`GUARD_MARGIN_K`).
         kwargs: fixed constructor kwargs (e.g. the MPC state mode).
-        plans_on_env: the constructor takes the env's ``EnvConfig`` first (and the oracle the env).
+        plans_on_env: the constructor takes the env's ``PlanarConfig`` first (and the oracle the env).
         in_default: run by ``spine_gym.agents.evaluate`` without being asked for.
         from_env: built by ``cls.from_env(env, **kwargs)`` (the spatial controllers read the
             env's layout and observation table).

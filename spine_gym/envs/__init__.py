@@ -10,7 +10,7 @@ versions (observed tracking errors, rewards of order one) and the ``Easy``/``Har
   environments stepped by one numba loop over the same code (from 64 envs serial or parallel,
   whichever runs faster).
 * :mod:`spine_gym.envs.table` — the declarative observation/info table every env is built from.
-* :mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.targets_spatial` — :class:`TargetProfile`,
+* :mod:`spine_gym.envs.targets_planar`, :mod:`spine_gym.envs.targets_spatial` — :class:`TargetProfile`,
   :class:`BendTarget`, :class:`ChainTarget`; :mod:`spine_gym.envs.loads` — :class:`LoadSchedule`,
   :class:`TipForceEvent`.
 * :mod:`spine_gym.envs.sb3` — a Stable-Baselines3 ``VecEnv`` over the vector env (imports SB3).
@@ -23,12 +23,15 @@ from gymnasium.envs.registration import register, registry
 from .config import default_randomization
 from .ids import BENCHMARK_IDS, ENV_SPECS, base_id, family_of, tier_of
 from .loads import LoadSchedule, TipForceEvent
-from .planar import OBS_NAMES, OBS_UNITS, EnvConfig
-from .single_env import SmaSpineEnv
+from .planar import OBS_NAMES, OBS_UNITS, EnvConfig, PlanarConfig
+from .planar_env import SmaSpineEnv, SmaSpineVectorEnv
+from .settings import config_of
+from .spatial import ChainConfig, Spine3DConfig
 from .spatial_env import SmaSpine3DEnv, SmaSpine3DVectorEnv, SmaSpineChainEnv, SmaSpineChainVectorEnv
-from .targets import TargetProfile
+from .spine_env import SpineEnv
+from .spine_vector_env import SpineVectorEnv
+from .targets_planar import TargetProfile
 from .targets_spatial import BendTarget, ChainTarget
-from .vector_env import SmaSpineVectorEnv
 
 __all__ = [
     "ENV_ID",
@@ -39,6 +42,9 @@ __all__ = [
     "base_id",
     "family_of",
     "tier_of",
+    "config_of",
+    "SpineEnv",
+    "SpineVectorEnv",
     "SmaSpineEnv",
     "SmaSpineVectorEnv",
     "SmaSpine3DEnv",
@@ -50,6 +56,9 @@ __all__ = [
     "TargetProfile",
     "LoadSchedule",
     "TipForceEvent",
+    "PlanarConfig",
+    "Spine3DConfig",
+    "ChainConfig",
     "EnvConfig",
     "OBS_NAMES",
     "OBS_UNITS",
