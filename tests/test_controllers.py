@@ -225,6 +225,8 @@ def test_bad_observations_raise_clear_errors(factory):
         (lambda: BangBangController(band=1.0, release=-2.0), "release"),
         (lambda: BangBangController(v_on=6.0), "v_on"),
         (lambda: StepVoltageController(v_max=0.0), "v_max"),
+        (lambda: PIDController(v_max=9.0), r"v_max must be in \(0, 8\]"),  # the env's one range
+        (lambda: steady_state_map(v_max=20.0), r"v_max must be in \(0, 8\]"),
         (lambda: StepVoltageController(ss_map="map"), "ss_map"),
         (lambda: PIDController(dt=-0.1), "dt"),
         (lambda: PIDController(temperature_limit=10.0), "temperature_limit"),

@@ -155,7 +155,7 @@ def _controller(controller: str, env_id: str, env_kwargs: dict):
         )
     policy = runtime.load_policy(controller)
     # what the policy observes
-    env_kwargs = {**runtime.evaluation_env_kwargs(policy.env_kwargs), **env_kwargs}
+    env_kwargs = runtime.policy_env_kwargs(policy.env_kwargs, env_kwargs)
     env = _make(env_id, env_kwargs)
     obs, _ = env.reset(seed=DATASET_SEED_BASE)
     try:

@@ -44,9 +44,10 @@ from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
     build_controller,
     env_temperature_limit,
-    evaluation_env_kwargs,
+    evaluation_env_kwargs,  # noqa: F401 - re-exported (the tests read ev.evaluation_env_kwargs)
     load_policy,
     make_env,
+    policy_env_kwargs,
     run_episode,
 )
 from .scenarios import SUITES, Scenario, get_suite
@@ -351,7 +352,7 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     for name, path in models.items():
         pol = load_policy(path, name=name)
         controllers[name] = pol
-        env_kwargs[name] = {**evaluation_env_kwargs(pol.env_kwargs), **args.env_kwargs}
+        env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
     probe.close()
     return controllers, env_kwargs, limit
 

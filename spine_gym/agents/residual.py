@@ -24,12 +24,11 @@ preview, pre-heating the wire that will be needed, shaping the heating pulse of 
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-from spine_gym.envs import base_id
+from spine_gym.envs import base_id, config_of
 
 from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .zoo_config import ENV_ID
@@ -76,10 +75,8 @@ def build_base(spec: dict):
     env_id = spec.get("env_id", ENV_ID)
     cls = get_spec(spec["kind"], env_id).cls
     if base_id(env_id) != ENV_ID:  # a spatial controller reads the env's layout and observation table
-        env = gym.make(env_id, **spec["env_kwargs"]).unwrapped
-        ctrl = cls.from_env(env, **spec["params"], temperature_limit=spec["temperature_limit"])
-        env.close()
-        return ctrl
+        cfg = config_of(env_id, **spec["env_kwargs"])
+        return cls.from_config(cfg, **spec["params"], temperature_limit=spec["temperature_limit"])
     return cls(
         **spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"]
     )

@@ -56,6 +56,7 @@ __all__ = [
     "OBSERVATION_KWARGS",
     "TASK_KWARGS",
     "evaluation_env_kwargs",
+    "policy_env_kwargs",
     "VALIDATION_SEED_BASE",
     "validation_scores",
     "validation_metrics",
@@ -145,6 +146,14 @@ TASK_KWARGS = (
 def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
     """A policy's training env kwargs without :data:`TASK_KWARGS` (what the suite's env keeps)."""
     return {k: v for k, v in policy_env_kwargs.items() if k not in TASK_KWARGS}
+
+
+def policy_env_kwargs(own: dict, given: dict | None = None) -> dict:
+    """The one rule for the env a saved policy runs in: the caller's ``given`` env kwargs (the
+    distribution to run on) with what the suite keeps of the policy's training kwargs ``own``
+    (:func:`evaluation_env_kwargs`: what it observes, its voltage ceiling, its reward weights) on
+    top: a policy always sees the observation it was trained on, whatever the distribution."""
+    return {**(given or {}), **evaluation_env_kwargs(own)}
 
 
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds

@@ -33,9 +33,9 @@ from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
     build_controller,
-    evaluation_env_kwargs,
     load_policy,
     make_env,
+    policy_env_kwargs,
     validation_scores,
 )
 from .zoo_config import ENV_ID, ENV_IDS, StoreDict
@@ -45,12 +45,12 @@ __all__ = ["VALIDATION_SEED_BASE", "validation_scores", "model_env_kwargs", "mai
 
 def model_env_kwargs(own: dict, given: dict | None) -> dict:
     """The env kwargs a model trained with ``own`` is scored with: ``own`` (without its episode
-    length) if no distribution is ``given``, else ``given`` with what the evaluation suite keeps of
-    ``own`` (:func:`spine_gym.agents.runtime.evaluation_env_kwargs`: its observation, voltage ceiling,
-    ...) on top."""
+    length) if no distribution is ``given``, else the one rule of
+    :func:`spine_gym.agents.runtime.policy_env_kwargs` (``given`` with what the evaluation suite keeps
+    of ``own`` on top: its observation, voltage ceiling, ...)."""
     if given is None:
         return {k: v for k, v in own.items() if k != "episode_duration"}
-    return {**given, **evaluation_env_kwargs(own)}
+    return policy_env_kwargs(own, given)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:

@@ -125,9 +125,14 @@ class SpatialSignals:
 
     @classmethod
     def from_env(cls, env) -> SpatialSignals:
-        """Read the layout, the task, the per-wire full scale and the indices from a spatial env
-        (its configuration's declarative observation table, entries found by their source)."""
-        cfg = getattr(env, "unwrapped", env).config
+        """:meth:`from_config` of a spatial env's configuration."""
+        return cls.from_config(getattr(env, "unwrapped", env).config)
+
+    @classmethod
+    def from_config(cls, cfg) -> SpatialSignals:
+        """Read the layout, the task, the per-wire full scale and the indices from a spatial env's
+        configuration (its declarative observation table, entries found by their source; e.g.
+        :func:`spine_gym.envs.config_of`, no env needed)."""
         table = cfg.table()
         task = table.task.source
 
@@ -217,8 +222,12 @@ class SpatialController(BaseController):
     @classmethod
     def from_env(cls, env, **kwargs):
         """Build for a spatial env (its signals, control period)."""
-        env = getattr(env, "unwrapped", env)
-        return cls(SpatialSignals.from_env(env), dt=float(env.control_period), **kwargs)
+        return cls.from_config(getattr(env, "unwrapped", env).config, **kwargs)
+
+    @classmethod
+    def from_config(cls, cfg, **kwargs):
+        """Build for a spatial env's configuration (:func:`spine_gym.envs.config_of`; no env needed)."""
+        return cls(SpatialSignals.from_config(cfg), dt=float(cfg.control_period), **kwargs)
 
     # ---- observation and references
     def _check_obs(self, observation) -> tuple[np.ndarray, bool]:
