@@ -19,7 +19,7 @@ position), electrical energy [J] and time over the temperature limit [s] per epi
 training wall and CPU time (validation excluded).
 
 The reference controllers (the tuned ``pid``, ``mpc_estimated``, ``mpc_oracle`` of
-:func:`spine_gym.agents.registry.registry_for`) run the same validation episodes once per env id (the PID
+:func:`spine_gym.controllers.registry.registry_for`) run the same validation episodes once per env id (the PID
 all of them, the MPC the first ``--reference-episodes``); they are cached in the output folder.
 
 The runs themselves (training, validation, the process pool and Ray) are
@@ -91,7 +91,7 @@ from .benchmark_run import (
     validation_means,
 )
 from .evaluate import write_csv
-from .registry import registry_for
+from spine_gym.controllers.registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
     OBSERVATION_KWARGS,

@@ -9,7 +9,7 @@ Example (``spine-gym datasets`` is the same command)::
 One dataset per env id, recorded through :class:`minari.DataCollector` (observations, actions,
 rewards, terminations, truncations and, unless ``--no-infos``, the env's ``info`` dicts), named
 ``spine_gym/<env id>/<controller>-v<version>`` (Minari's ``namespace/env/name-vN``): the
-controller is a registry name (:func:`spine_gym.agents.registry.registry_for`: ``pid``, ``mpc_oracle``,
+controller is a registry name (:func:`spine_gym.controllers.registry.registry_for`: ``pid``, ``mpc_oracle``,
 ``mpc_estimated``, …) or a policy folder (:func:`spine_gym.agents.runtime.load_policy`; the dataset is
 named after the folder). Each episode is one :func:`spine_gym.agents.runtime.run_episode` of the
 controller with reset seed ``seed_base + i`` (Minari keeps each episode's seed):
@@ -50,7 +50,7 @@ from spine_gym.envs import ENV_SPECS, tier_of
 
 from . import runtime
 from .metrics import episode_metrics
-from .registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 
 __all__ = [
     "DATASET_SEED_BASE",

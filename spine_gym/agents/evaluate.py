@@ -40,7 +40,7 @@ from spine_gym.envs import base_id
 from spine_gym.plotting import plot_episodes
 
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
-from .registry import BASELINES, REGISTRY, baselines_for, registry_for
+from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
     build_controller,
     env_temperature_limit,

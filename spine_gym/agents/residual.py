@@ -5,7 +5,7 @@ The learned policy does not drive the wires alone: the applied action is
     a = clip(a_base + scale · clip(a_res, -1, 1), -1, 1)
 
 where ``a_base`` is the action of a classical controller (the tuned PID of
-``spine_gym/agents/hyperparams/baselines.yml``) and ``a_res`` the policy's output. The policy observes the
+``spine_gym/controllers/tuned/baselines.yml``) and ``a_res`` the policy's output. The policy observes the
 env's observation with ``a_base`` appended (one more entry per wire, in [-1, 1]), so it knows what the
 baseline is about to do. The baseline keeps its integral action (precise holding, ramps); the
 policy learns what the PID cannot do from the error alone — anticipating target moves from the
@@ -30,7 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 from spine_gym.envs import base_id, config_of
 
-from .registry import GUARD_MARGIN_K, get_spec, load_tuned
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .zoo_config import ENV_ID
 
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]

@@ -2,7 +2,7 @@
 
 * :func:`make_env` — a plain env (``SmaSpine-v0`` or a spatial id); :func:`env_temperature_limit`,
   :func:`env_id_of`, :func:`tracking_keys`.
-* :func:`build_controller` — any :data:`spine_gym.agents.registry.REGISTRY` entry configured for an env
+* :func:`build_controller` — any :data:`spine_gym.controllers.registry.REGISTRY` entry configured for an env
   (its v_max, control period, temperature guard, tuned settings from :func:`load_tuned`).
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
@@ -33,7 +33,7 @@ from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .metrics import Trajectory, episode_metrics
 from .observations import feature_policy, specs_from_meta
-from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
+from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
 from .zoo_config import ALGOS, ENV_ID, algo_class
@@ -199,7 +199,7 @@ def env_temperature_limit(env) -> float:
 
 
 def build_controller(name: str, env, tuned: dict | None = None):
-    """Registered controller ``name`` of the env's registry (:func:`spine_gym.agents.registry.registry_for`)
+    """Registered controller ``name`` of the env's registry (:func:`spine_gym.controllers.registry.registry_for`)
     configured for ``env``.
 
     ``tuned`` overrides the tuned settings of :func:`load_tuned` (``{name: {...}}``).
