@@ -78,6 +78,7 @@ from spine_gym.cli_conventions import (
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
+from spine_gym.controllers.registry import registry_for
 from spine_gym.envs import BENCHMARK_IDS, config_of
 
 from . import benchmark_stats as stats
@@ -91,12 +92,10 @@ from .benchmark_run import (
     validation_means,
 )
 from .evaluate import write_csv
-from spine_gym.controllers.registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
     OBSERVATION_KWARGS,
-    build_controller,
-    make_env,
+    controller_for,
     validation_metrics,
 )
 from .training import resolve_config
@@ -142,9 +141,7 @@ def reference_scores(
     for name in names:
         settings = json.loads(json.dumps({"env_kwargs": kw, "n_episodes": n_val if name == "pid" else n_ref}))
         if cache.get(name, {}).get("settings") != settings:
-            probe = make_env(kw, env_id=env_id)
-            ctrl = build_controller(name, probe)
-            probe.close()
+            ctrl = controller_for(name, env_id, kw)
             desc = f"  reference {name} on {env_id}" if progress else ""
             rows = validation_metrics(ctrl, settings["n_episodes"], kw, env_id, progress=desc)
             cache[name] = {"settings": settings, "episodes": rows, "means": validation_means(rows)}

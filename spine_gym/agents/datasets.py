@@ -46,11 +46,11 @@ from tqdm import tqdm
 
 import spine_gym
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 from spine_gym.envs import ENV_SPECS, tier_of
 
 from . import runtime
 from .metrics import episode_metrics
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 
 __all__ = [
     "DATASET_SEED_BASE",

@@ -36,13 +36,14 @@ import torch
 from tqdm import tqdm
 
 from spine_gym import cli_conventions as cli
-from spine_gym.envs import base_id
+from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
+from spine_gym.envs import base_id, config_of
 from spine_gym.plotting import plot_episodes
 
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
-from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (
-    build_controller,
+    build_controller,  # noqa: F401 - re-exported (the tests read ev.build_controller)
+    controller_for,
     env_temperature_limit,
     evaluation_env_kwargs,  # noqa: F401 - re-exported (the tests read ev.evaluation_env_kwargs)
     load_policy,
@@ -342,10 +343,9 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     """(controllers, their env kwargs, the env's temperature limit [K])."""
     controllers: dict[str, object] = {}
     env_kwargs: dict[str, dict] = {}
-    probe = make_env(args.env_kwargs, env_id=args.env)
-    limit = env_temperature_limit(probe)
+    limit = config_of(args.env, **args.env_kwargs).temperature_limit
     for b in baselines:
-        controllers[b] = build_controller(b, probe)
+        controllers[b] = controller_for(b, args.env, args.env_kwargs)
         env_kwargs[b] = dict(args.env_kwargs)
     if models:
         torch.set_num_threads(1)
@@ -353,7 +353,6 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
         pol = load_policy(path, name=name)
         controllers[name] = pol
         env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
-    probe.close()
     return controllers, env_kwargs, limit
 
 

@@ -28,9 +28,9 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
 from spine_gym.envs import base_id, config_of
 
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .zoo_config import ENV_ID
 
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]

@@ -30,10 +30,11 @@ from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
+from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
+from spine_gym.envs import config_of
 
 from .metrics import Trajectory, episode_metrics
 from .observations import feature_policy, specs_from_meta
-from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
 from .zoo_config import ALGOS, ENV_ID, algo_class
@@ -44,6 +45,7 @@ __all__ = [
     "tracking_keys",
     "env_temperature_limit",
     "build_controller",
+    "controller_for",
     "energy_weighted_oracle",
     "ORACLE_NAMES",
     "run_episode",
@@ -206,16 +208,43 @@ def build_controller(name: str, env, tuned: dict | None = None):
     """
     env_id = env_id_of(env)
     spec = get_spec(name, env_id)
-    kwargs = dict(spec.kwargs)
-    if spec.tuned:
-        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
-    if spec.guard:
-        kwargs["temperature_limit"] = env_temperature_limit(env) - GUARD_MARGIN_K
+    kwargs = _controller_kwargs(name, env_id, tuned, env_temperature_limit(env))
     if spec.from_env:
         return spec.cls.from_env(env, **kwargs)
     if spec.plans_on_env:
         return spec.cls(env.unwrapped.config, env=env, **kwargs)
     return spec.cls(v_max=float(env.v_max), dt=float(env.control_period), **kwargs)
+
+
+def controller_for(
+    name: str, env_id: str = ENV_ID, env_kwargs: dict | None = None, tuned: dict | None = None
+):
+    """:func:`build_controller` for an env of ``env_id`` made with ``env_kwargs``, read from its
+    configuration (:func:`spine_gym.envs.config_of`) without making the env; only a planner that
+    plans on the env itself (the MPC entries) gets a probe env."""
+    spec = get_spec(name, env_id)
+    if spec.plans_on_env or not hasattr(spec.cls, "from_config") and spec.from_env:
+        probe = make_env(env_kwargs, env_id=env_id)
+        ctrl = build_controller(name, probe, tuned)
+        probe.close()
+        return ctrl
+    cfg = config_of(env_id, **(env_kwargs or {}))
+    kwargs = _controller_kwargs(name, env_id, tuned, cfg.temperature_limit)
+    if spec.from_env:
+        return spec.cls.from_config(cfg, **kwargs)
+    return spec.cls(v_max=float(cfg.v_max), dt=float(cfg.control_period), **kwargs)
+
+
+def _controller_kwargs(name: str, env_id: str, tuned: dict | None, temperature_limit: float) -> dict:
+    """The constructor kwargs of registry entry ``name``: fixed, tuned, and the guard below the env's
+    ``temperature_limit`` [K]."""
+    spec = get_spec(name, env_id)
+    kwargs = dict(spec.kwargs)
+    if spec.tuned:
+        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
+    if spec.guard:
+        kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
+    return kwargs
 
 
 # --------------------------------------------------------------------------- saved policies

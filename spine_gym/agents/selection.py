@@ -32,9 +32,8 @@ from .evaluate import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
-    build_controller,
+    controller_for,
     load_policy,
-    make_env,
     policy_env_kwargs,
     validation_scores,
 )
@@ -75,10 +74,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     torch.set_num_threads(1)
     # the PID reference sees the env's default observation (preview), as in the evaluation suite
     pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
-    probe = make_env(pid_kwargs, env_id=args.env)
-    pid = build_controller("pid", probe)
+    pid = controller_for("pid", args.env, pid_kwargs)
     ref_rmse, ref_energy = validation_scores(pid, args.episodes, pid_kwargs, args.env)
-    probe.close()
     rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])

@@ -32,7 +32,7 @@ from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
     OBSERVATION_KWARGS,
-    build_controller,
+    controller_for,
     make_env,
     validation_scores,
     vecnormalize_candidates,
@@ -326,9 +326,7 @@ def energy_budget(
     scale = checked_number(scale, lambda x: 0.0 < x <= 2.0, message)
     if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
         kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
-        probe = make_env(kw, env_id=env_id)
-        pid = build_controller("pid", probe)
-        probe.close()
+        pid = controller_for("pid", env_id, kw)
         return scale * validation_scores(pid, n_episodes, kw, env_id)[1]
     message = f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}"
     return scale * checked_number(spec, lambda x: x > 0.0, message)

@@ -30,9 +30,16 @@ import numpy as np
 import yaml
 
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import (
+    DEFAULT_TUNED_BY_ENV,
+    GUARD_MARGIN_K,
+    get_spec,
+    load_tuned,
+    tunable_for,
+    tuned_file,
+)
 from spine_gym.envs import base_id
 
-from spine_gym.controllers.registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
 from .zoo_config import ENV_ID

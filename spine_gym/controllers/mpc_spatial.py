@@ -173,7 +173,8 @@ class SpatialMPPIController(MPPIBase):
         target = [e.key for e in table.entries if e.source == "target"][0]
         preview = [e.key for e in table.entries if e.source == "preview"][0]
         self._target_obs, self._preview_obs = env.obs_index(target), env.obs_index(preview)
-        self._obs_size = 1 + max(i.stop - 1 for i in (*self._idx.values(), self._target_obs, self._preview_obs))
+        read = (*self._idx.values(), self._target_obs, self._preview_obs)
+        self._obs_size = 1 + max(i.stop - 1 for i in read)  # entries an observation must have
         self._target_low = table.low[self._target_obs].astype(np.float64)
         self._target_high = table.high[self._target_obs].astype(np.float64)
         self._err_scale = REFERENCE_ERROR_SCALE / cfg.error_scale

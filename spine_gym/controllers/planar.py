@@ -5,8 +5,9 @@ compared against:
 
 * :class:`StepVoltageController` — the paper's open-loop drive (MODEL.md §9): a constant voltage
   on the wire that bends toward the target. The voltage for a target angle is read from the
-  model's steady-state map (:func:`~.steady_state.steady_state_map`, simulated once and cached), so it would be
-  exact on the nominal model without loads or hysteresis; it never looks at the measured angle.
+  model's steady-state map (:func:`~.steady_state.steady_state_map`, simulated once and cached),
+  so it would be exact on the nominal model without loads or hysteresis; it never looks at the
+  measured angle.
 * :class:`BangBangController` — a three-level relay with a hysteresis band on the tracking error
   (heat the right wire, heat none, heat the left wire).
 * :class:`PIDController` — PID on the angle error with derivative on the measurement, a

@@ -1,7 +1,7 @@
 """The one registry of controllers: name → class, how it is built for an env, its tuning space.
 
-:mod:`spine_gym.agents.evaluate`, :mod:`spine_gym.agents.tune` and :mod:`spine_gym.agents.residual` choose controllers only
-through :data:`REGISTRY` (and :func:`spine_gym.agents.runtime.build_controller`, which builds an entry for an
+:mod:`spine_gym.agents.evaluate`, :mod:`spine_gym.agents.tune` and :mod:`spine_gym.agents.residual`
+choose controllers only through :data:`REGISTRY` (and :func:`spine_gym.agents.runtime.build_controller`, which builds an entry for an
 env). The tuned settings of the tuned entries live beside the controllers, in
 ``spine_gym/controllers/tuned/baselines.yml`` (planar ``SmaSpine-v0``) and
 ``spine_gym/controllers/tuned/baselines_<env id>.yml`` (the spatial envs) (:func:`load_tuned`),

@@ -45,7 +45,7 @@ FinalArrays = namedtuple("FinalArrays", ["env_ids", "obs", "rows", "status"])
 
 
 class SpineVectorEnv(EnvFacts, VectorEnv):
-    """``num_envs`` copies of a :class:`~spine_gym.envs.spine_env.SpineEnv` in one jitted loop over the spines.
+    """``num_envs`` copies of a :class:`~spine_gym.envs.spine_env.SpineEnv` in one jitted loop over spines.
 
     A subclass sets ``CONFIG`` and ``BATCH`` as its single env does; action, observation, reward,
     info keys and arguments are those of that single env (its class docstring is the
@@ -384,7 +384,8 @@ class SpineVectorEnv(EnvFacts, VectorEnv):
 
     # ------------------------------------------------------------------ snapshot / restore
     def snapshot(self, i: int) -> SpineSnapshot:
-        """Full state of sub-env ``i`` (as :meth:`spine_gym.envs.spine_env.SpineEnv.snapshot`, plus its autoreset flag)."""
+        """Full state of sub-env ``i`` (as :meth:`spine_gym.envs.spine_env.SpineEnv.snapshot`, plus
+        its autoreset flag)."""
         if not self._ever_reset:
             raise RuntimeError("call reset() before snapshot()")
         i = self._check_index(i)

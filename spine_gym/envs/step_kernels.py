@@ -64,7 +64,8 @@ def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, reso
     """Inputs of one step: clip the actions, set the voltages and the loads of step k.
 
     Every row gets its clipped action ``clipped`` (B, W) (float64, from float32 or float64
-    ``actions``) and its wire voltages ``volts = (clipped + 1) coef`` (:func:`.drive.action_to_volts`); each environment of
+    ``actions``) and its wire voltages ``volts = (clipped + 1) coef``
+    (:func:`.drive.action_to_volts`); each environment of
     ``rows`` gets the vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at
     the last step after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
     ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
