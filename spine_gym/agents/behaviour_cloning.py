@@ -36,7 +36,7 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
 from .datasets import datasets_path, load_metadata, transitions
-from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
+from .runtime import SavedPolicy, controller_for, load_policy, validation_scores
 from .vec_env import make_vec_env
 from .zoo_config import load_hyperparams, preprocess_hyperparams
 
@@ -202,8 +202,7 @@ def expert_of(meta: dict):
     settings = meta["controller_settings"]
     if settings["kind"] == "policy":
         return load_policy(settings["path"])
-    env = make_env(meta["env_kwargs"], env_id=meta["env_id"])
-    return build_controller(meta["controller"], env)
+    return controller_for(meta["controller"], meta["env_id"], meta["env_kwargs"])
 
 
 def compare(policy, meta: dict, n_episodes: int) -> dict:

@@ -55,13 +55,14 @@ from torch import nn
 
 import spine_gym
 from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
+from spine_gym.envs import config_of
 
 from . import numpy_policy
 from .export_c import write_c
 from .numpy_policy import BUNDLE_FORMAT
 from .observations import HistoryObsPolicy, IntegralObsPolicy
 from .residual import ResidualPolicy
-from .runtime import SavedPolicy, load_policy, make_env
+from .runtime import SavedPolicy, load_policy
 from .zoo_config import ENV_ID
 
 __all__ = ["UnsupportedPolicyError", "actor_layers", "bundle_of", "export_policy", "write_onnx", "main"]
@@ -175,8 +176,8 @@ def _feature_names(features: list[dict], names: list[str], units: list[str]) -> 
 
 def _env_description(meta: dict, n_obs: int, n_act: int) -> dict:
     """Observation and action names and units from the env's table."""
-    env = make_env(meta.get("env_kwargs", {}), meta.get("env_id", ENV_ID))
-    table = env.config.table()
+    cfg = config_of(meta.get("env_id", ENV_ID), **meta.get("env_kwargs", {}))
+    table = cfg.table()
     names = [n for e in table.entries if e.obs is not None for n in e.names]
     units = [e.unit for e in table.entries if e.obs is not None for _ in e.names]
     if len(names) != n_obs:
@@ -188,9 +189,7 @@ def _env_description(meta: dict, n_obs: int, n_act: int) -> dict:
     act = (
         [n.replace("previous_", "") for n in prev[0].names] if prev else [f"action_{i}" for i in range(n_act)]
     )
-    v_max = float(getattr(env, "v_max", np.nan))
-    env.close()
-    return {"names": names, "units": units, "action_names": act, "v_max": v_max}
+    return {"names": names, "units": units, "action_names": act, "v_max": float(cfg.v_max)}
 
 
 def bundle_of(policy, source: str = "") -> tuple[dict, dict]:
