@@ -68,7 +68,7 @@ from bench_env import SEED, machine  # noqa: E402
 import spine_gym  # noqa: E402, F401 - registers the env ids
 from spine_gym.envs import readout as ro  # noqa: E402
 from spine_gym.envs import step_kernels as sk  # noqa: E402
-from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
+from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS  # noqa: E402
 from spine_gym.physics import env_kernels  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
