@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# A throwaway PostgreSQL server for the tests that need a real database (tests/test_design_postgres.py).
+# A throwaway PostgreSQL server for the tests that need a real database
+# (tests/design/test_design_postgres.py).
 #
 #   source .ci/postgres.sh && pg_tmp_start DIR    # installs Debian's postgresql if absent, starts a
 #                                                 # server in DIR (loopback + a socket in DIR only),

@@ -24,7 +24,7 @@ alternating call by call (which goes first swaps every repeat), best and median 
 Accuracy (the cores must agree, not only be timed): per workload the largest difference of the
 bending angle Θ (planar ``angle``; spatial tip bending vector, first component) and of the two wire
 temperatures over every output, control period and rollout step, against the gates of
-tests/test_spatial_coupled.py (SPATIAL.md §8.3: the two coupled steps linearise slightly
+tests/physics/test_spatial_coupled.py (SPATIAL.md §8.3: the two coupled steps linearise slightly
 differently, so their step sequences differ): |ΔT| < 1e-3 K everywhere; |ΔΘ| < 1e-4° for the
 smooth §10.2 drive (1.7e-5° measured over its 50 s), < 0.1° for drives that switch the wires (the
 gate of the whole §10.3 alternate drive, whose snap-through amplifies the difference to 0.006°).
@@ -72,7 +72,8 @@ DT = 0.1  # [s] the envs' default control period (one physics step per control p
 N_SPINES, PERIODS = 16, 200  # env-kernel workload: a native vector env's 16 spines over a 20-s episode
 V_MAX = 5.0  # [V] the envs' default v_max
 N_ROLLOUTS, HORIZON = 32, 30  # MPPIConfig defaults: 32 samples, 3-s horizon at 0.1 s
-# tests/test_spatial_coupled.py, SPATIAL.md §8.3: [deg] smooth drive, drives that switch the wires; [K]
+# tests/physics/test_spatial_coupled.py, SPATIAL.md §8.3: [deg] smooth drive, drives that switch the
+# wires; [K]
 GATE_SMOOTH_DEG, GATE_SWITCHING_DEG, GATE_TEMP_K = 1e-4, 0.1, 1e-3
 WORKLOADS = {  # name: (unit of the reported time, factor from seconds per call, angle gate [deg])
     "simulate": ("ms per 20-s run", 1e3, GATE_SMOOTH_DEG),

@@ -13,11 +13,11 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from repo import ROOT
 
 from spine_gym import cli
 from spine_gym.cli_conventions import ENV_IDS, KeyValues, did_you_mean
 
-ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 TAKES_ENV = ("train", "evaluate", "tune", "benchmark", "datasets")
 

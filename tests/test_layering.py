@@ -2,13 +2,14 @@
 gymnasium, torch or matplotlib); the envs need no RL stack."""
 
 import ast
-import pathlib
 import re
 import subprocess
 import sys
 import tomllib
 
-PHYSICS = pathlib.Path(__file__).resolve().parents[1] / "spine_gym" / "physics"
+from repo import ROOT
+
+PHYSICS = ROOT / "spine_gym" / "physics"
 ALLOWED = {"numpy", "numba", "math", "__future__", "functools"}
 
 
@@ -42,7 +43,7 @@ def test_simulate_pulls_in_no_torch_sb3_or_matplotlib():
 HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard")
 
 
-AGENTS = pathlib.Path(__file__).resolve().parents[1] / "spine_gym" / "agents"
+AGENTS = ROOT / "spine_gym" / "agents"
 CLIS = {"evaluate", "tune", "train", "select", "benchmark"}
 RUNTIME = {"runtime", "registry", "residual", "observations", "training", "benchmark_run", "zoo_config"}
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 import contextlib
 import io
 import re
-from pathlib import Path
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+from repo import ROOT
+
+README = ROOT / "README.md"
 PRINT_COMMENT = re.compile(r"^\s*print\(.*\)\s+#\s*(?P<expected>.+?)\s*$")
 
 

@@ -174,7 +174,7 @@ def test_frozen_scheme_converges_to_fine_step_reference_as_step_shrinks(fine_ref
 def test_coupled_scheme_converges_to_fine_step_reference_as_tolerance_tightens(fine_reference_12s):
     # the default step stepped to every output: within the 0.5° gate, and its error falls towards 0
     # as tol_x tightens (and as the sub-steps are capped: first order in h), while the number of
-    # sub-steps grows (with dense output: tests/test_dense_output.py)
+    # sub-steps grows (with dense output: tests/physics/test_dense_output.py)
     ref = fine_reference_12s
     errs, subs = [], []
     for tol in (1e-4, 1e-7, 1e-8):

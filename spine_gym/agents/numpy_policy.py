@@ -33,7 +33,7 @@ order of ``policy.json``'s ``features`` (the order :mod:`spine_gym.agents.train`
   the current one.
 
 They are re-implemented here from the JSON spec (those modules import Stable-Baselines3);
-``tests/test_export.py`` checks that an episode run through :meth:`ExportedPolicy.predict` gives
+``tests/agents/test_export.py`` checks that an episode run through :meth:`ExportedPolicy.predict` gives
 the same actions as the SB3 policy with its wrappers.
 """
 

@@ -37,7 +37,7 @@ given with ``--resume`` are appended and win): the checkpoint's weights, optimis
 the run's ``-n`` steps in all, so learning-rate and clip schedules and later checkpoints fall on the
 steps of an uninterrupted run. The envs restart their episodes from ``--seed`` and the random streams
 are seeded afresh, so the result is not the uninterrupted run's, but two resumes from one checkpoint
-give the same weights (``tests/test_train_resume.py``). Evaluations up to the checkpoint stay in
+give the same weights (``tests/agents/test_train_resume.py``). Evaluations up to the checkpoint stay in
 ``evaluations.npz`` and ``best_model.zip`` is replaced only by a better one.
 ``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
 normalisation statistics and step counter, the multiplier from ``lagrangian_init``.

@@ -41,11 +41,11 @@ spine does not see f_y, and the filter then keeps its prior). It also absorbs wh
 model gets wrong about the moment balance (the tube modulus of a randomised plant). The
 remaining difference ``measured − estimated angle`` is returned as :attr:`angle_offset` and used
 by MPC as an output disturbance. How well it recovers the
-fractions on seeded episodes is tested in ``tests/test_mpc.py`` and quoted in ``docs/agents.md``.
+fractions on seeded episodes is tested in ``tests/controllers/test_mpc.py`` and quoted in ``docs/agents.md``.
 
 :class:`SpatialPhaseEstimator` is the same estimator for ``SmaSpine3D-v0`` and
 ``SmaSpineChain-v0`` (every wire group of the layout, the spatial core, each wire's own length in
-the resistance inversion; tested in ``tests/test_mpc_spatial.py``).
+the resistance inversion; tested in ``tests/controllers/test_mpc_spatial.py``).
 """
 
 from __future__ import annotations

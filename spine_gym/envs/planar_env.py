@@ -145,7 +145,7 @@ class SmaSpineEnv(SpineEnv):
       sub-steps (MODEL.md §6.5) run inside each output step, so only the cost changes with it: an
       output step caps the sub-step, and nothing inside a control period is observed. Over the
       50-s hysteresis run the angle is within 0.23° of the fine-step reference at 0.1 s and 0.03°
-      at 0.01 s, which takes ~8× the sub-steps (``tests/test_env.py``).
+      at 0.01 s, which takes ~8× the sub-steps (``tests/envs/test_env.py``).
     * ``episode_duration`` [s]: a multiple of ``control_period``. Default 60.
     * ``target_range`` [deg]: (low, high) within ±60 for sampled targets. Default (-45, 45): the
       spine holds ±36° with a wire at ~395 K and ±45° at ~430 K (about the default limit); ±60°

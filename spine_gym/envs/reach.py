@@ -4,7 +4,7 @@ A row is a steady state of :func:`spine_gym.simulate_spatial` without load: the 
 direction heated from cold at a constant voltage for :data:`HOLD_S` seconds; the voltage that
 holds a bend Θ is found by bisection. ``python -m spine_gym.envs.reach`` recomputes the tables
 (about a minute); the numbers below are its output at the defaults and the env docstrings quote
-them (``tests/test_env_spatial.py`` checks rows against the model).
+them (``tests/envs/test_env_spatial.py`` checks rows against the model).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ its fast C path; :class:`.batch.TableBatch` holds them):
 * ``step``, ``mem``, ``spec``, ``out``: :data:`.readout.Step`, ``Memory``, ``Spec``, ``Out``.
 
 Each kernel is one body compiled twice, so that the serial and the parallel loop cannot differ
-(tests/test_vector_env.py compares them bit for bit): ``*_serial`` loops over the spines serially,
+(tests/envs/test_vector_env.py compares them bit for bit): ``*_serial`` loops over the spines serially,
 the other runs that loop with ``prange`` on all numba threads. A spine's probe and bookkeeping
 (:func:`.readout.planar_probe_row`, :func:`.readout.finish_row`) run inside the loop, right
 after its physics, on its own row of scratch: rows are independent, and run after the loop they

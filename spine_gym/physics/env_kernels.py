@@ -16,7 +16,7 @@ step (:mod:`spine_gym.envs.step_kernels`: inputs, physics, readings and bookkeep
 parallel loop run the same code; each twin has its own on-disk cache entry, ``_jit.pjit``, so a
 serial kernel never runs parallel machine code). No env calls them: they are the physics alone,
 which ``benchmarks/bench_training_share.py`` ("the kernel alone") and ``benchmarks/bench_env.py``
-time against the env, and ``tests/test_spatial.py`` compares ``step_many_spatial`` with single
+time against the env, and ``tests/physics/test_spatial.py`` compares ``step_many_spatial`` with single
 spines.
 
 :func:`step_spine_spatial`, ``step_many_spatial`` / ``step_many_spatial_serial`` are the same for

@@ -11,7 +11,7 @@ wires' accumulated Joule heat per unit volume [J/m^3] (the env's energy accounti
 last valid values for the rest of the horizon and reports the status, so the caller can reject it.
 
 Compiled twice from one body, so that the serial twin the tests compare the parallel loop with
-(tests/test_mpc.py) runs the same code: ``rollout_many`` runs the rollouts in parallel with
+(tests/controllers/test_mpc.py) runs the same code: ``rollout_many`` runs the rollouts in parallel with
 ``prange`` (dealt out to the threads one at a time, :mod:`._deal`: sampled voltage sequences
 differ in cost); ``rollout_many_serial`` is the serial twin.
 

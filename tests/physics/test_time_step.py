@@ -64,7 +64,8 @@ def test_stress_sensitivity_matches_re_solved_composite():
 def test_coupled_step_takes_about_one_sub_step_per_output_step_where_frozen_takes_many():
     # the stiff stress → rate feedback is damped by the step, not resolved: §10.2 at 8–12 s, where the
     # antagonist detwins through its unstable austenite (rate 1/τ), needs h = 0.1 ms frozen
-    # (stepped to every 10-ms output; with dense output it takes far fewer: tests/test_dense_output.py)
+    # (stepped to every 10-ms output; with dense output it takes far fewer:
+    # tests/physics/test_dense_output.py)
     vr = 3.2
     coupled = simulate(12.0, vr, 0.0, solver=SolverOptions(dense_output=False))
     frozen = simulate(12.0, vr, 0.0, solver=SolverOptions(scheme="frozen"))

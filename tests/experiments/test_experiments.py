@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from repo import ROOT
 
 from spine_gym import ModelParams, plotting, simulate
 from spine_gym import experiments as ex
@@ -34,7 +35,7 @@ def quick_run(tmp_path_factory):
         text=True,
         timeout=300,
         env=env,
-        cwd=Path(__file__).resolve().parents[1],
+        cwd=ROOT,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return out, proc

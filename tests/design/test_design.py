@@ -14,9 +14,9 @@ import math
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import pytest
+from repo import ROOT
 
 from spine_gym import SolverOptions
 from spine_gym.capacity import CapacityProtocol
@@ -38,7 +38,6 @@ from spine_gym.design.space import INF_VIOLATION, design_parameter_names
 from spine_gym.params import field_names
 from spine_gym.simulate import SimulationError
 
-ROOT = Path(__file__).resolve().parents[1]
 TINY = CapacityProtocol(t_stable=10.0, t_respond=6.0, t_load=4.0)  # ~15 ms per design
 INF_PROTO = CapacityProtocol(t_stable=20.0, t_respond=5.0, t_load=2.0)  # responding time never reached
 SHORT = CapacityProtocol(t_stable=20.0, t_respond=20.0, t_load=10.0)
@@ -155,7 +154,8 @@ def test_sweep_reproduces_model_md_10_4_trends():
 
     Compared to the table's printed precision, so with the sub-steps cut at every output step: dense
     output (the default) moves θ_s by up to 0.011°, inside the §10.4 tolerance of 0.5° that
-    test_experiments.py::test_reproduction_is_within_the_model_md_gates checks for the default.
+    tests/experiments/test_experiments.py::test_reproduction_is_within_the_model_md_gates checks for
+    the default.
     """
     stepped = SolverOptions(dense_output=False)
     ra = sweep({"a": [6e-3, 10e-3, 14e-3]}, n_workers=1, solver=stepped)

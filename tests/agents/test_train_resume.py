@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from repo import ROOT
 
 from spine_gym.agents.checkpoints import checkpoint_steps, latest_checkpoint
 
-ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 N = 2048  # env steps of the run: 1024 vector steps of 2 envs, 64 rollouts of 16 steps
 N_ENVS = 2

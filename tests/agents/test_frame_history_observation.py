@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 import torch
-from test_agents import TINY, run_cli
+from agent_cli import TINY, run_cli
 
 from spine_gym.agents.observations import (
     HistoryObsPolicy,

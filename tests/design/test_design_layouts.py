@@ -12,16 +12,15 @@ import csv
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from repo import ROOT
 
 from spine_gym import ModelParams, SpineLayout
 from spine_gym.capacity import CapacityProtocol
 from spine_gym.design import DesignProblem, SweepResult, make_design, optimize, sweep
 from spine_gym.design.plots import plot_sweep
 
-ROOT = Path(__file__).resolve().parents[1]
 SHORT = CapacityProtocol(t_stable=20.0, t_respond=20.0, t_load=10.0)
 TINY = CapacityProtocol(t_stable=10.0, t_respond=6.0, t_load=4.0)
 

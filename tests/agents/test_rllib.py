@@ -13,10 +13,10 @@ import math
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from repo import ROOT
 
 pytest.importorskip("ray.rllib", reason="ray[rllib] is not installed (it runs in .venv-rllib, see .ci/run)")
 
@@ -24,7 +24,6 @@ from spine_gym.agents.rllib_ppo import FrozenObsNorm, RLlibPolicy, build_config,
 from spine_gym.agents.scenarios import get_suite  # noqa: E402
 from spine_gym.envs import OBS_NAMES  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ["--env-runners", "2", "--envs-per-runner", "2", "--rollout-fragment-length", "32",
          "--num-epochs", "1", "--num-cpus", "2", "--suite", "quick"]  # fmt: skip
 BATCH = 2 * 2 * 32  # env steps per iteration

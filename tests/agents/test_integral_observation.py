@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 import torch
+from agent_cli import TINY, run_cli
 from studies import load_study
-from test_agents import TINY, run_cli
 
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv
 from spine_gym.agents.observations import (

@@ -19,13 +19,13 @@ import uuid
 from pathlib import Path
 
 import pytest
+from repo import ROOT
 from sqlalchemy.engine import make_url
 
 PG_URL = os.environ.get("SPINE_GYM_TEST_PG_URL")
 pytestmark = pytest.mark.skipif(
     not PG_URL, reason="SPINE_GYM_TEST_PG_URL is not set (no PostgreSQL server; .ci/run starts one)"
 )
-ROOT = Path(__file__).resolve().parents[1]
 # a random sampler seeded per worker (seed + i) draws the same designs whatever the interleaving of
 # the two processes, so the set of trials is reproducible across storages
 PROBLEM = [

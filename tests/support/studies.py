@@ -2,9 +2,10 @@
 
 import importlib.util
 import sys
-from pathlib import Path
 
-STUDIES = Path(__file__).resolve().parents[1] / "scripts" / "studies"
+from repo import ROOT
+
+STUDIES = ROOT / "scripts" / "studies"
 
 
 def load_study(name: str):

@@ -7,10 +7,10 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from repo import ROOT
 
 from spine_gym.agents import evaluate as ev
 from spine_gym.agents import registry
@@ -19,7 +19,6 @@ from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
 from spine_gym.agents.tune import TRAIN_SEED_BASE, tune
 from spine_gym.agents.zoo_config import CHAIN_ENV_ID, POLICIES_DIR, SPATIAL_ENV_ID
 
-ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 SPATIAL_IDS = (SPATIAL_ENV_ID, CHAIN_ENV_ID)
 

@@ -5,12 +5,12 @@ distribution; every id passes Gymnasium's and SB3's checkers and its vector env 
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from repo import ROOT
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 from spine_gym.envs import BENCHMARK_IDS, ENV_SPECS, base_id, family_of, tier_of
@@ -131,5 +131,5 @@ def test_observe_errors_must_be_a_bool():
 
 
 def test_the_docs_list_every_id_as_registered():
-    docs = (Path(__file__).parent.parent / "docs" / "envs.md").read_text()
+    docs = (ROOT / "docs" / "envs.md").read_text()
     assert markdown_table() in docs

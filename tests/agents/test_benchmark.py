@@ -9,10 +9,10 @@ import shutil
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+from repo import ROOT
 from rliable import library as rly
 from rliable import metrics as rly_metrics
 
@@ -23,7 +23,6 @@ from spine_gym.agents.runtime import load_policy, validation_metrics
 from spine_gym.agents.training import action_noise, resolve_config
 from spine_gym.agents.zoo_config import ALGOS, ENV_IDS, load_hyperparams
 
-ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 
 

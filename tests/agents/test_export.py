@@ -19,6 +19,7 @@ import numpy as np
 import onnxruntime as ort
 import pytest
 import torch
+from repo import ROOT
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
@@ -36,7 +37,6 @@ from spine_gym.agents.observations import (
 from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env
 from spine_gym.agents.scenarios import get_suite
 
-ROOT = Path(__file__).resolve().parents[1]
 POLICIES = ROOT / "spine_gym" / "agents" / "policies"
 TOL = 1e-5
 CLIP_OBS = 3.0

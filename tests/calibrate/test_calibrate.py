@@ -15,6 +15,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from repo import ROOT
 
 import spine_gym  # noqa: F401  (registers SmaSpine-v0)
 from spine_gym import ModelParams, simulate
@@ -24,7 +25,6 @@ from spine_gym.calibrate.model import Evaluator
 from spine_gym.params import load_preset
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
-ROOT = Path(__file__).resolve().parents[1]
 BASE = ModelParams()
 T_DIRECTION = {"T_low": 1.0, "T_high": 1.0}
 # the known perturbation of the identifiability test

@@ -7,8 +7,8 @@ steps sampled, on both nodes.
 
 The cluster lives in a temp dir (its own ``HOME`` for the token, its own ``--temp-dir``) on ports
 picked free, not Ray's defaults; whatever happens, its processes (those whose command line names the
-temp dir) are stopped by id (tests/ray_cluster.py); ``ray stop`` is not used: it stops every Ray process of
-the machine.
+temp dir) are stopped by id (tests/support/ray_cluster.py); ``ray stop`` is not used: it stops every
+Ray process of the machine.
 
 Runs where ``ray[rllib]`` is installed (``.ci/run``'s ``.venv-rllib``); skipped in the main venv.
 """
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import pytest
 from ray_cluster import cluster_pids, free_ports, node_ports, stop_cluster
+from repo import ROOT
 
 pytest.importorskip("ray.rllib", reason="ray[rllib] is not installed (it runs in .venv-rllib, see .ci/run)")
 
-ROOT = Path(__file__).resolve().parents[1]
 RAY = str(Path(sys.executable).with_name("ray"))
 ITERATIONS = 2
 BATCH = 2 * 2 * 32  # runners x sub-envs x fragment

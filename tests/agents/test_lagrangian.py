@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 import torch
-from test_agents import TINY, run_cli
+from agent_cli import TINY, run_cli
 
 from spine_gym.agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
 from spine_gym.agents.runtime import build_controller, make_env, validation_scores

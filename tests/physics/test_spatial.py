@@ -37,7 +37,7 @@ from spine_gym.physics.stability import solve_in_place
 from spine_gym.simulate_spatial import SpatialResult
 
 # deterministic 1-ms sub-steps of the frozen scheme (MODEL.md §6.1), pinned: both cores implement
-# both schemes; the default coupled one is checked in tests/test_spatial_coupled.py
+# both schemes; the default coupled one is checked in tests/physics/test_spatial_coupled.py
 FIXED = SolverOptions(scheme="frozen", step_c=math.inf, h_max=1e-3)
 ADAPTIVE = SolverOptions(scheme="frozen")  # the adaptive frozen scheme (the round-off sensitive one)
 PLANAR_LAYOUTS = {"pair": SpineLayout.planar(), "four_wires": SpineLayout.planar(neutral_wires=True)}

@@ -14,11 +14,11 @@ import pickle
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from repo import ROOT
 
 pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (it comes with the rl extra)")
 pytest.importorskip("requests", reason="requests is not installed (rl_zoo3.enjoy needs it; rl extra)")
@@ -26,7 +26,6 @@ pytest.importorskip("requests", reason="requests is not installed (rl_zoo3.enjoy
 from spine_gym.agents.runtime import load_policy  # noqa: E402
 from spine_gym.envs import ENV_ID  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 ZOO = ["--algo", "ppo", "--env", ENV_ID, "--gym-packages", "spine_gym"]
 
 

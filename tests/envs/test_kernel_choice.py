@@ -11,10 +11,10 @@ import pickle
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+from repo import ROOT
 
 import spine_gym  # noqa: F401 - registers the envs
 from spine_gym.envs import SmaSpineVectorEnv
@@ -166,7 +166,7 @@ def _launch(extra_env: dict) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
     return subprocess.run(
         [sys.executable, "-c", SHOW_POLICY],
-        cwd=Path(__file__).resolve().parents[1],
+        cwd=ROOT,
         capture_output=True,
         text=True,
         timeout=120,

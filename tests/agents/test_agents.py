@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from agent_cli import ENV, TINY, run_cli
+from repo import ROOT
 
 from spine_gym.agents import evaluate as ev
 from spine_gym.agents.metrics import Trajectory, episode_metrics, settling_times
@@ -19,18 +19,7 @@ from spine_gym.agents.scenarios import EVAL_SEED_BASE, get_suite
 from spine_gym.agents.tune import TRAIN_SEED_BASE, load_tuned, tune
 from spine_gym.agents.zoo_config import POLICIES_DIR, StoreDict, load_hyperparams, preprocess_hyperparams
 
-ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
-
-
-def run_cli(*args, cwd=ROOT, timeout=240):
-    proc = subprocess.run([sys.executable, *args], cwd=cwd, env=ENV, capture_output=True, text=True, timeout=timeout)
-    assert proc.returncode == 0, f"{args} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
-    return proc
-
-
 # --------------------------------------------------------------------------- training smoke runs
-TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-episodes", "1", "-v", "0"]
 
 
 def test_train_ppo_smoke_run_and_resume(tmp_path):
@@ -190,7 +179,8 @@ def test_evaluate_cli_writes_tables_csv_and_plots(tmp_path):
 
 
 # --------------------------------------------------------------------------- shipped policies
-SHIPPED = sorted(ev.shipped_policies())  # the SmaSpine-v0 policies (tests/test_agents_spatial.py: the others)
+# the SmaSpine-v0 policies (tests/agents/test_agents_spatial.py: the others)
+SHIPPED = sorted(ev.shipped_policies())
 
 
 def test_policies_are_shipped_small_and_documented():

@@ -2,8 +2,8 @@
 
 Accuracy is checked against the fine-step reference of MODEL.md §6.2 (:data:`FINE_REFERENCE`), never
 against the dense run's own output; the MODEL.md §10.2–§10.4 rows and the energy balance with the
-new default are the existing tests of ``test_simulate.py`` (they run the default options). Here: the
-gate at every output, the equivalence with per-output stepping where the inputs change at every
+new default are the existing tests of ``tests/test_simulate.py`` (they run the default options). Here:
+the gate at every output, the equivalence with per-output stepping where the inputs change at every
 output, the outputs at sub-step ends, convergence, and the options.
 """
 

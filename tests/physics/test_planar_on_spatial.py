@@ -1,7 +1,7 @@
 """The env's and the MPC's kernels agree on the two-wire planar spine whichever core runs it.
 
 ``SpineLayout.planar()`` on the spatial core against the planar core, both with the default coupled
-step, at the gates of tests/test_spatial_coupled.py (SPATIAL.md §8.3; that file compares
+step, at the gates of tests/physics/test_spatial_coupled.py (SPATIAL.md §8.3; that file compares
 ``simulate``): |ΔT| < 1e-3 K, and |ΔΘ| < 0.1°, the gate of drives that switch the wires through
 their transformation onsets (the two steps linearise slightly differently and the onsets amplify
 it; 1e-4° is the smooth drive's). Here the env's control-period kernels (``env_kernels``, an

@@ -7,7 +7,7 @@ steps) is run three ways: locally in one process; on a Ray head started with ``r
 ``--address 127.0.0.1:PORT``; and, for the SAC run only (its folder removed), with ``--address local``
 (a Ray instance started by the driver). Every evaluation's numbers (step, RMSE, energy, time over the
 limit) must be equal; the training times may differ. Whatever happens, the Ray processes (those
-whose command line names the temp dir) are stopped by id (tests/ray_cluster.py), never by
+whose command line names the temp dir) are stopped by id (tests/support/ray_cluster.py), never by
 ``ray stop``.
 
 Runs where Ray is installed (``.ci/run``'s ``.venv-rllib``); skipped in the main venv.
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import pytest
 from ray_cluster import cluster_pids, free_ports, node_ports, stop_cluster
+from repo import ROOT
 
 pytest.importorskip("ray", reason="Ray is not installed (it runs in .venv-rllib, see .ci/run)")
 
-ROOT = Path(__file__).resolve().parents[1]
 RAY = str(Path(sys.executable).with_name("ray"))
 ENV_ID = "SmaSpineEasy-v1"
 PLAN = ["--quick", "--envs", ENV_ID, "--algos", "ppo", "sac"]
