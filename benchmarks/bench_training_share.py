@@ -18,7 +18,7 @@ and 1 → 2 numba threads. One command prints all three against their targets.
 2. **Native vector env per core vs the kernel alone** (target: within 10 %, native rate ≥ 0.9 ×
    kernel rate), for every env id: ``gym.make_vec(env_id, num_envs=N, parallel=False)`` with numba
    on 1 thread, from the warm regime (``--warm`` untimed steps), ``--steps`` timed steps; the
-   kernel alone is the physics alone (``env_kernels.step_many_serial`` or its spatial twin)
+   kernel alone is the physics alone (``spine_loops.step_many_serial`` or its spatial twin)
    replaying the steps the native env made (the voltages, loads and resolve flags its calls
    computed, on the same start states, checked bit for bit at the end): same states, same
    steps, no bookkeeping and no Python in between. Best of ``--repeats`` interleaved runs.
@@ -41,6 +41,7 @@ The load average at start and end is recorded. Writes ``benchmarks/results/train
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_training_share.py --rollouts 6   # ~5-10 min loaded
     .venv/bin/python benchmarks/bench_training_share.py --omp-passive --tag _passive
+    .venv/bin/python benchmarks/bench_training_share.py --plot-only   # the .png from the recorded .json
 """
 
 from __future__ import annotations
@@ -64,12 +65,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling bench_env (also as a module)
 
 from bench_env import SEED, machine  # noqa: E402
+from spine_loops import step_many, step_many_serial, step_many_spatial_serial  # noqa: E402
 
 import spine_gym  # noqa: E402, F401 - registers the env ids
 from spine_gym.envs import readout as ro  # noqa: E402
 from spine_gym.envs import step_kernels as sk  # noqa: E402
 from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS  # noqa: E402
-from spine_gym.physics import env_kernels  # noqa: E402
+from spine_gym.physics.planar.control import step_spine  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
@@ -227,7 +229,7 @@ def time_native(venv, acts: np.ndarray, warm: int) -> tuple[float, float]:
 
 def physics_call(fn, args) -> tuple:
     """The physics alone of one step kernel call ``fn(*args)`` made by the env (after it returned):
-    ``env_kernels.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
+    ``spine_loops.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
     flags that call computed, on the same arrays; per-call inputs copied."""
     rows, _, drive, plant, step, _, _, _ = args
     st = ro.Step(*step)
@@ -235,15 +237,15 @@ def physics_call(fn, args) -> tuple:
     active[rows] = True
     resolve = drive[3].copy()
     if fn in PLANAR_KERNELS:
-        p = dict(zip(sk.PLANAR_PLANT, plant, strict=True))
+        p = sk.PlanarPlant(*plant)
         volts = (st.volts[:, 0].copy(), st.volts[:, 1].copy())
-        kernel, head = env_kernels.step_many_serial, (p["kps"], p["ks"])
+        kernel, head = step_many_serial, (p.kps, p.ks)
     else:
-        p = dict(zip(sk.SPATIAL_PLANT, plant, strict=True))
+        p = sk.SpatialPlant(*plant)
         volts = (st.volts.copy(),)
-        kernel, head = env_kernels.step_many_spatial_serial, (p["kps"], p["ks"], p["kws"], p["kms"])
-    tail = (st.loads.copy(), resolve, active, p["physics_dt"], p["n_sub"], st.status, p["meas"])
-    return kernel, (p["states"], p["backup"], *head, *volts, *tail)
+        kernel, head = step_many_spatial_serial, (p.kps, p.ks, p.kws, p.kms)
+    tail = (st.loads.copy(), resolve, active, p.physics_dt, p.n_sub, st.status, p.meas)
+    return kernel, (p.states, p.backup, *head, *volts, *tail)
 
 
 def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.ndarray, np.ndarray]:
@@ -342,18 +344,18 @@ def thread_scaling(sizes: list[int], warm: int, steps: int, repeats: int, n_thre
 
 @numba.njit(parallel=True)
 def _fixed_blocks(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
-    """``env_kernels.step_many`` as it was before its rows were dealt out (``physics._deal``): numba's
+    """``spine_loops.step_many`` as it was before its rows were dealt out (``physics._deal``): numba's
     own ``prange`` schedule, one fixed block of rows per thread (the peer of item 3)."""
     for i in numba.prange(states.shape[0]):
         if active[i]:
-            status[i] = env_kernels.step_spine(
+            status[i] = step_spine(
                 states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
             )
 
 
 def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) -> dict:
     """Env steps/s of SmaSpine-v0's physics alone (item 2's recorded calls, replayed through the
-    parallel kernel ``env_kernels.step_many``, rows dealt out one at a time) on 1 and ``n_threads``
+    parallel kernel ``spine_loops.step_many``, rows dealt out one at a time) on 1 and ``n_threads``
     numba threads, and the same with fixed blocks of rows per thread (:func:`_fixed_blocks`),
     interleaved."""
     numba.set_num_threads(1)
@@ -361,7 +363,7 @@ def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) 
     venv = gym.make_vec("SmaSpine-v0", num_envs=n, parallel=False)
     calls, start, final = record_kernel_calls(venv, acts, warm)
     venv.close()
-    kernels = {"dealt": env_kernels.step_many, "blocks": _fixed_blocks}
+    kernels = {"dealt": step_many, "blocks": _fixed_blocks}
     replays = {key: [(fn, args) for _, args in calls] for key, fn in kernels.items()}
     for key in replays:
         time_replay(replays[key], start, final)  # untimed: compiles the parallel replay
@@ -479,10 +481,7 @@ def plot(res: dict, path: Path) -> None:
     ax3.set_title("serial vs parallel kernel, 1 and 2 numba threads")
     ax3.legend(fontsize=8)
     ax3.grid(True, which="both", alpha=0.3)
-    la = res["machine"]["load_average_start"][0]
-    fig.suptitle(
-        f"env targets ({res['machine']['cpu_count']} cores, load average {la:.1f} at start)"
-    )
+    fig.suptitle(f"the env's share of PPO training and its speed ({res['machine']['cpu_count']} cores)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -564,7 +563,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--omp-passive", action="store_true", help="OMP_WAIT_POLICY=PASSIVE (see bench_env.py)")
     ap.add_argument("--tag", default="", help="suffix of the output file names")
+    ap.add_argument(
+        "--plot-only", action="store_true", help="redraw the .png from the recorded .json; measure nothing"
+    )
     args = ap.parse_args(argv)
+    if args.plot_only:
+        js, png = args.out / f"training_share{args.tag}.json", args.out / f"training_share{args.tag}.png"
+        plot(json.loads(js.read_text()), png)
+        print(f"wrote {png} from {js}")
+        return 0
     for name in ("rollouts", "steps", "repeats", "warm"):
         if getattr(args, name) < (0 if name == "warm" else 1):
             ap.error(f"--{name} must be >= {0 if name == 'warm' else 1}, got {getattr(args, name)}")

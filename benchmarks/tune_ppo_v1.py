@@ -17,7 +17,9 @@ measured exactly as the benchmark measures them (validation time excluded, torch
         --candidates batch512_epochs5_envs16 batch512_epochs5_lr6e-4 batch512_epochs5_envs32 \
         batch1024_epochs5_envs16 batch512_epochs5_envs16_steps64 batch512_epochs5_envs16_steps32
 
-Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``).
+Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``); the
+runs' records are kept there as ``records.tar.xz`` (:mod:`spine_gym.agents.benchmark_records`),
+unpacked on start, so ``--summary-only`` rewrites the summary from them.
 The PID's validation scores are read from the benchmark's reference cache
 (``benchmarks/results/rl_benchmark/references``), computed there if missing.
 """
@@ -35,6 +37,7 @@ import torch
 
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.benchmark import reference_scores
+from spine_gym.agents.benchmark_records import restore_records
 from spine_gym.agents.benchmark_run import RunSpec, read_curve, run_one
 from spine_gym.agents.training import resolve_config
 from spine_gym.envs import BENCHMARK_IDS
@@ -159,6 +162,7 @@ def main() -> None:
     if any(0 <= s < 5 for s in args.seeds):
         p.error(f"--seeds must avoid the benchmark's seeds 0-4, got {args.seeds}")
     runs = plan(args.candidates, args.seeds, args.eval_freq, args.envs)
+    restore_records(OUT)  # the study's runs of records.tar.xz, as run folders
     if not args.summary_only:
         run(runs, args.workers)
     write(summarise(runs))

@@ -37,10 +37,6 @@ exclude_patterns = [
     "Thumbs.db",
     ".DS_Store",
     "**.ipynb_checkpoints",
-    # data and study folders: CSV, PNG and scripts (docs/calibration/spatial/report.md is a page)
-    "ceiling/**",
-    "policy_selection_budget/**",
-    "policy_selection_dagger/**",
 ]
 
 # MyST: headings get anchors (links such as agents.md#some-heading), $…$ maths, ::: fences.
@@ -66,5 +62,8 @@ napoleon_use_rtype = False
 
 html_theme = "furo"
 html_title = f"spine_gym {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+# wide tables: a scroll hint; figures: at most the page's width (docs/_static/spine_docs.*)
+html_css_files = ["spine_docs.css"]
+html_js_files = ["spine_docs.js"]
 html_theme_options = {"navigation_with_keys": True}

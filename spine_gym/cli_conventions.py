@@ -1,9 +1,11 @@
 """The conventions every command line of spine_gym shares (``spine-gym <command>`` and the
 ``python -m`` modules behind it).
 
+* :data:`PROG` — the program name, ``spine-gym`` (a command's is ``spine-gym <command>``), and
+  :func:`module_prog` — the ``python -m <module>`` name each command also runs under;
 * :class:`Parser` — argparse with one-line usage errors (exit status 2, before any side effect),
-  the defaults shown in ``--help`` and an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
-  one command a line);
+  the defaults shown in ``--help``, an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
+  one command a line) and no abbreviated options (``--n-timestep`` is not ``--n-timesteps``);
 * :func:`add_env` — ``--env`` with the registered spine ids as choices, a misspelt id answered with
   "did you mean ...";
 * :class:`KeyValues` — ``--env-kwargs``/``--hyperparams`` pairs as ``key=value`` or RL Zoo's
@@ -33,6 +35,8 @@ from gymnasium.envs.registration import load_env_creator
 from spine_gym.envs import ENV_SPECS, config_of  # registers the spine envs
 
 __all__ = [
+    "PROG",
+    "module_prog",
     "ENV_IDS",
     "HelpFormatter",
     "Parser",
@@ -52,6 +56,15 @@ __all__ = [
     "usage_errors",
 ]
 
+#: the program name of the command line (``spine-gym <command>`` for a command)
+PROG = "spine-gym"
+
+
+def module_prog(module: str) -> str:
+    """The ``python -m`` program name of a command's module (a package's ``__main__``: the package)."""
+    return "python -m " + module.removesuffix(".__main__")
+
+
 #: every registered spine env id (the ``--env`` choices)
 ENV_IDS: tuple[str, ...] = tuple(i for i in gym.envs.registry if "Spine" in i) or tuple(ENV_SPECS)
 
@@ -69,11 +82,12 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (``<prog>: error: <message>`` on stderr, exit status 2),
-    :class:`HelpFormatter` and ``examples`` as the epilog (commands: a text block with one a line,
-    or a sequence of lines)."""
+    :class:`HelpFormatter`, ``examples`` as the epilog (commands: a text block with one a line,
+    or a sequence of lines) and options only by their full names (``allow_abbrev=False``)."""
 
     def __init__(self, *args, examples: str | Sequence[str] = (), **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         if "\n" not in kwargs.get("description", "\n"):
             kwargs["description"] = textwrap.fill(kwargs["description"], 100)
         lines = examples.strip("\n").splitlines() if isinstance(examples, str) else examples

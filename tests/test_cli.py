@@ -116,6 +116,43 @@ def test_bad_input_is_one_line_exit_2_and_creates_nothing(argv, message, tmp_pat
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("argv", [["train", "--n-timestep", "10"], ["train", "--algo", "ppo", "--n-timestep", "10"]])
+def test_an_abbreviated_option_is_refused_not_taken_for_the_full_one(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert run([*argv, "-o", "out"]) == 2
+    err = capsys.readouterr().err
+    assert err == "spine-gym train: error: unrecognized arguments: --n-timestep 10\n"
+    assert not list(tmp_path.iterdir())
+
+
+def _parsers(parser: argparse.ArgumentParser):
+    yield parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                yield from _parsers(sub)
+
+
+@pytest.mark.parametrize(
+    "module", [c.module for c in cli.COMMANDS.values()] + ["spine_gym.agents.behaviour_cloning", "spine_gym.cli"]
+)
+def test_no_parser_takes_abbreviated_options(module):
+    parsers = list(_parsers(importlib.import_module(module).build_parser()))
+    assert parsers and all(p.allow_abbrev is False for p in parsers), [p.prog for p in parsers if p.allow_abbrev]
+
+
+def test_version_prints_the_package_version(capsys):
+    import spine_gym
+
+    assert run(["--version"]) == 0
+    assert capsys.readouterr().out == f"spine-gym {spine_gym.__version__}\n"
+
+
+def test_the_program_name_is_set_once():
+    assert cli.build_parser().prog == cli.PROG == "spine-gym"
+    assert cli.prog_of("train") == "spine-gym train"
+
+
 def test_tune_refuses_an_existing_file_without_overwrite(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     target = tmp_path / "tuned.yml"

@@ -10,7 +10,14 @@ TESTS = ROOT / "tests"
 PACKAGE = ROOT / "spine_gym"
 HELPERS = TESTS / "support"
 # top-level test files that check the repository as a whole rather than one module
-REPOSITORY_CHECKS = {"test_readme.py", "test_notebook.py", "test_layering.py", "test_test_folders.py"}
+REPOSITORY_CHECKS = {
+    "test_readme.py",
+    "test_notebook.py",
+    "test_layering.py",
+    "test_test_folders.py",
+    "test_docs_env_pages.py",  # the documentation site's env pages against gymnasium.make
+    "test_docs_browser.py",  # the documentation site in a browser
+}
 
 
 def _test_folders():

@@ -1,8 +1,8 @@
 """Sphinx extension of the spine_gym docs: pages generated at build time (all gitignored).
 
-* ``docs/envs/<id>.md`` — one page per registered env id (``spine_gym.envs.ids.ENV_SPECS``), made
-  of a table of what the id's registration sets (family, version, tier, keyword arguments) and the
-  entry point's class docstring, which is the env's documentation page (Gymnasium's convention).
+* ``docs/envs/<id>.md`` — one page per registered env id (``spine_gym.envs.ids.ENV_SPECS``): its
+  observation and action spaces, reward coefficients and task settings read from
+  ``gymnasium.make(id)``, and the entry point's class docstring (:mod:`env_pages`).
 * ``docs/envs/index.md`` — the table of every id and the toctree of those pages.
 * ``docs/notebooks/*.ipynb`` — copies of ``notebooks/*.ipynb`` (the source directory is ``docs/``),
   rendered by myst-nb from their stored outputs.
@@ -14,10 +14,10 @@ In the API reference an env class's docstring is replaced by a link to its env p
 from __future__ import annotations
 
 import functools
-import importlib
-import inspect
 import shutil
 from pathlib import Path
+
+import env_pages
 
 DOCS = Path(__file__).resolve().parents[1]
 ROOT = DOCS.parent
@@ -30,47 +30,11 @@ def _write_if_changed(path: Path, text: str) -> None:
         path.write_text(text, encoding="utf-8")
 
 
-def _entry_class(entry_point: str):
-    module, name = entry_point.split(":")
-    return getattr(importlib.import_module(module), name)
-
-
-def _value(v) -> str:
-    return f"`{v!r}`".replace("|", "\\|")
-
-
 def env_page(spec) -> str:
-    """The Markdown page of one :class:`spine_gym.envs.ids.EnvSpec`."""
+    """The Markdown page of one :class:`spine_gym.envs.ids.EnvSpec` (:func:`env_pages.env_page`)."""
     from spine_gym.envs.ids import _TRACKS
 
-    cls = _entry_class(spec.entry_point)
-    doc = inspect.cleandoc(cls.__doc__ or "")
-    summary, _, body = doc.partition("\n\n")
-    lines = [
-        f"# {spec.id}",
-        "",
-        summary.strip(),
-        "",
-        "| property | value |",
-        "|---|---|",
-        f"| make | `gymnasium.make(\"{spec.id}\")`, `gymnasium.make_vec(\"{spec.id}\", num_envs=N)` |",
-        f"| class | `{cls.__module__}.{cls.__qualname__}` |",
-        f"| vector class | `{spec.vector_entry_point.replace(':', '.')}` |",
-        f"| family | {spec.family} (tracks the {_TRACKS[spec.family]}) |",
-        f"| version | v{spec.version} |",
-        f"| tier | {spec.tier} |",
-        "",
-        "## Keyword arguments of the registration",
-        "",
-    ]
-    if spec.kwargs:
-        lines += ["| keyword argument | value |", "|---|---|"]
-        lines += [f"| `{k}` | {_value(v)} |" for k, v in spec.kwargs.items()]
-        lines += ["", "Any other keyword argument of the class keeps its default; all can be overridden in `make`."]
-    else:
-        lines += ["None: the class defaults. Any keyword argument of the class can be passed to `make`."]
-    lines += ["", body.strip(), ""]
-    return "\n".join(lines)
+    return env_pages.env_page(spec, _TRACKS[spec.family])
 
 
 def envs_index(specs) -> str:
@@ -79,16 +43,18 @@ def envs_index(specs) -> str:
     lines = [
         "# Environment ids",
         "",
-        "One page per registered id, generated from the class docstring of its entry point and the",
-        "keyword arguments its registration passes (`spine_gym.envs.ids.ENV_SPECS`). The user guide to",
-        "the environments is [Environments](../envs.md).",
+        "One page per registered id, generated when the site is built: its spaces, reward coefficients",
+        "and settings from `gymnasium.make(id)`, the rest from the class docstring of its entry point.",
+        "The user guide to the environments is [Environments](../envs.md).",
         "",
-        "| id | tracks | version | tier | keyword arguments set |",
-        "|---|---|---|---|---|",
+        "| id | tracks | version | tier | observation | keyword arguments set |",
+        "|---|---|---|---|---|---|",
     ]
     for s in specs:
-        n = len(s.kwargs)
-        lines.append(f"| [{s.id}]({s.id}.md) | {_TRACKS[s.family]} | v{s.version} | {s.tier} | {n or 'none'} |")
+        n, shape = len(s.kwargs), env_pages.observation_shape(s.id)
+        link = f"[{s.id}]({s.id}.md)"
+        cells = [link, _TRACKS[s.family], f"v{s.version}", s.tier, f"`{shape}`", str(n or "none")]
+        lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "```{toctree}", ":hidden:", ""] + [s.id for s in specs] + ["```", ""]
     return "\n".join(lines)
 
@@ -121,7 +87,7 @@ def _env_classes() -> dict[object, str]:
 
     pages: dict[object, str] = {}
     for s in ENV_SPECS.values():
-        pages.setdefault(_entry_class(s.entry_point), s.id)
+        pages.setdefault(env_pages.entry_class(s.entry_point), s.id)
     return pages
 
 
@@ -135,7 +101,31 @@ def env_docstring(app, what, name, obj, options, lines) -> None:
         lines[:] = [first, "", f"The documentation page of this class is :doc:`/envs/{pages[obj]}`.", ""]
 
 
+def viewcode_backlinks(app, env) -> None:
+    """``env-updated``: make viewcode's source pages link back to anchors that exist.
+
+    viewcode keeps one prefix per source module for the links from its source page back to the
+    documentation (``#<prefix>.<name>``): the module under which the first object of it was
+    documented. When an object is documented under a module that re-exports it (``spine_gym.envs``
+    for ``spine_gym.envs.ids.EnvSpec``) before the defining module's own objects, every link back
+    gets the wrong prefix. Here each module gets the candidate prefix (its recorded one, or its own
+    name) under which most of its documented names exist. Modules viewcode could not read
+    (``builtins``) are dropped: the index of source pages would link to a page that is not written.
+    """
+    modules = getattr(env, "_viewcode_modules", {})
+    objects = env.get_domain("py").objects
+    for modname in list(modules):
+        entry = modules[modname]
+        if not entry:
+            del modules[modname]
+            continue
+        code, tags, used, refname = entry
+        best = max((refname, modname), key=lambda p: sum(f"{p}.{n}" in objects for n in used))
+        modules[modname] = (code, tags, used, best)
+
+
 def setup(app):
     app.connect("builder-inited", generate)
     app.connect("autodoc-process-docstring", env_docstring)
+    app.connect("env-updated", viewcode_backlinks)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}

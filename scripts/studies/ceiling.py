@@ -2,9 +2,8 @@
 
 A study, not part of the runtime: it informed the decision that a 0.7 × PID RMSE at ≤ the PID's
 energy is not a ceiling the validation distributions allow a planner to reach, so the learned
-policies were not held to it there (``docs/agents.md``, "Is the target reachable at all?" and "Why
-the ceiling study and the suite disagree about the oracle"; results in ``docs/ceiling/``). Run it
-from the repository root.
+policies were not held to it there (the page, table and figure: ``docs/studies/ceiling/``; the causal
+planner's runs: ``docs/studies/causal_planner.md``). Run it from the repository root.
 
 Example::
 

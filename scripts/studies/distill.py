@@ -2,8 +2,7 @@
 
 A study, not part of the runtime: it informed the decision not to ship a distilled policy (the
 students and their PPO fine-tunes did not beat the shipped ``ppo_bud`` on the selection rule;
-``docs/agents.md``, "Distillation from the oracle MPC", and ``spine_gym/agents/policies/COMMANDS.md``,
-"Distillation", for the runs). Run it from the repository root; the regression it fits with is
+``docs/studies/distillation/``: the runs, their commands, the rule and the scores). Run it from the repository root; the regression it fits with is
 :func:`spine_gym.agents.behaviour_cloning.fit_student`.
 
 Example::

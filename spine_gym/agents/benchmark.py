@@ -19,7 +19,7 @@ position), electrical energy [J] and time over the temperature limit [s] per epi
 training wall and CPU time (validation excluded).
 
 The reference controllers (the tuned ``pid``, ``mpc_estimated``, ``mpc_oracle`` of
-:func:`spine_gym.controllers.registry.registry_for`) run the same validation episodes once per env id (the PID
+:func:`spine_gym.agents.registry.registry_for`) run the same validation episodes once per env id (the PID
 all of them, the MPC the first ``--reference-episodes``); they are cached in the output folder.
 
 The runs themselves (training, validation, the process pool and Ray) are
@@ -31,6 +31,9 @@ Output folder (``--out``, default ``results/benchmark``):
   comes), ``model.zip`` + ``vecnormalize.pkl`` + ``meta.json`` (loadable with
   :func:`spine_gym.agents.runtime.load_policy`), ``done.json`` (the run's settings and result; a run that
   has it is skipped on the next invocation, one without it starts over);
+* ``records.tar.xz`` (a study's folder only) — its runs' records (``curve.csv``, ``meta.json``,
+  ``done.json``) as one archive (:mod:`spine_gym.agents.benchmark_records`), unpacked into
+  ``runs/`` on start wherever a run folder is missing, so the study resumes from it;
 * ``references/<env id>.json`` — the reference controllers' validation episodes;
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
   CI over seeds per evaluation), ``curves_<env id>.png``;
@@ -75,6 +78,7 @@ from spine_gym.cli_conventions import (
     add_progress,
     add_workers,
     check_env_kwargs,
+    module_prog,
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
@@ -82,6 +86,7 @@ from spine_gym.controllers.registry import registry_for
 from spine_gym.envs import BENCHMARK_IDS, config_of
 
 from . import benchmark_stats as stats
+from .benchmark_records import restore_records
 from .benchmark_run import (
     CURVE_COLUMNS,
     DONE,
@@ -91,11 +96,12 @@ from .benchmark_run import (
     read_curve,
     validation_means,
 )
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .runtime import (
     MAX_VALIDATION_EPISODES,
     OBSERVATION_KWARGS,
-    controller_for,
+    build_controller,
+    make_env,
     validation_metrics,
 )
 from .training import resolve_config
@@ -141,7 +147,9 @@ def reference_scores(
     for name in names:
         settings = json.loads(json.dumps({"env_kwargs": kw, "n_episodes": n_val if name == "pid" else n_ref}))
         if cache.get(name, {}).get("settings") != settings:
-            ctrl = controller_for(name, env_id, kw)
+            probe = make_env(kw, env_id=env_id)
+            ctrl = build_controller(name, probe)
+            probe.close()
             desc = f"  reference {name} on {env_id}" if progress else ""
             rows = validation_metrics(ctrl, settings["n_episodes"], kw, env_id, progress=desc)
             cache[name] = {"settings": settings, "episodes": rows, "means": validation_means(rows)}
@@ -212,6 +220,9 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym benchmark --workers 2                  # every algorithm on the default env ids
 spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI
@@ -220,7 +231,7 @@ spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.benchmark") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
     p.add_argument(
@@ -427,22 +438,23 @@ def make_plan(args: argparse.Namespace) -> Plan:
                 s["bootstrap_reps"], units)  # fmt: skip
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> list[dict]:
-    """Run the CLI; returns the summary rows of the table. Usage errors exit with status 2 before any
-    folder is made."""
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
+    """Run the CLI; exit status 0 (the summary rows are ``table.csv``, :func:`write_report` returns
+    them). Usage errors exit with status 2 before any folder is made."""
     t_start = time.perf_counter()
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     out = Path(args.out)
     with usage_errors(parser):
         plan = make_plan(args)
+        restore_records(out)  # the runs of out/records.tar.xz, if any, resume as run folders
         check_finished(plan.specs, out)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     torch.set_num_threads(1)
     out.mkdir(parents=True, exist_ok=True)
     argv = sys.argv[1:] if argv is None else list(argv)
     with open(out / "command.txt", "a") as f:
-        f.write("python -m spine_gym.agents.benchmark " + " ".join(shlex.quote(a) for a in argv) + "\n")
+        f.write(f"{PROG} " + " ".join(shlex.quote(a) for a in argv) + "\n")
     references = {
         env_id: reference_scores(
             env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out,
@@ -475,8 +487,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     print(f"wrote the table and curves to {out} ({time.perf_counter() - t_start:.0f} s in all)")
     if failed:
         raise SystemExit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
-    return summary
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

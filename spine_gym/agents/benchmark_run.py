@@ -32,11 +32,11 @@ from stable_baselines3.common.utils import set_random_seed
 from tqdm import tqdm
 
 from . import benchmark_stats as stats
+from .benchmark_records import DONE
 from .runtime import OBSERVATION_KWARGS, SavedPolicy, validation_metrics, wrap_policy
 from .training import build_envs, build_model, lagrangian_callbacks, resolve_config
 from .zoo_config import load_hyperparams
 
-DONE = "done.json"
 CURVE_COLUMNS = (
     "step",
     "train_wall_s",

@@ -54,15 +54,14 @@ from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
 import spine_gym
-from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
-from spine_gym.envs import config_of
+from spine_gym.cli_conventions import Parser, add_out, check_file, first_line, module_prog
 
 from . import numpy_policy
 from .export_c import write_c
 from .numpy_policy import BUNDLE_FORMAT
 from .observations import HistoryObsPolicy, IntegralObsPolicy
 from .residual import ResidualPolicy
-from .runtime import SavedPolicy, load_policy
+from .runtime import SavedPolicy, load_policy, make_env
 from .zoo_config import ENV_ID
 
 __all__ = ["UnsupportedPolicyError", "actor_layers", "bundle_of", "export_policy", "write_onnx", "main"]
@@ -176,8 +175,8 @@ def _feature_names(features: list[dict], names: list[str], units: list[str]) -> 
 
 def _env_description(meta: dict, n_obs: int, n_act: int) -> dict:
     """Observation and action names and units from the env's table."""
-    cfg = config_of(meta.get("env_id", ENV_ID), **meta.get("env_kwargs", {}))
-    table = cfg.table()
+    env = make_env(meta.get("env_kwargs", {}), meta.get("env_id", ENV_ID))
+    table = env.config.table()
     names = [n for e in table.entries if e.obs is not None for n in e.names]
     units = [e.unit for e in table.entries if e.obs is not None for _ in e.names]
     if len(names) != n_obs:
@@ -189,7 +188,9 @@ def _env_description(meta: dict, n_obs: int, n_act: int) -> dict:
     act = (
         [n.replace("previous_", "") for n in prev[0].names] if prev else [f"action_{i}" for i in range(n_act)]
     )
-    return {"names": names, "units": units, "action_names": act, "v_max": float(cfg.v_max)}
+    v_max = float(getattr(env, "v_max", np.nan))
+    env.close()
+    return {"names": names, "units": units, "action_names": act, "v_max": v_max}
 
 
 def bundle_of(policy, source: str = "") -> tuple[dict, dict]:
@@ -345,13 +346,16 @@ class OneUlpUp:
         return self.policy.predict(moved, state, episode_start, deterministic)
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym export spine_gym/agents/policies/ppo -o exported/ppo
 spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument(
         "policy", help="a policy folder (model.zip + vecnormalize.pkl + meta.json) or a model .zip"
@@ -360,7 +364,7 @@ def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.Ar
     return p
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.export") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0, or 2 (one line on stderr) for a missing or unsupported policy,
     before anything is written."""
     parser = build_parser(prog)

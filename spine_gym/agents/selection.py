@@ -9,8 +9,9 @@ Each model (run folder: its final ``model.zip``; with ``--best`` also its ``best
 runs ``--episodes`` episodes drawn by the env's own samplers (the training distribution: random
 targets, tip forces and payloads) with reset seeds ``VALIDATION_SEED_BASE + i`` — disjoint from
 the training seeds, the tuning seeds and the evaluation suite's seeds. The tuned PID runs the same
-episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg] and mean
-energy [J] per model, and the ratio of both to the PID's.
+episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg], mean
+energy [J] and mean time with a wire above the env's temperature limit [s] per episode, per model,
+and the ratio of RMSE and energy to the PID's.
 
 ``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
 model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
@@ -28,32 +29,50 @@ import argparse
 import sys
 from pathlib import Path
 
-from .evaluate import write_csv
+from spine_gym.cli_conventions import module_prog
+
+from .evaluation import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
-    controller_for,
+    build_controller,
+    evaluation_env_kwargs,
     load_policy,
+    make_env,
     policy_env_kwargs,
+    validation_metrics,
     validation_scores,
 )
 from .zoo_config import ENV_ID, ENV_IDS, StoreDict
 
-__all__ = ["VALIDATION_SEED_BASE", "validation_scores", "model_env_kwargs", "main"]
+__all__ = ["VALIDATION_SEED_BASE", "validation_scores", "model_env_kwargs", "score_row", "main"]
 
 
 def model_env_kwargs(own: dict, given: dict | None) -> dict:
     """The env kwargs a model trained with ``own`` is scored with: ``own`` (without its episode
-    length) if no distribution is ``given``, else the one rule of
-    :func:`spine_gym.agents.runtime.policy_env_kwargs` (``given`` with what the evaluation suite keeps
-    of ``own`` on top: its observation, voltage ceiling, ...)."""
+    length) if no distribution is ``given``, else ``given`` with what the evaluation suite keeps of
+    ``own`` (:func:`spine_gym.agents.runtime.evaluation_env_kwargs`: its observation, voltage ceiling,
+    ...) on top."""
     if given is None:
         return {k: v for k, v in own.items() if k != "episode_duration"}
     return policy_env_kwargs(own, given)
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.selection", description=__doc__.split("\n")[0])
+def score_row(name: str, controller, n_episodes: int, env_kwargs: dict, env_id: str) -> dict:
+    """{model, rmse_deg, energy_J, time_over_limit_s}: the means of ``controller`` over the
+    ``n_episodes`` validation episodes (RMSE in the env's unit: deg, mm for the chain)."""
+    rows = validation_metrics(controller, n_episodes, env_kwargs, env_id)
+    mean = {k: sum(r[k] for r in rows) / len(rows) for k in ("rmse_deg", "energy_J", "time_over_limit_s")}
+    return {"model": name, **mean}
+
+
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the scores are printed and, with ``--out``, written as CSV)."""
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0], allow_abbrev=False)
     p.add_argument("runs", nargs="+", help="run folders of spine_gym.agents.train")
     p.add_argument(
         "--env", default=ENV_ID, choices=ENV_IDS, help="env id the runs were trained on (default: %(default)s)"
@@ -74,30 +93,33 @@ def main(argv: list[str] | None = None) -> list[dict]:
     torch.set_num_threads(1)
     # the PID reference sees the env's default observation (preview), as in the evaluation suite
     pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
-    pid = controller_for("pid", args.env, pid_kwargs)
-    ref_rmse, ref_energy = validation_scores(pid, args.episodes, pid_kwargs, args.env)
-    rows = [{"model": "pid", "rmse_deg": ref_rmse, "energy_J": ref_energy, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
+    probe = make_env(pid_kwargs, env_id=args.env)
+    pid = build_controller("pid", probe)
+    ref = score_row("pid", pid, args.episodes, pid_kwargs, args.env)
+    probe.close()
+    rows = [{**ref, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
     for run in map(Path, args.runs):
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
         for t in targets:
             pol = load_policy(t)
             kw = model_env_kwargs(getattr(pol, "env_kwargs", {}), args.env_kwargs)
-            r, e = validation_scores(pol, args.episodes, kw, args.env)
-            rows.append(
-                {
-                    "model": str(t),
-                    "rmse_deg": r,
-                    "energy_J": e,
-                    "rmse_ratio": r / ref_rmse,
-                    "energy_ratio": e / ref_energy,
-                }
+            row = score_row(str(t), pol, args.episodes, kw, args.env)
+            rmse_ratio, energy_ratio = row["rmse_deg"] / ref["rmse_deg"], row["energy_J"] / ref["energy_J"]
+            rows.append({**row, "rmse_ratio": rmse_ratio, "energy_ratio": energy_ratio})
+            print(
+                f"{str(t):<55s} RMSE {row['rmse_deg']:6.2f} ({rmse_ratio:5.2f} x PID)  "
+                f"energy {row['energy_J']:6.1f} J ({energy_ratio:5.2f} x PID)  "
+                f"T>limit {row['time_over_limit_s']:5.2f} s",
+                flush=True,
             )
-            print(f"{str(t):<55s} RMSE {r:6.2f} deg ({r / ref_rmse:5.2f} x PID)  energy {e:6.1f} J ({e / ref_energy:5.2f} x PID)", flush=True)
-    print(f"{'pid':<55s} RMSE {ref_rmse:6.2f} deg  energy {ref_energy:6.1f} J")
+    print(
+        f"{'pid':<55s} RMSE {ref['rmse_deg']:6.2f}  energy {ref['energy_J']:6.1f} J  "
+        f"T>limit {ref['time_over_limit_s']:5.2f} s"
+    )
     if args.out:
         write_csv(Path(args.out), rows)
-    return rows
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

@@ -96,6 +96,7 @@ from spine_gym.cli_conventions import (
     check_file,
     check_keys,
     first_line,
+    module_prog,
     usage_errors,
 )
 
@@ -118,6 +119,9 @@ from .training import (
 )
 from .zoo_config import ALGOS, ENV_ID, StoreDict
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
 spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256
@@ -126,7 +130,7 @@ python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
     add_env(p, default=ENV_ID)
@@ -215,7 +219,7 @@ def _resume_target(path: Path) -> tuple[Path, Path]:
     return run, ckpt
 
 
-def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train"):
+def _parse(argv: list[str] | None, prog: str = PROG):
     """(arguments, argv, resume target or None, run config). With ``--resume`` the run's first command
     line comes first and this one's flags after it, so they override. Every argument is checked here,
     before a run folder exists: a bad one is a one-line usage error (exit status 2)."""
@@ -270,7 +274,7 @@ def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] 
     """(run folder, meta): a new folder with ``command.txt``, ``args.yml``, ``config.yml``; or with
     ``resume`` the run's folder, this command line appended to ``command.txt`` and a new entry in
     ``meta["resumes"]``."""
-    command = "python -m spine_gym.agents.train " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     if resume:
         run = resume[0]
         with open(run / "command.txt", "a") as f:
@@ -333,7 +337,7 @@ def _eval_callback(args, run: Path, eval_env, normalized: bool, n_envs: int, res
     return evaluation
 
 
-def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> Path:
+def train(argv: list[str] | None = None, prog: str = PROG) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``; ``prog``: the name in its messages);
     returns the run folder."""
     args, argv, resume, cfg = _parse(argv, prog)
@@ -406,7 +410,7 @@ def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents
     return run
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """The command line (``spine-gym train``); exit status 0 (usage errors exit with 2)."""
     train(argv, prog)
     return 0

@@ -127,6 +127,9 @@ def tune(
     }
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
 spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
@@ -135,7 +138,7 @@ spine-gym tune -o spine_gym/controllers/tuned/baselines.yml --overwrite   # upda
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     cli.add_env(p, default=ENV_ID)
     p.add_argument(
@@ -176,13 +179,14 @@ def _check(args) -> Path:
     return out
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> dict:
-    """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
+    """Run the CLI; exit status 0 (the record is the YAML file written). Usage errors exit with
+    status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     with cli.usage_errors(parser):
         out = _check(args)
-    command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = f"{PROG} " + " ".join(sys.argv[1:] if argv is None else argv)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:
         rec = tune(
@@ -198,8 +202,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(header + yaml.safe_dump(record, sort_keys=False))
     print(f"wrote {out}")
-    return record
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

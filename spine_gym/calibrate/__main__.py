@@ -20,7 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line, module_prog
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
@@ -98,6 +98,9 @@ def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ..
     return resolve_parameters(params, start)
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration
 spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
@@ -105,7 +108,7 @@ spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires -
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     ap = Parser(
         prog=prog,
         examples=EXAMPLES,
@@ -147,7 +150,7 @@ def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.Argume
     return ap
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.calibrate") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (130 if interrupted), or 2 (one line on stderr) on a bad argument,
     before the fit starts."""
     parser = build_parser(prog)

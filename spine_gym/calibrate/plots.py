@@ -17,15 +17,28 @@ from .data import Experiment, Samples
 __all__ = ["plot_experiment_fit", "plot_correlation"]
 
 
+FIT_COLUMNS = 3  # channels per row of a fit figure (a 4-wire experiment's 10 stay readable at page width)
+
+
 def plot_experiment_fit(exp: Experiment | Samples, traces: dict, path: str | Path, dpi: int = 120) -> Path:
-    """One column per measured channel: traces on top, residual (fitted − measured) below."""
+    """One panel pair per measured channel, :data:`FIT_COLUMNS` to a row: traces on top, residual
+    (fitted − measured) below."""
     chans = list(traces)
-    fig, axs = _figure(2, len(chans), 4.8 * len(chans), 5.6, sharex=True, height_ratios=[3, 1.3])
+    ncols = min(len(chans), FIT_COLUMNS)
+    nrows = -(-len(chans) // ncols)
+    fig, axs = _figure(
+        2 * nrows, ncols, 4.8 * ncols, 5.6 * nrows, sharex=True, height_ratios=[3, 1.3] * nrows
+    )
     t = exp.time - exp.time[0]
-    for j, c in enumerate(chans):
+    for k in range(nrows * ncols):
+        ax, axr = axs[2 * (k // ncols), k % ncols], axs[2 * (k // ncols) + 1, k % ncols]
+        if k >= len(chans):
+            ax.set_visible(False)
+            axr.set_visible(False)
+            continue
+        c = chans[k]
         unit = exp.unit(c)
         tr = traces[c]
-        ax, axr = axs[0, j], axs[1, j]
         ax.plot(t, tr["measured"], ".", ms=2, color="0.55", label="measured")
         ax.plot(t, tr["start"], "--", color="tab:orange", lw=1.2, label="start")
         ax.plot(t, tr["fitted"], "-", color="tab:blue", lw=1.5, label="fitted")
@@ -40,6 +53,7 @@ def plot_experiment_fit(exp: Experiment | Samples, traces: dict, path: str | Pat
             axr.axhline(s * exp.noise[c], color="tab:red", lw=0.8, ls=":")
         axr.set_ylabel(f"residual [{unit}]")
         axr.set_xlabel("time [s]")
+        axr.tick_params(labelbottom=True)  # every row of panels keeps its time axis
         axr.grid(alpha=0.3)
     return _save(fig, path, dpi)
 

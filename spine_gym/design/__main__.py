@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, module_prog, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -272,6 +272,9 @@ def _cmd_best(args, parser) -> int:
     return 0
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = {
     "params": ("spine-gym design params --preset alternative",),
     "sweep": (
@@ -380,7 +383,7 @@ def _add_best_parser(sub) -> None:
     p.add_argument("--json", action="store_true", help="also print the full summary as JSON")
 
 
-def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser = Parser(
         prog=prog,
         description="Design studies of the SMA spine: capacity sweeps, constrained optimisation "
@@ -396,7 +399,7 @@ def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentP
     return parser
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.design") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0, or 2 (one line on stderr) on a bad argument, before any work."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)

@@ -2,17 +2,26 @@
 :mod:`spine_gym.envs.ids`: ``SmaSpine-v0``, ``SmaSpine3D-v0``, ``SmaSpineChain-v0``, their ``-v1``
 versions (observed tracking errors, rewards of order one) and the ``Easy``/``Hard`` tiers of ``-v1``.
 
-* :class:`SmaSpineEnv` (``gym.make("SmaSpine-v0")``) — the planar spine; its class docstring is
-  the documentation page. :class:`SmaSpine3DEnv` (``"SmaSpine3D-v0"``, four wires, two bending
-  planes) and :class:`SmaSpineChainEnv` (``"SmaSpineChain-v0"``, chained four-wire modules) — the
-  spatial spines (SPATIAL.md), on the same env layer.
-* :class:`SmaSpineVectorEnv` (``gym.make_vec(id, num_envs=N)``, and its spatial subclasses) — N
-  environments stepped by one numba loop over the same code (from 64 envs serial or parallel,
-  whichever runs faster).
+* :class:`SpineEnv` and :class:`SpineVectorEnv` — the env and the native vector env every id is
+  built on (a configuration class and a batch class; ``gym.make_vec(id, num_envs=N)`` steps N
+  environments in one numba loop over the same code, from 64 envs serial or parallel, whichever
+  runs faster).
+* One env per geometry, each with its configuration, targets and documentation page (its class
+  docstring): :class:`SmaSpineEnv` (``gym.make("SmaSpine-v0")``, the planar spine,
+  :class:`PlanarConfig`, :mod:`spine_gym.envs.planar_env`), :class:`SmaSpine3DEnv`
+  (``"SmaSpine3D-v0"``, four wires, two bending planes) and :class:`SmaSpineChainEnv`
+  (``"SmaSpineChain-v0"``, chained four-wire modules) — the spatial spines (SPATIAL.md,
+  :mod:`spine_gym.envs.spatial_env`); their vector envs :class:`SmaSpineVectorEnv`,
+  :class:`SmaSpine3DVectorEnv`, :class:`SmaSpineChainVectorEnv`.
+* :func:`config_of` — the validated configuration of an id and keyword arguments, without
+  building the env.
 * :mod:`spine_gym.envs.table` — the declarative observation/info table every env is built from.
 * :mod:`spine_gym.envs.targets_planar`, :mod:`spine_gym.envs.targets_spatial` — :class:`TargetProfile`,
   :class:`BendTarget`, :class:`ChainTarget`; :mod:`spine_gym.envs.loads` — :class:`LoadSchedule`,
   :class:`TipForceEvent`.
+* ``EnvConfig`` (now :class:`PlanarConfig`) and the module paths ``spine_gym.envs.single_env``,
+  ``spine_gym.envs.vector_env`` and ``spine_gym.envs.targets`` are the former names, kept for one
+  release.
 * :mod:`spine_gym.envs.sb3` — a Stable-Baselines3 ``VecEnv`` over the vector env (imports SB3).
 """
 

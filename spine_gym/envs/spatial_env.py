@@ -219,7 +219,7 @@ class SmaSpineChainEnv(SpineEnv):
 
     As ``SmaSpine3D-v0`` with the tip position: e = p*(t) − p(t) [mm],
     r = −|e| / error_scale − energy_weight · E / E_ref − cost_weight · cost, ``error_scale``
-    default 20 mm; E_ref with every wire at its full voltage. ``reset(options={{"target": ...}})``
+    20 mm by default (``-v0``; 200 mm in the ``-v1`` ids); E_ref with every wire at its full voltage. ``reset(options={{"target": ...}})``
     takes a :class:`ChainTarget` or an (n_modules, 2) array of module bending vectors [deg] (held).
 
     {info_table}

@@ -293,6 +293,25 @@ def test_validation_scores_use_their_own_seeds_and_rank_the_pid_above_doing_noth
         validation_scores(Off(), 0, kw)
 
 
+def test_selection_rows_carry_the_time_over_the_temperature_limit():
+    """Both wires held at the full 5 V pass the env's limit within a 20-s episode; the tuned PID (cut
+    5 K below it) never does; RMSE and energy are the validation scores."""
+    from spine_gym.agents.selection import score_row, validation_scores
+
+    kw = {"episode_duration": 20.0}
+    env = ev.make_env(kw)
+    pid = ev.build_controller("pid", env)
+
+    class On:
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return np.ones((np.atleast_2d(obs).shape[0], 2), dtype=np.float32), None
+
+    row = score_row("pid", pid, 2, kw, "SmaSpine-v0")
+    assert (row["rmse_deg"], row["energy_J"]) == validation_scores(pid, 2, kw)
+    assert row["time_over_limit_s"] == 0.0
+    assert score_row("on", On(), 2, kw, "SmaSpine-v0")["time_over_limit_s"] > 1.0
+
+
 def test_selection_scores_a_model_with_what_the_suite_keeps_of_its_own_kwargs():
     from spine_gym.agents.selection import model_env_kwargs
 

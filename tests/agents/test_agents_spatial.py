@@ -10,6 +10,7 @@ import sys
 
 import numpy as np
 import pytest
+from random_policy import RandomPolicy
 from repo import ROOT
 
 from spine_gym.agents import evaluate as ev
@@ -117,16 +118,6 @@ def test_spatial_suites_are_seeded_apart_and_inside_the_env_task(env_id):
 
 
 # --------------------------------------------------------------------------- the shipped 3-D policy
-class RandomPolicy:
-    """Uniform random actions in [-1, 1] for ``n`` wires, seeded: the floor a shipped policy must clear."""
-
-    def __init__(self, n: int):
-        self.n, self.rng = n, np.random.default_rng(0)
-
-    def predict(self, obs, state=None, episode_start=None, deterministic=True):
-        return self.rng.uniform(-1, 1, (np.atleast_2d(obs).shape[0], self.n)).astype(np.float32), None
-
-
 SHIPPED_3D = sorted(ev.shipped_policies(SPATIAL_ENV_ID))
 
 
@@ -152,39 +143,4 @@ def test_shipped_3d_policy_beats_a_random_policy(name):
         return np.sqrt(np.mean(run_episode(env, p, scenario).error ** 2))
 
     assert rmse(pol) < 0.5 * rmse(RandomPolicy(4))
-    env.close()
-
-
-# --------------------------------------------------------------------------- the shipped -v1 spatial policies
-V1_IDS = ("SmaSpine3D-v1", "SmaSpineChain-v1")
-SHIPPED_V1 = [(env_id, name) for env_id in V1_IDS for name in sorted(ev.shipped_policies(env_id))]
-V1_SCENARIO = {"SmaSpine3D-v1": "step_tour_dist", "SmaSpineChain-v1": "steps_dist"}
-
-
-def test_v1_policies_are_shipped_small_and_documented():
-    assert {e for e, _ in SHIPPED_V1} == set(V1_IDS), "a -v1 spatial id without a shipped policy"
-    commands = (POLICIES_DIR / "COMMANDS.md").read_text()
-    for env_id, name in SHIPPED_V1:
-        folder = POLICIES_DIR / name
-        assert sum(f.stat().st_size for f in folder.iterdir()) < 2_000_000
-        meta = json.loads((folder / "meta.json").read_text())
-        assert meta["command"].startswith("python -m spine_gym.agents.train") and f"--env {env_id}" in meta["command"]
-        assert f"`{name}`" in commands and (folder / "vecnormalize.pkl").exists()
-
-
-@pytest.mark.parametrize("env_id, name", SHIPPED_V1)
-def test_shipped_v1_policy_runs_in_its_own_env_and_beats_a_random_policy(env_id, name):
-    # the policy meets the env kwargs it was trained with that the suite keeps (e.g. its v_max);
-    # the random policy drives the same env
-    scenario = get_suite("full", names=[V1_SCENARIO[env_id]], env_id=env_id)[0]
-    pol = load_policy(POLICIES_DIR / name)
-    kw = ev.evaluation_env_kwargs(pol.env_kwargs)
-    env = make_env({**kw, "episode_duration": scenario.duration}, env_id=env_id)
-    if "v_max" in pol.env_kwargs:
-        assert env.v_max == pytest.approx(float(pol.env_kwargs["v_max"]))
-
-    def rmse(p):
-        return np.sqrt(np.mean(run_episode(env, p, scenario).error ** 2))
-
-    assert rmse(pol) < 0.5 * rmse(RandomPolicy(env.action_space.shape[0]))
     env.close()

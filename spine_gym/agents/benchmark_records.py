@@ -1,0 +1,84 @@
+"""A study's per-seed run records as one compressed archive (``records.tar.xz`` in its folder).
+
+A run of the benchmark (:func:`spine_gym.agents.benchmark_run.run_one`) leaves ``curve.csv``,
+``meta.json`` and ``done.json`` in its ``runs/<env id>/<algo>/seed_<k>/`` folder; a study of a few
+hundred runs is a few hundred small files. A study folder keeps them as one archive instead:
+
+* :func:`pack_records` — every record file under the folder (``model.zip`` and
+  ``vecnormalize.pkl`` are not records) into ``records.tar.xz``, byte-reproducible (sorted
+  members, no time stamps or owners), so that packing the same records twice gives the same file;
+* :func:`archived_records` — the archive's files (path relative to the study folder -> bytes);
+* :func:`restore_records` — unpack the archived runs whose folder does not exist yet, never
+  touching one that does: what the benchmark does on start, so that a study folder with the
+  archive resumes as one with the run folders (finished runs skipped, the table rewritten).
+"""
+
+from __future__ import annotations
+
+import io
+import tarfile
+from pathlib import Path, PurePosixPath
+
+ARCHIVE = "records.tar.xz"
+DONE = "done.json"  # written last: a run folder without it is a run to start over
+RECORD_FILES = ("curve.csv", DONE, "meta.json")  # what a finished run keeps besides its model
+
+
+def record_paths(folder: Path) -> list[Path]:
+    """The record files of every run under ``folder`` (any depth of ``runs/`` folders), sorted."""
+    folder = Path(folder)
+    paths = (p for name in RECORD_FILES for p in folder.rglob(name))
+    return sorted(p for p in paths if "runs" in p.relative_to(folder).parts and p.is_file())
+
+
+def pack_records(folder: Path) -> Path:
+    """Write the run records under ``folder`` into ``folder/records.tar.xz`` (replacing it); returns
+    its path. ValueError if the folder holds no run record."""
+    folder = Path(folder)
+    paths = record_paths(folder)
+    if not paths:
+        raise ValueError(f"{folder} holds no run records ({', '.join(RECORD_FILES)} under runs/)")
+    with tarfile.open(folder / ARCHIVE, "w:xz", preset=9, format=tarfile.PAX_FORMAT) as tar:
+        for path in paths:
+            data = path.read_bytes()
+            info = tarfile.TarInfo(path.relative_to(folder).as_posix())
+            info.size, info.mode, info.mtime = len(data), 0o644, 0
+            tar.addfile(info, io.BytesIO(data))
+    return folder / ARCHIVE
+
+
+def _member_path(name: str) -> PurePosixPath:
+    path = PurePosixPath(name)
+    if path.is_absolute() or ".." in path.parts or path.name not in RECORD_FILES:
+        allowed = ", ".join(RECORD_FILES)
+        raise ValueError(f"{ARCHIVE}: {name!r} is not a run record ({allowed} inside the folder)")
+    return path
+
+
+def archived_records(archive: Path) -> dict[str, bytes]:
+    """The files of a records archive: path relative to its folder -> bytes. ValueError on a member
+    that is not a run record file inside the folder (an absolute path, ``..``, another name)."""
+    with tarfile.open(archive, "r:xz") as tar:
+        return {
+            _member_path(m.name).as_posix(): tar.extractfile(m).read() for m in tar.getmembers() if m.isfile()
+        }
+
+
+def restore_records(folder: Path) -> int:
+    """Unpack ``folder/records.tar.xz`` into ``folder``, run by run: the records of each run whose
+    folder does not exist yet (a run folder that exists is kept as it is, e.g. a run rerun since;
+    ``done.json`` is written last, as a run writes it); returns how many runs were written (0
+    without an archive)."""
+    archive = Path(folder) / ARCHIVE
+    if not archive.exists():
+        return 0
+    runs: dict[Path, dict[str, bytes]] = {}
+    for name, data in archived_records(archive).items():
+        path = Path(folder) / name
+        runs.setdefault(path.parent, {})[path.name] = data
+    missing = {run: files for run, files in runs.items() if not run.exists()}
+    for run, files in missing.items():
+        run.mkdir(parents=True)
+        for name in sorted(files, key=lambda n: n == DONE):
+            (run / name).write_bytes(files[name])
+    return len(missing)
