@@ -71,6 +71,7 @@ import torch
 from tqdm import tqdm
 
 from spine_gym.cli_conventions import (
+    check_out_dir,
     ENV_IDS,
     Parser,
     add_env_kwargs,
@@ -225,7 +226,7 @@ PROG = module_prog(__spec__.name)
 
 EXAMPLES = """
 spine-gym benchmark --workers 2                  # every algorithm on the default env ids
-spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI
+spine-gym benchmark --quick -o runs/bench      # the smoke run of CI
 spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000
 spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster
 """
@@ -446,6 +447,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     args = parser.parse_args(argv)
     out = Path(args.out)
     with usage_errors(parser):
+        check_out_dir(out)
         plan = make_plan(args)
         restore_records(out)  # the runs of out/records.tar.xz, if any, resume as run folders
         check_finished(plan.specs, out)

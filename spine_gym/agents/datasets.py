@@ -35,6 +35,7 @@ from .minari_datasets import (  # noqa: F401
     record,
     transitions,
 )
+from .policy_files import check_policy_env
 
 __all__ = ["build_parser", "main"]
 
@@ -43,9 +44,9 @@ __all__ = ["build_parser", "main"]
 PROG = cli.module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 20
-spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 10 --env-kwargs episode_duration=30.0
-spine-gym datasets --env SmaSpine-v0 --controller spine_gym/agents/policies/ppo --episodes 20 -o runs/minari
+spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 2
+spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 1 --env-kwargs episode_duration=2.0
+spine-gym datasets --env SmaSpine-v1 --controller logs/ppo/SmaSpine-v1_1 --episodes 2 -o runs/minari
 """
 
 
@@ -85,8 +86,10 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     except SystemExit as e:  # argparse's exit (2 on a bad argument, 0 after --help)
         return int(e.code or 0)
     command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
-    if args.data_path is not None and Path(args.data_path).exists() and not Path(args.data_path).is_dir():
-        print(f"{parser.prog}: error: --out/--data-path {args.data_path} is not a directory", file=sys.stderr)
+    try:
+        cli.check_out_dir(args.data_path or data_dir(), "--out/--data-path")
+    except ValueError as e:
+        print(f"{parser.prog}: error: {e}", file=sys.stderr)
         return 2
     if len(set(args.env)) != len(args.env):
         print(f"{parser.prog}: error: --env names an id twice: {args.env}", file=sys.stderr)
@@ -95,6 +98,8 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         try:
             for e in args.env:
                 cli.check_env_kwargs(e, args.env_kwargs)
+                if Path(args.controller).exists():
+                    check_policy_env(args.controller, e, "--controller")
             plans = [
                 plan(e, args.controller, args.episodes, env_kwargs=args.env_kwargs,
                      seed_base=args.seed_base, version=args.version, overwrite=args.overwrite)

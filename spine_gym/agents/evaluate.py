@@ -3,11 +3,14 @@
 Example (``spine-gym evaluate`` is the same command; the README's main command, ``bash scripts/run.sh``, runs it
 per family and voltage ceiling: :mod:`spine_gym.agents.family_comparison`)::
 
-    python -m spine_gym.agents.evaluate            # shipped PPO/SAC policies + step, bang-bang, PID
-    python -m spine_gym.agents.evaluate --env SmaSpine3D-v0      # the spatial spine's suite and policies
+    python -m spine_gym.agents.evaluate            # shipped policies + step, bang-bang, PID on SmaSpine-v1
+    python -m spine_gym.agents.evaluate --env SmaSpine3D-v1      # the spatial spine's suite and policies
 
+Without ``--env`` it runs on the env of the one model given with ``--models`` (its ``meta.json``),
+else on ``SmaSpine-v1``; a model trained on another env (by its ``meta.json``, else by the spaces
+stored in its file) is a usage error before any work, as is an ``--out`` that cannot be written.
 Every controller (anything with SB3's ``predict``) runs every scenario of the suite in its own
-``SmaSpine-v0`` env, reset with the scenario's seed, target profile and load schedule
+env, reset with the scenario's seed, target profile and load schedule
 (:mod:`spine_gym.agents.evaluation`, the library this command line runs). The CLI
 prints one table per scenario group (mean over the group's scenarios) with tracking RMSE and max
 error [deg], settling time [s] (step scenarios), electrical energy [J], peak wire temperature [K]
@@ -20,11 +23,14 @@ and time over the temperature limit [s], and writes to ``--out``:
   each scenario of the group;
 * with ``--video``: ``videos/<controller>/<scenario>.mp4`` — the episode as the env renders it
   (:mod:`spine_gym.agents.video`).
+
+These outputs of an earlier run in the same folder are removed first (other files are kept).
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -60,7 +66,8 @@ from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported fo
 )
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
-from .zoo_config import ENV_ID
+from .policy_files import check_policy_env, trained_env_id
+from .zoo_config import DEFAULT_ENV_ID
 
 MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on_env)
 
@@ -70,16 +77,19 @@ MPC_CONTROLLERS = tuple(name for name, spec in REGISTRY.items() if spec.plans_on
 PROG = cli.module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym evaluate                                   # shipped policies + step, bang-bang, PID
-spine-gym evaluate --env SmaSpine3D-v0 -o results/eval_3d
-spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v0_1
-spine-gym evaluate --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
+spine-gym evaluate --suite quick                     # shipped policies + step, bang-bang, PID
+spine-gym evaluate --env SmaSpine3D-v1 --suite quick --no-plots -o results/eval_3d
+spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v1_1
+spine-gym evaluate --suite quick --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
 """
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    cli.add_env(p, default=ENV_ID)
+    cli.add_env(
+        p, help=f"environment id (default: the env of the one model of --models, else {DEFAULT_ENV_ID}), "
+        "one of: " + ", ".join(cli.ENV_IDS),
+    )  # fmt: skip
     cli.add_env_kwargs(
         p, help="env keyword arguments key=value of every controller's envs (over a policy's own)"
     )
@@ -87,7 +97,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         "--baselines",
         nargs="*",
         default=None,
-        help=f"registered controllers to run (default for {ENV_ID}: {' '.join(BASELINES)}; "
+        help=f"registered controllers to run (default for the planar ids: {' '.join(BASELINES)}; "
         f"all: {' '.join(REGISTRY)}; other envs: their registry)",
     )
     p.add_argument(
@@ -101,15 +111,15 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         nargs="*",
         default=None,
         metavar="NAME=PATH",
-        help="saved models (run folder, shipped folder or .zip); default: every policy in spine_gym/agents/policies/ "
-        "trained on --env",
+        help="saved models NAME=PATH (PATH: a run folder, shipped folder or .zip); default: every policy in "
+        "spine_gym/agents/policies/ trained on --env",
     )
     p.add_argument(
         "--suite", default="full", choices=sorted(SUITES), help="scenario suite (default: %(default)s)"
     )
     p.add_argument("--groups", nargs="*", default=None, help="only these scenario groups")
     p.add_argument("--scenarios", nargs="*", default=None, help="only these scenario names")
-    cli.add_out(p, default="results/eval")
+    cli.add_out(p, default="results/eval", help="output folder (an earlier evaluation's outputs there are replaced)")
     cli.add_progress(p)
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-trajectories", action="store_true", help="skip the per-step CSVs")
@@ -133,6 +143,8 @@ def _models(items: list[str] | None, env_id: str) -> dict[str, Path]:
     models = {}
     for item in items:
         name, sep, path = item.partition("=")
+        if not sep and not Path(item).exists():
+            raise ValueError(f"--models takes NAME=PATH (e.g. mine=logs/ppo/SmaSpine-v1_1), got {item!r}")
         if not sep:
             name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
         cli.check_file(path, f"--models {name}")
@@ -140,14 +152,34 @@ def _models(items: list[str] | None, env_id: str) -> dict[str, Path]:
     return models
 
 
+def _env(args) -> str:
+    """``--env``, else the trained env of the one model of ``--models`` (ValueError if it is not
+    a registered id), else :data:`DEFAULT_ENV_ID`."""
+    if args.env:
+        return args.env
+    if args.models and len(args.models) == 1:
+        path = args.models[0].partition("=")[2] or args.models[0]
+        if Path(path).exists():
+            trained = trained_env_id(path)
+            if trained is not None and trained not in cli.ENV_IDS:
+                raise ValueError(f"--models: {path} was trained on {trained}, not a registered id; pass --env")
+            return trained or DEFAULT_ENV_ID
+    return DEFAULT_ENV_ID
+
+
 def _plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     """(scenarios, baselines, models) of the arguments, every one checked (ValueError, one line)
     before anything is built or written."""
+    args.env = _env(args)
+    cli.check_out_dir(args.out)
     scenarios = get_suite(args.suite, groups=args.groups, names=args.scenarios, env_id=args.env)
     chosen = list(baselines_for(args.env)) if args.baselines is None else args.baselines
     baselines = list(dict.fromkeys(chosen + (list(MPC_CONTROLLERS) if args.mpc else [])))
     cli.check_keys(baselines, registry_for(args.env), "--baselines", what=f"controller of {args.env}")
     models = _models(args.models, args.env)
+    if args.models:
+        for name, path in models.items():
+            check_policy_env(path, args.env, f"--models {name}")
     if not baselines and not models:
         raise ValueError("nothing to evaluate: no baselines and no models")
     names = [*baselines, *models]
@@ -179,6 +211,20 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     return controllers, env_kwargs, limit
 
 
+#: what an evaluation writes into --out (removed before a new one writes there)
+OUTPUTS = ("metrics.csv", "summary.csv", "relative.csv", "trajectories", "plots", "videos")
+
+
+def remove_outputs(out: Path) -> None:
+    """Remove an earlier evaluation's :data:`OUTPUTS` from ``out`` (nothing else)."""
+    for name in OUTPUTS:
+        path = out / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
+
+
 def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (the summary rows are ``summary.csv``). Usage errors exit with
     status 2 before any work."""
@@ -197,6 +243,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     unit = ERROR_UNIT.get(base_id(args.env), "deg")
     print(format_tables(summary, use_rich=not args.plain, error_unit=unit))
     out = Path(args.out)
+    remove_outputs(out)
     if args.relative_to:
         rel = relative_rows(summary, args.relative_to)
         print(format_relative(rel, args.relative_to))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 import time
 from collections.abc import Iterable
 from pathlib import Path
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from spine_gym.csv_numbers import csv_row
 from spine_gym.plotting import plot_episodes
 
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
@@ -171,7 +173,7 @@ def format_tables(summary: list[dict], use_rich: bool = True, error_unit: str = 
                 t.add_column(escape(h), justify="left" if i == 0 else "right", no_wrap=True)
             for row in body:
                 t.add_row(*(escape(c) for c in row))
-            con = Console(record=True, width=120, force_terminal=False)
+            con = Console(record=True, width=shutil.get_terminal_size((120, 24)).columns, force_terminal=False)
             with con.capture() as cap:
                 con.print(t)
             chunks.append(cap.get())
@@ -190,12 +192,12 @@ def format_tables(summary: list[dict], use_rich: bool = True, error_unit: str = 
 
 # --------------------------------------------------------------------------- output
 def write_csv(path: Path, rows: list[dict]) -> None:
-    """Write dict rows (same keys) as CSV."""
+    """Write dict rows (same keys) as CSV, floats to 12 significant digits (:mod:`spine_gym.csv_numbers`)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(csv_row(r) for r in rows)
 
 
 def write_trajectories(out: Path, trajs: dict[tuple[str, str], Trajectory]) -> None:

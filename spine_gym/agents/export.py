@@ -54,7 +54,7 @@ from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
 import spine_gym
-from spine_gym.cli_conventions import Parser, add_out, check_file, first_line, module_prog
+from spine_gym.cli_conventions import Parser, add_out, check_file, check_out_dir, first_line, module_prog
 
 from . import numpy_policy
 from .export_c import write_c
@@ -350,8 +350,8 @@ class OneUlpUp:
 PROG = module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym export spine_gym/agents/policies/ppo -o exported/ppo
-spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best
+spine-gym export logs/ppo/SmaSpine-v1_1 -o exported/ppo          # a run folder (or a shipped policy's)
+spine-gym export logs/ppo/SmaSpine-v1_1/model.zip -o exported/zip   # a model file
 """
 
 
@@ -371,6 +371,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     args = parser.parse_args(argv)
     try:
         check_file(args.policy, "policy")
+        check_out_dir(args.out)
         paths = export_policy(load_policy(args.policy), args.out, source=args.policy)
     except ValueError as e:  # UnsupportedPolicyError is one
         print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)

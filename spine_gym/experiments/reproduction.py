@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 
 from .. import plotting
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
-from ..cli_conventions import Parser, add_out, add_progress, module_prog, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, check_out_dir, module_prog, usage_errors
 from ..params import ModelParams, SolverOptions
 from ..simulate import SimulationResult
 from .references import (
@@ -269,7 +269,7 @@ PROG = module_prog(__package__)
 
 EXAMPLES = """
 spine-gym reproduce                           # every experiment, tables and plots in runs/experiments
-spine-gym reproduce --quick -o /tmp/repro --no-progress
+spine-gym reproduce --quick -o runs/repro --no-progress
 spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off
 """
 
@@ -310,6 +310,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     ap = build_parser(prog)
     args = ap.parse_args(argv)
     with usage_errors(ap):
+        check_out_dir(args.out)
         rep = reproduce(
             args.out,
             quick=args.quick,
