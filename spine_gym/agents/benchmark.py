@@ -84,7 +84,8 @@ from spine_gym.cli_conventions import (
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
-from spine_gym.envs import BENCHMARK_IDS
+from spine_gym.controllers.registry import registry_for
+from spine_gym.envs import BENCHMARK_IDS, config_of
 
 from . import benchmark_ranking as ranking
 from . import benchmark_stats as stats
@@ -99,7 +100,6 @@ from .benchmark_run import (
     validation_means,
 )
 from .evaluation import write_csv
-from .registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
     OBSERVATION_KWARGS,
@@ -417,11 +417,9 @@ def make_plan(args: argparse.Namespace) -> Plan:
             raise ValueError(f"unknown reference(s) {missing} for {env_id}; choose from {sorted(table)}")
         check_env_kwargs(env_id, task_kwargs)
         try:
-            probe = make_env(task_kwargs, env_id=env_id)
+            units[env_id] = config_of(env_id, **task_kwargs).table().task.unit
         except TypeError as e:
             raise ValueError(f"--env-kwargs not accepted by {env_id}: {e}") from None
-        units[env_id] = probe.config.table().task.unit
-        probe.close()
         for algo in args.algos:
             hyperparams = dict(QUICK_HYPERPARAMS[algo]) if args.quick else {}
             n = budgets.get(env_id, s["n_timesteps"])

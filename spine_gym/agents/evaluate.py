@@ -38,6 +38,7 @@ from pathlib import Path
 import torch
 
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
 from spine_gym.envs import base_id
 
 # the library's names stay importable from here for one release (they moved to .evaluation)
@@ -54,13 +55,13 @@ from .evaluation import (  # noqa: F401
     write_csv,
     write_trajectories,
 )
-from .registry import BASELINES, REGISTRY, baselines_for, registry_for
 from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported for one release)
     build_controller,
     env_temperature_limit,
     evaluation_env_kwargs,
     load_policy,
     make_env,
+    policy_env_kwargs,
     run_episode,
 )
 from .scenarios import SUITES, Scenario, get_suite
@@ -205,7 +206,7 @@ def _controllers(args, baselines: list[str], models: dict[str, Path]) -> tuple[d
     for name, path in models.items():
         pol = load_policy(path, name=name)
         controllers[name] = pol
-        env_kwargs[name] = {**evaluation_env_kwargs(pol.env_kwargs), **args.env_kwargs}
+        env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
     probe.close()
     return controllers, env_kwargs, limit
 
