@@ -22,11 +22,11 @@ import math
 
 import yaml
 
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, tuned_file
 from spine_gym.envs import base_id
 
 from . import benchmark_stats as stats
 from .metrics import TIME_OVER_LIMIT_CAP_S
-from .registry import GUARD_MARGIN_K, get_spec, tuned_file
 from .runtime import make_env
 
 RANKED, OVER_CAP, NOT_RECORDED = "ranked", "over the cap", "not recorded"
@@ -56,7 +56,7 @@ def constrained_split(summary: list[dict], env_id: str) -> dict[str, list[dict]]
 def envelope(env_id: str, env_kwargs: dict, guard: bool) -> dict:
     """The actuator envelope of a method on ``env_id`` with ``env_kwargs``: ``v_max_V`` (the voltage
     of action +1) and ``guard`` (``on``: a wire observed at the temperature limit minus
-    :data:`~spine_gym.agents.registry.GUARD_MARGIN_K` gets 0 V; ``off``: nothing cuts it)."""
+    :data:`~spine_gym.controllers.registry.GUARD_MARGIN_K` gets 0 V; ``off``: nothing cuts it)."""
     env = make_env(env_kwargs, env_id=env_id)
     v_max = float(env.config.v_max)
     env.close()

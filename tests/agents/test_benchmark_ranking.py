@@ -11,7 +11,7 @@ import pytest
 from spine_gym.agents import benchmark_ranking as ranking
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.metrics import TIME_OVER_LIMIT_CAP_S
-from spine_gym.agents.registry import GUARD_MARGIN_K
+from spine_gym.controllers.registry import GUARD_MARGIN_K
 from spine_gym.agents.runtime import make_env
 
 ENV_ID = "SmaSpineEasy-v1"
