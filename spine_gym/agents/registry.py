@@ -17,6 +17,7 @@ whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` 
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +29,7 @@ from spine_gym.controllers import (
     MPPIController,
     PIDController,
     SlidingModeController,
+    SMCGains,
     SpatialBangBangController,
     SpatialMPPIController,
     SpatialPIDController,
@@ -55,7 +57,7 @@ DEFAULT_TUNED = {
         "feedforward": 0.0,
         "preview": 0.0,
     },
-    "smc": {},  # the SMCGains defaults
+    "smc": {k: v for k, v in dataclasses.asdict(SMCGains()).items() if k != "kaw"},
 }
 
 
@@ -79,7 +81,7 @@ def _chain_pid_space(trial, v_max: float) -> dict:
 def _smc_space(trial, v_max: float) -> dict:
     k_min = trial.suggest_float("k_min", 0.0, 0.3 * v_max)
     return {
-        "lam": trial.suggest_float("lam", 0.05, 5.0, log=True),
+        "lam": trial.suggest_float("lam", 0.1, 20.0, log=True),
         "gamma": trial.suggest_float("gamma", 0.3, 1.0),
         "tau_d": trial.suggest_float("tau_d", 0.05, 2.0, log=True),
         "k_s": trial.suggest_float("k_s", 0.01, 2.0, log=True),
@@ -164,7 +166,10 @@ REGISTRY: dict[str, ControllerSpec] = {
     "bang_bang": ControllerSpec(BangBangController, "three-level relay with hysteresis", _bang_bang_space),
     "pid": ControllerSpec(PIDController, "PID with feedforward, preview and anti-windup", _pid_space),
     "smc": ControllerSpec(
-        SlidingModeController, "adaptive terminal sliding mode with a boundary layer", _smc_space, in_default=False
+        SlidingModeController,
+        "adaptive terminal sliding mode with a boundary layer",
+        _smc_space,
+        in_default=False,
     ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
 }
