@@ -10,7 +10,7 @@ Measured in one process after a warm-up (numba's cache loaded, every code path r
 
 for N = 1, 16, 256, 1024, plus two diagnostics: the native env at N = 256 and 1024 with numba
 limited to 1 thread vs all threads (core scaling), and the jitted kernel alone (the physics share
-of a step: ``env_kernels.step_many`` over N spines, no Python bookkeeping). The SB3 adapter over
+of a step: ``spine_loops.step_many`` over N spines, no Python bookkeeping). The SB3 adapter over
 the native env is timed at N = 256 as well.
 
 Work is identical across configurations: environment i starts from ``reset(seed=base + i)``, runs
@@ -52,10 +52,10 @@ from pathlib import Path
 import gymnasium as gym
 import numba
 import numpy as np
+from spine_loops import step_many  # the sibling module
 
 import spine_gym
 from spine_gym.envs.planar import PlanarBatch
-from spine_gym.physics import env_kernels
 
 OUT = Path(__file__).resolve().parent / "results"
 SEED = 1000
@@ -144,7 +144,7 @@ def time_kernel(n: int, acts: np.ndarray, warm: int = 0) -> float:
     t0 = time.perf_counter()
     for a in acts:
         volts = (np.clip(a.astype(np.float64), -1, 1) + 1.0) * 0.5 * cfg.v_max
-        env_kernels.step_many(
+        step_many(
             core.states,
             core.backup,
             core.kps,

@@ -46,7 +46,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from spine_gym.agents.evaluate import evaluate  # noqa: E402
+from spine_gym.agents.evaluation import evaluate  # noqa: E402
 from spine_gym.agents.export import OneUlpUp, export_policy  # noqa: E402
 from spine_gym.agents.export_c import compile_driver  # noqa: E402
 from spine_gym.agents.numpy_policy import load_bundle  # noqa: E402

@@ -11,13 +11,13 @@ alternating call by call (which goes first swaps every repeat), best and median 
   3.2 V at t = 0, 10-ms outputs) through ``spine_gym.simulate`` [ms per run];
 * ``env_kernel`` — no env runs the two-wire layout (the spatial envs build four-wire
   ``SpineLayout.chain`` modules), so this is the physics of an env step alone, "the kernel alone"
-  of ``bench_training_share.py``: ``env_kernels.step_many_serial`` against
-  ``step_many_spatial_serial`` (the loops of ``step_spine`` / ``step_spine_spatial``), 16 spines,
+  of ``bench_training_share.py``: ``spine_loops.step_many_serial`` against
+  ``step_many_spatial_serial`` (the loops of each core's ``control.step_spine``), 16 spines,
   200 control periods of 0.1 s (the env's default; a 20-s episode) from rest, each spine with its
   own seeded random voltages in [0, 5 V] (``v_max``) on both wires, no external load
   [µs per spine and control period];
-* ``mpc_rollouts`` — the MPC's planner kernels ``rollout.rollout_many_serial`` against
-  ``rollout_many_spatial_serial``: 32 open-loop rollouts of 30 control periods (the default
+* ``mpc_rollouts`` — the MPC's planner kernels, each core's
+  ``rollout.rollout_many_serial``: 32 open-loop rollouts of 30 control periods (the default
   MPPI's N and 3-s horizon) from the warm state at the end of the 20-s run, seeded random
   voltages [ms per plan].
 
@@ -51,16 +51,20 @@ from pathlib import Path
 import matplotlib
 import numba
 import numpy as np
+from spine_loops import step_many_serial, step_many_spatial_serial  # the sibling module
 
 import spine_gym
 from spine_gym import ModelParams, SolverOptions, SpineLayout, simulate
 from spine_gym.experiments import hysteresis_voltages
-from spine_gym.physics import env_kernels, rollout
 from spine_gym.physics.columns import OK
 from spine_gym.physics.planar import columns as PL
+from spine_gym.physics.planar import rollout as planar_rollout
 from spine_gym.physics.planar.record import OUT_ANGLE, OUT_SIZE
 from spine_gym.physics.spatial import columns as SL
-from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial import rollout as spatial_rollout
+from spine_gym.physics.spatial.integrate import init_state
+from spine_gym.physics.spatial.record import record_size
+from spine_gym.physics.spatial.work import sizes
 from spine_gym.simulate import initial_state
 
 matplotlib.use("Agg")
@@ -104,7 +108,7 @@ class PlanarCore:
         for k in range(volts.shape[0]):
             v_r, v_l = volts[k, :, 0].copy(), volts[k, :, 1].copy()
             resolve = np.full(b, k == 0)
-            env_kernels.step_many_serial(
+            step_many_serial(
                 states, backup, kps, self.ks, v_r, v_l, loads, resolve, active, DT, 1, status, meas[k]
             )
             assert (status == OK).all()
@@ -116,7 +120,7 @@ class PlanarCore:
         temp, joule, status = np.empty((b, h, 2)), np.empty((b, h, 2)), np.empty(b, dtype=np.int64)
         v_r, v_l = volts[:, :, 0].copy(), volts[:, :, 1].copy()
         loads, resolve = np.zeros((h, self.params.n_seg, 2)), np.zeros(h, dtype=np.bool_)
-        rollout.rollout_many_serial(
+        planar_rollout.rollout_many_serial(
             self.warm, self.kp, self.ks, v_r, v_l, loads, resolve, DT, 1, work, angle, temp, joule, status
         )
         assert (status == OK).all()
@@ -130,12 +134,12 @@ class SpatialCore:
         self.layout, self.solver = SpineLayout.planar(params), solver
         self.kp, self.kw, self.km = self.layout.to_kernel()
         self.ks = solver.to_kernel()
-        self.nw, self.nm, self.ns = ss.sizes(self.kw, self.km)
-        self.rec_size = ss.record_size(self.nw, self.nm, self.ns)
-        self.bend = ss.sens_offset(self.nw, self.nm, self.ns) + 2 * self.nm  # record: tip bending vector
+        self.nw, self.nm, self.ns = sizes(self.kw, self.km)
+        self.rec_size = record_size(self.nw, self.nm, self.ns)
+        self.bend = SL.sens_offset(self.nw, self.nm, self.ns) + 2 * self.nm  # record: tip bending vector
         self.temp = SL.wire_offset(SL.F_T, self.nw)  # record = state head: wire temperatures
         self.rest = np.zeros(self.layout.state_size())
-        assert ss.init_state(self.rest, self.kp, self.ks, self.kw, self.km, np.zeros((self.ns, 3))) == OK
+        assert init_state(self.rest, self.kp, self.ks, self.kw, self.km, np.zeros((self.ns, 3))) == OK
         self.warm = self.simulate(*inputs()[0])[3]
 
     def simulate(self, vr, vl):
@@ -154,7 +158,7 @@ class SpatialCore:
         rec = np.empty((volts.shape[0], b, self.rec_size))
         for k in range(volts.shape[0]):
             v, resolve = volts[k], np.full(b, k == 0)
-            env_kernels.step_many_spatial_serial(
+            step_many_spatial_serial(
                 states, backup, kps, self.ks, kws, kms, v, loads, resolve, active, DT, 1, status, rec[k]
             )
             assert (status == OK).all()
@@ -165,7 +169,7 @@ class SpatialCore:
         work, rec = np.empty((b, self.warm.shape[0])), np.empty((b, h, self.rec_size))
         status = np.empty(b, dtype=np.int64)
         loads, resolve = np.zeros((h, self.ns, 3)), np.zeros(h, dtype=np.bool_)
-        rollout.rollout_many_spatial_serial(
+        spatial_rollout.rollout_many_serial(
             self.warm, self.kp, self.ks, self.kw, self.km, volts, loads, resolve, DT, 1, work, rec, status
         )
         assert (status == OK).all()

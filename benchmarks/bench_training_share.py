@@ -18,7 +18,7 @@ and 1 → 2 numba threads. One command prints all three against their targets.
 2. **Native vector env per core vs the kernel alone** (target: within 10 %, native rate ≥ 0.9 ×
    kernel rate), for every env id: ``gym.make_vec(env_id, num_envs=N, parallel=False)`` with numba
    on 1 thread, from the warm regime (``--warm`` untimed steps), ``--steps`` timed steps; the
-   kernel alone is the physics alone (``env_kernels.step_many_serial`` or its spatial twin)
+   kernel alone is the physics alone (``spine_loops.step_many_serial`` or its spatial twin)
    replaying the steps the native env made (the voltages, loads and resolve flags its calls
    computed, on the same start states, checked bit for bit at the end): same states, same
    steps, no bookkeeping and no Python in between. Best of ``--repeats`` interleaved runs.
@@ -65,12 +65,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling bench_env (also as a module)
 
 from bench_env import SEED, machine  # noqa: E402
+from spine_loops import step_many, step_many_serial, step_many_spatial_serial  # noqa: E402
 
 import spine_gym  # noqa: E402, F401 - registers the env ids
 from spine_gym.envs import readout as ro  # noqa: E402
 from spine_gym.envs import step_kernels as sk  # noqa: E402
 from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
-from spine_gym.physics import env_kernels  # noqa: E402
+from spine_gym.physics.planar.control import step_spine  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
@@ -228,7 +229,7 @@ def time_native(venv, acts: np.ndarray, warm: int) -> tuple[float, float]:
 
 def physics_call(fn, args) -> tuple:
     """The physics alone of one step kernel call ``fn(*args)`` made by the env (after it returned):
-    ``env_kernels.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
+    ``spine_loops.step_many_serial`` (or its spatial twin) with the voltages, loads and resolve
     flags that call computed, on the same arrays; per-call inputs copied."""
     rows, _, drive, plant, step, _, _, _ = args
     st = ro.Step(*step)
@@ -236,15 +237,15 @@ def physics_call(fn, args) -> tuple:
     active[rows] = True
     resolve = drive[3].copy()
     if fn in PLANAR_KERNELS:
-        p = dict(zip(sk.PLANAR_PLANT, plant, strict=True))
+        p = sk.PlanarPlant(*plant)
         volts = (st.volts[:, 0].copy(), st.volts[:, 1].copy())
-        kernel, head = env_kernels.step_many_serial, (p["kps"], p["ks"])
+        kernel, head = step_many_serial, (p.kps, p.ks)
     else:
-        p = dict(zip(sk.SPATIAL_PLANT, plant, strict=True))
+        p = sk.SpatialPlant(*plant)
         volts = (st.volts.copy(),)
-        kernel, head = env_kernels.step_many_spatial_serial, (p["kps"], p["ks"], p["kws"], p["kms"])
-    tail = (st.loads.copy(), resolve, active, p["physics_dt"], p["n_sub"], st.status, p["meas"])
-    return kernel, (p["states"], p["backup"], *head, *volts, *tail)
+        kernel, head = step_many_spatial_serial, (p.kps, p.ks, p.kws, p.kms)
+    tail = (st.loads.copy(), resolve, active, p.physics_dt, p.n_sub, st.status, p.meas)
+    return kernel, (p.states, p.backup, *head, *volts, *tail)
 
 
 def record_kernel_calls(venv, acts: np.ndarray, warm: int) -> tuple[list, np.ndarray, np.ndarray]:
@@ -343,18 +344,18 @@ def thread_scaling(sizes: list[int], warm: int, steps: int, repeats: int, n_thre
 
 @numba.njit(parallel=True)
 def _fixed_blocks(states, backup, kps, ks, v_r, v_l, loads, resolve, active, dt, n_sub, status, meas):
-    """``env_kernels.step_many`` as it was before its rows were dealt out (``physics._deal``): numba's
+    """``spine_loops.step_many`` as it was before its rows were dealt out (``physics._deal``): numba's
     own ``prange`` schedule, one fixed block of rows per thread (the peer of item 3)."""
     for i in numba.prange(states.shape[0]):
         if active[i]:
-            status[i] = env_kernels.step_spine(
+            status[i] = step_spine(
                 states[i], backup[i], kps[i], ks, v_r[i], v_l[i], loads[i], resolve[i], dt, n_sub, meas[i]
             )
 
 
 def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) -> dict:
     """Env steps/s of SmaSpine-v0's physics alone (item 2's recorded calls, replayed through the
-    parallel kernel ``env_kernels.step_many``, rows dealt out one at a time) on 1 and ``n_threads``
+    parallel kernel ``spine_loops.step_many``, rows dealt out one at a time) on 1 and ``n_threads``
     numba threads, and the same with fixed blocks of rows per thread (:func:`_fixed_blocks`),
     interleaved."""
     numba.set_num_threads(1)
@@ -362,7 +363,7 @@ def kernel_scaling(n: int, warm: int, steps: int, repeats: int, n_threads: int) 
     venv = gym.make_vec("SmaSpine-v0", num_envs=n, parallel=False)
     calls, start, final = record_kernel_calls(venv, acts, warm)
     venv.close()
-    kernels = {"dealt": env_kernels.step_many, "blocks": _fixed_blocks}
+    kernels = {"dealt": step_many, "blocks": _fixed_blocks}
     replays = {key: [(fn, args) for _, args in calls] for key, fn in kernels.items()}
     for key in replays:
         time_replay(replays[key], start, final)  # untimed: compiles the parallel replay

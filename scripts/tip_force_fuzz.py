@@ -23,8 +23,9 @@ import numpy as np
 
 import spine_gym  # noqa: F401 - registers the env ids
 from spine_gym.physics import columns as L
-from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial.columns import F_XM, F_XP
 from spine_gym.physics.spatial.stability import is_buckled, load_ratio
+from spine_gym.physics.spatial.work import sizes, views, wire_block
 
 IDS = ("SmaSpine3D-v0", "SmaSpineChain-v0")
 
@@ -54,10 +55,10 @@ def episode(env_id: str, seed: int, force_low: float, count: tuple[int, int]) ->
 def start_unstable(r: dict) -> bool:
     """Whether the last valid state's shape is unstable under the failing step's loads."""
     kw, km = r["kw"], r["km"]
-    nw, nm, ns = ss.sizes(kw, km)
+    nw, nm, ns = sizes(kw, km)
     s = r["state"].copy()
-    mw, omega, _ = ss.views(s, nw, nm, ns)
-    xp, xm = ss.wire_block(s, ss.F_XP, nw), ss.wire_block(s, ss.F_XM, nw)
+    mw, omega, _ = views(s, nw, nm, ns)
+    xp, xm = wire_block(s, F_XP, nw), wire_block(s, F_XM, nw)
     return bool(is_buckled(omega, mw, xp, xm, r["loads"], r["kp"], kw, km))
 
 

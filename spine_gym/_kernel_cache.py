@@ -2,8 +2,8 @@
 
 numba re-validates a cached kernel (``cache=True``, files ``*.nbi``/``*.nbc`` in ``__pycache__``)
 only against its *own* source file, not against the callees it compiled in from other modules: after
-an edit of ``physics/planar/solver.py`` the kernels of ``physics/env_kernels.py`` would keep running the old
-``advance``. A digest of all kernel sources, stored beside the cache, catches that. It runs when
+an edit of ``physics/planar/integrate.py`` the kernels of ``physics/planar/control.py`` would keep
+running the old ``advance``. A digest of all kernel sources, stored beside the cache, catches that. It runs when
 ``spine_gym`` is imported, before any kernel is loaded (numba loads a cache at a kernel's first call).
 """
 

@@ -28,9 +28,10 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from spine_gym.cli_conventions import Parser, did_you_mean
+import spine_gym
+from spine_gym.cli_conventions import PROG, Parser, did_you_mean, module_prog
 
-__all__ = ["COMMANDS", "Command", "build_parser", "main"]
+__all__ = ["PROG", "COMMANDS", "Command", "build_parser", "main", "prog_of"]
 
 
 @dataclass(frozen=True)
@@ -70,17 +71,22 @@ COMMANDS: dict[str, Command] = {
     ),
 }
 
-EXAMPLES = """
-spine-gym train --algo ppo --env SmaSpine-v1 -n 300000 -o logs
-spine-gym evaluate --models mine=logs/ppo/SmaSpine-v1_1
-spine-gym reproduce --quick -o /tmp/repro
-spine-gym <command> --help             # the options of one command
+EXAMPLES = f"""
+{PROG} train --algo ppo --env SmaSpine-v1 -n 20000 -o logs     # a first run (the YAML's budget without -n)
+{PROG} evaluate --suite quick --models mine=logs/ppo/SmaSpine-v1_1
+{PROG} reproduce --quick -o runs/repro
+{PROG} <command> --help             # the options of one command
 """
 
 
 def alias(module: str) -> str:
     """``python -m`` form of a command's module."""
-    return "python -m " + module.removesuffix(".__main__")
+    return module_prog(module)
+
+
+def prog_of(name: str) -> str:
+    """The program name of command ``name`` in its usage and errors: ``spine-gym <name>``."""
+    return f"{PROG} {name}"
 
 
 def _table() -> str:
@@ -99,12 +105,13 @@ def command(text: str) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(
-        prog="spine-gym",
+        prog=PROG,
         description="One command line for every job of spine_gym, with one convention.\n\n" + _table(),
         examples=EXAMPLES,
     )
     p.add_argument("command", type=command, metavar="COMMAND", help="one of: " + ", ".join(COMMANDS))
-    p.add_argument("args", nargs=argparse.REMAINDER, help="its arguments (spine-gym COMMAND --help)")
+    p.add_argument("args", nargs=argparse.REMAINDER, help=f"its arguments ({PROG} COMMAND --help)")
+    p.add_argument("--version", action="version", version=f"%(prog)s {spine_gym.__version__}")
     return p
 
 
@@ -113,11 +120,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:
-        parser.error(f"give a command, one of: {', '.join(COMMANDS)} (spine-gym --help)")
+        parser.error(f"give a command, one of: {', '.join(COMMANDS)} ({PROG} --help)")
     args = parser.parse_args(argv)
     module = importlib.import_module(COMMANDS[args.command].module)
-    status = module.main(args.args, prog=f"spine-gym {args.command}")
-    return status if isinstance(status, int) else 0
+    return module.main(args.args, prog=prog_of(args.command))
 
 
 if __name__ == "__main__":

@@ -1,18 +1,22 @@
 """The conventions every command line of spine_gym shares (``spine-gym <command>`` and the
 ``python -m`` modules behind it).
 
+* :data:`PROG` — the program name, ``spine-gym`` (a command's is ``spine-gym <command>``), and
+  :func:`module_prog` — the ``python -m <module>`` name each command also runs under;
 * :class:`Parser` — argparse with one-line usage errors (exit status 2, before any side effect),
-  the defaults shown in ``--help`` and an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
-  one command a line);
+  the defaults shown in ``--help``, an ``examples:`` epilog (a module's ``EXAMPLES`` text block,
+  one command a line) and no abbreviated options (``--n-timestep`` is not ``--n-timesteps``);
 * :func:`add_env` — ``--env`` with the registered spine ids as choices, a misspelt id answered with
   "did you mean ...";
 * :class:`KeyValues` — ``--env-kwargs``/``--hyperparams`` pairs as ``key=value`` or RL Zoo's
   ``key:value`` (values are Python literals where they parse as one);
 * :func:`add_out`, :func:`add_progress`, :func:`add_workers` — ``-o/--out``,
   ``--progress/--no-progress`` and ``--workers``;
-* :func:`check_env_kwargs`, :func:`check_keys`, :func:`check_file` — the checks a command runs on
-  its arguments before it creates a folder or starts work (``ValueError`` with a one-line message,
-  which the command passes to ``parser.error``, e.g. with :func:`usage_errors`).
+* :func:`check_env_kwargs`, :func:`check_keys`, :func:`check_file`, :func:`check_out_dir`,
+  :func:`check_out_file` — the checks a command runs on its arguments before it creates a folder or
+  starts work (``ValueError`` with a one-line message, which the command passes to
+  ``parser.error``, e.g. with :func:`usage_errors`);
+* :func:`plain_text` — a docstring line without its reST markup, as ``--help`` prints it.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ import ast
 import contextlib
 import difflib
 import inspect
+import os
+import re
 import textwrap
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
@@ -34,6 +40,8 @@ from gymnasium.envs.registration import load_env_creator
 from spine_gym.envs import ENV_SPECS  # registers the spine envs
 
 __all__ = [
+    "PROG",
+    "module_prog",
     "ENV_IDS",
     "HelpFormatter",
     "Parser",
@@ -49,32 +57,65 @@ __all__ = [
     "check_env_kwargs",
     "check_keys",
     "check_file",
+    "check_out_dir",
+    "check_out_file",
+    "positive_int",
+    "plain_text",
     "first_line",
     "usage_errors",
 ]
+
+#: the program name of the command line (``spine-gym <command>`` for a command)
+PROG = "spine-gym"
+
+
+def module_prog(module: str) -> str:
+    """The ``python -m`` program name of a command's module (a package's ``__main__``: the package)."""
+    return "python -m " + module.removesuffix(".__main__")
+
 
 #: every registered spine env id (the ``--env`` choices)
 ENV_IDS: tuple[str, ...] = tuple(i for i in gym.envs.registry if "Spine" in i) or tuple(ENV_SPECS)
 
 
+_ROLE = re.compile(r":[a-z]+(?::[a-z]+)?:`~?([^`<]*?)(?:\s*<[^>]*>)?`")  # :mod:`x`, :func:`~a.b`
+_LITERAL = re.compile(r"``([^`]+)``")
+
+
+def plain_text(text: str) -> str:
+    """``text`` without reST markup: a literal in double backquotes -> its text, a role such as
+    ``:mod:`a.b``` -> ``a.b`` and ``:func:`~a.b``` -> ``b`` (``--help`` is read in a terminal)."""
+
+    def role(m: re.Match) -> str:
+        target = m.group(1)
+        return target.rsplit(".", 1)[-1] if m.group(0).split("`", 1)[1].startswith("~") else target
+
+    return _LITERAL.sub(r"\1", _ROLE.sub(role, text))
+
+
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
     """Each option's default after its help (unless the help names it already or there is none to
-    show); the description and the examples epilog are printed as written."""
+    show); the description and the examples epilog are printed as written, without reST markup."""
+
+    def _format_text(self, text: str) -> str:
+        return super()._format_text(plain_text(text))
 
     def _get_help_string(self, action: argparse.Action) -> str:
-        text = action.help or ""
-        if "default" in text.lower() or action.default in (None, False, "", [], {}, argparse.SUPPRESS):
+        text = plain_text(action.help or "")
+        nothing = action.default is None or action.default is False  # (0 is a default to show)
+        if "default" in text.lower() or nothing or action.default in ("", [], {}, argparse.SUPPRESS):
             return text
         return super()._get_help_string(action)
 
 
 class Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (``<prog>: error: <message>`` on stderr, exit status 2),
-    :class:`HelpFormatter` and ``examples`` as the epilog (commands: a text block with one a line,
-    or a sequence of lines)."""
+    :class:`HelpFormatter`, ``examples`` as the epilog (commands: a text block with one a line,
+    or a sequence of lines) and options only by their full names (``allow_abbrev=False``)."""
 
     def __init__(self, *args, examples: str | Sequence[str] = (), **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         if "\n" not in kwargs.get("description", "\n"):
             kwargs["description"] = textwrap.fill(kwargs["description"], 100)
         lines = examples.strip("\n").splitlines() if isinstance(examples, str) else examples
@@ -180,11 +221,36 @@ def add_progress(p: argparse.ArgumentParser, *aliases: str, default: bool = True
     )  # fmt: skip
 
 
-def add_workers(p: argparse.ArgumentParser, *aliases: str, default: Any = 1, **kwargs) -> argparse.Action:
-    """``--workers`` (and ``aliases``): how many processes or threads share the work."""
+def positive_int(text: str) -> int:
+    """argparse ``type`` of a count: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return value
+
+
+def all_or_positive_int(text: str) -> int:
+    """argparse ``type`` of a worker count that may be ``-1`` (all cores): -1 or an integer >= 1."""
+    if text.strip() == "-1":
+        return -1
+    try:
+        return positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"must be -1 (all cores) or an integer >= 1, got {text!r}") from None
+
+
+def add_workers(
+    p: argparse.ArgumentParser, *aliases: str, default: Any = 1, all_cores: bool = False, **kwargs
+) -> argparse.Action:
+    """``--workers`` (and ``aliases``): how many processes or threads share the work, >= 1 (or -1,
+    all cores, with ``all_cores``)."""
     kwargs.setdefault("help", "parallel workers")
     kwargs.setdefault("metavar", "N")
-    return p.add_argument("--workers", *aliases, type=int, default=default, **kwargs)
+    kind = all_or_positive_int if all_cores else positive_int
+    return p.add_argument("--workers", *aliases, type=kind, default=default, **kwargs)
 
 
 def env_parameters(env: str) -> tuple[str, ...] | None:
@@ -225,3 +291,40 @@ def check_file(path: str | Path, flag: str) -> None:
     """ValueError (one line) unless ``path`` exists."""
     if not Path(path).exists():
         raise ValueError(f"{flag}: {path} does not exist")
+
+
+def _writable(folder: Path) -> bool:
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
+def check_out_dir(path: str | Path, flag: str = "-o/--out") -> None:
+    """ValueError (one line) unless ``path`` is a writable folder or one that can be created (its
+    nearest existing ancestor is a writable folder). Nothing is created."""
+    target = Path(path).expanduser()
+    if target.exists():
+        if not target.is_dir():
+            raise ValueError(f"{flag}: {path} is a file, not a folder")
+        if not _writable(target):
+            raise ValueError(f"{flag}: {path} is not writable")
+        return
+    ancestor = target.absolute().parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ValueError(f"{flag}: cannot create {path}: {ancestor} is a file")
+    if not _writable(ancestor):
+        raise ValueError(f"{flag}: cannot create {path}: {ancestor} is not writable")
+
+
+def check_out_file(path: str | Path, flag: str = "-o/--out") -> None:
+    """ValueError (one line) unless the file ``path`` can be written: not a folder, and its folder
+    writable or creatable (:func:`check_out_dir`). Nothing is created."""
+    target = Path(path).expanduser()
+    if target.is_dir():
+        raise ValueError(f"{flag}: {path} is a folder, not a file")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise ValueError(f"{flag}: {path} is not writable")
+    try:
+        check_out_dir(target.parent, flag)
+    except ValueError as e:
+        raise ValueError(f"{flag}: cannot write {path}: {str(e).split(': ', 1)[1]}") from None

@@ -1,6 +1,6 @@
 """``simulate()``: run the spine model over a voltage and load programme (MODEL.md §6).
 
-The time loop runs inside numba (:func:`spine_gym.physics.planar.batch.run`); this module only turns
+The time loop runs inside numba (:func:`spine_gym.physics.planar.run.run`); this module only turns
 user inputs (constants, arrays sampled at ``dt`` or callables of time) into arrays, validates them,
 and wraps the record in a :class:`SimulationResult`.
 """
@@ -16,9 +16,9 @@ from ._series import V_MAX_ALLOWED, SimulationError, Trajectory, as_series, outp
 from .layout import SpineLayout
 from .params import ModelParams, SolverOptions
 from .physics import columns as L
-from .physics.planar import batch
+from .physics.planar import record, run
 from .physics.planar import columns as PL
-from .physics.planar.solver import init_state
+from .physics.planar.integrate import init_state
 from .simulate_spatial import SpatialResult, simulate_spatial
 
 __all__ = ["SimulationError", "SimulationResult", "simulate", "initial_state", "build_loads"]
@@ -193,8 +193,8 @@ def simulate(
     ks = solver.to_kernel()
     state = _start_state(state, params, solver, loads[0])
     t0 = state[PL.X_TIME]
-    out = batch.empty_record(n)
-    st, k, nsub, npass = batch.run(state, kp, ks, v_r, v_l, loads, dt, out)
+    out = run.empty_record(n)
+    st, k, nsub, npass = run.run(state, kp, ks, v_r, v_l, loads, dt, out)
     if st != L.OK:
         raise SimulationError(st, t0 + k * dt)
     return _result(out, v_r, v_l, dt, t0, params, nsub, npass, state)
@@ -203,18 +203,18 @@ def simulate(
 def _result(out, v_r, v_l, dt, t0, params: ModelParams, nsub, npass, state) -> SimulationResult:
     n = v_r.shape[0]
     vol = params.wire_volume * params.n_w  # [m^3] of one side
-    r_wire = out[:, batch.OUT_RES_R] * params.L0 / params.wire_area
-    l_wire = out[:, batch.OUT_RES_L] * params.L0 / params.wire_area
+    r_wire = out[:, record.OUT_RES_R] * params.L0 / params.wire_area
+    l_wire = out[:, record.OUT_RES_L] * params.L0 / params.wire_area
     # voltage of a sample = the one applied over the step that ends there (row 0: the first one)
     vr = np.concatenate([v_r[:1], v_r])
     vl = np.concatenate([v_l[:1], v_l])
     x = out
     return SimulationResult(
         time=t0 + dt * np.arange(n + 1),
-        angle_deg=np.degrees(x[:, batch.OUT_ANGLE]),
+        angle_deg=np.degrees(x[:, record.OUT_ANGLE]),
         moment=x[:, PL.X_MW].copy(),
-        tip_x=x[:, batch.OUT_TIP_X].copy(),
-        tip_y=x[:, batch.OUT_TIP_Y].copy(),
+        tip_x=x[:, record.OUT_TIP_X].copy(),
+        tip_y=x[:, record.OUT_TIP_Y].copy(),
         temperature_right=x[:, PL.X_TR].copy(),
         temperature_left=x[:, PL.X_TL].copy(),
         stress_right=x[:, PL.X_SR].copy(),

@@ -1,6 +1,6 @@
 """``simulate`` of a spatial or chained spine (SPATIAL.md): a :class:`SpineLayout`, one voltage per wire.
 
-The time loop runs inside numba (:func:`spine_gym.physics.spatial.solver.run`); this module turns
+The time loop runs inside numba (:func:`spine_gym.physics.spatial.run.run`); this module turns
 user inputs into arrays, validates them and wraps the record in a :class:`SpatialResult`.
 :func:`spine_gym.simulate` dispatches here when it is given ``layout=``.
 """
@@ -19,7 +19,9 @@ from .params import SolverOptions
 from .physics import columns as L
 from .physics._jit import jit
 from .physics.spatial import columns as SL
-from .physics.spatial.solver import init_state, record_size, run
+from .physics.spatial.integrate import init_state
+from .physics.spatial.record import record_size
+from .physics.spatial.run import run
 
 __all__ = ["SpatialResult", "simulate_spatial", "initial_state_spatial", "build_loads_3d"]
 

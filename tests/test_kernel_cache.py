@@ -1,5 +1,5 @@
 """numba's cache is re-validated against a kernel's own file only; spine_gym._kernel_cache clears every cached
-kernel when any kernel source changed (an edit of solver.py must reach the kernels of env_kernels.py)."""
+kernel when any kernel source changed (an edit of integrate.py must reach the kernels of control.py)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ from spine_gym import _kernel_cache as kc
 
 
 def _tree(tmp_path):
-    src = tmp_path / "solver.py"
+    src = tmp_path / "integrate.py"
     src.write_text("def advance(): return 1\n")
     cache = tmp_path / "__pycache__"
     cache.mkdir()
-    kernels = [cache / "env_kernels._step-10.py311.nbi", cache / "env_kernels._step-10.py311.1.nbc"]
+    kernels = [cache / "control.step_spine-26.py311.nbi", cache / "control.step_spine-26.py311.1.nbc"]
     for f in kernels:
         f.write_bytes(b"compiled")
-    keep = cache / "solver.cpython-311.pyc"
+    keep = cache / "integrate.cpython-311.pyc"
     keep.write_bytes(b"bytecode")
     return src, cache, kernels, keep
 
@@ -41,6 +41,6 @@ def test_an_edited_callee_clears_every_cached_kernel(tmp_path):
 
 def test_the_package_stamp_covers_every_kernel_source():
     names = {"/".join(p.parts[-2:]) for p in kc.KERNEL_SOURCES}
-    expected = {"planar/solver.py", "planar/tube.py", "physics/sma.py", "physics/env_kernels.py", "spatial/solver.py"}
+    expected = {"planar/integrate.py", "planar/tube.py", "physics/sma.py", "planar/control.py", "spatial/integrate.py"}
     assert expected | {"envs/readout.py"} <= names
     assert (kc.KERNEL_CACHE_DIRS[0] / kc.STAMP_NAME).is_file()  # written when the package was imported

@@ -13,6 +13,8 @@ Runtime (no command line):
 
 * :mod:`~spine_gym.agents.registry` — the one table of controllers; :mod:`~spine_gym.agents.runtime` — envs,
   controllers, saved policies, episodes; :mod:`~spine_gym.agents.scenarios`, :mod:`~spine_gym.agents.metrics`.
+* :mod:`~spine_gym.agents.evaluation` — controllers on the scenario suite, its tables and files;
+  :mod:`~spine_gym.agents.minari_datasets` — Minari datasets recorded and read.
 * :mod:`~spine_gym.agents.observations` — the observation features (integral of the error, frame
   history); :mod:`~spine_gym.agents.residual`, :mod:`~spine_gym.agents.lagrangian` — the residual and
   energy-budget wrappers.

@@ -10,7 +10,7 @@ The student is the shipped PPO ``MlpPolicy`` of the dataset's env id (``spine_gy
 its deterministic action (the Gaussian's mean) fitted by MSE to the dataset's actions on its
 observations, normalised by their mean and variance (:func:`fit_student`, the regression the DAgger
 study ``scripts/studies/distill.py`` uses too), on the (observation, action) pairs of
-:func:`spine_gym.agents.datasets.transitions`.
+:func:`spine_gym.agents.minari_datasets.transitions`.
 It is saved in the shipped format (``model.zip``, ``vecnormalize.pkl``, ``meta.json``:
 :func:`spine_gym.agents.runtime.load_policy` reads it, ``python -m spine_gym.agents.train -i`` fine-tunes it).
 
@@ -35,7 +35,9 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
-from .datasets import datasets_path, load_metadata, transitions
+from spine_gym.cli_conventions import module_prog
+
+from .minari_datasets import datasets_path, load_metadata, transitions
 from .runtime import SavedPolicy, build_controller, load_policy, make_env, validation_scores
 from .vec_env import make_vec_env
 from .zoo_config import load_hyperparams, preprocess_hyperparams
@@ -147,7 +149,7 @@ def make_model(env_id: str, env_kwargs: dict, seed: int = 0):
 
 
 def behaviour_clone(dataset, *, epochs: int = 30, lr: float = 1e-3, batch_size: int = 256, seed: int = 0):
-    """Fit a student to ``dataset`` (a :class:`minari.MinariDataset` of :mod:`spine_gym.agents.datasets`).
+    """Fit a student to ``dataset`` (a :class:`minari.MinariDataset` of :mod:`spine_gym.agents.minari_datasets`).
 
     Returns ``(policy, venv, hp, losses)``: the student as a :class:`spine_gym.agents.runtime.SavedPolicy`,
     its one-env training stack and hyperparameters (for :func:`save_policy`) and the loss per epoch.
@@ -216,8 +218,12 @@ def compare(policy, meta: dict, n_episodes: int) -> dict:
     return out
 
 
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.behaviour_cloning", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0], allow_abbrev=False)
     p.add_argument("--dataset", required=True, help="dataset id (spine_gym/<env id>/<controller>-v<n>)")
     p.add_argument("--out", required=True, help="folder of the cloned policy")
     p.add_argument("--data-path", default=None, help="data directory (default: MINARI_DATASETS_PATH)")
@@ -229,11 +235,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the report is ``<out>/bc.json``)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     torch.set_num_threads(1)
-    command = "python -m spine_gym.agents.behaviour_cloning " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     with datasets_path(args.data_path):
         dataset = minari.load_dataset(args.dataset)
     meta = load_metadata(dataset)
@@ -246,8 +253,8 @@ def main(argv: list[str] | None = None) -> dict:
         report.update(compare(policy, meta, args.val_episodes))
     (out / "bc.json").write_text(json.dumps(report, indent=2, default=np.asarray))
     print(json.dumps(report, indent=2))
-    return report
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

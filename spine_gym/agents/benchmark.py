@@ -71,6 +71,7 @@ import torch
 from tqdm import tqdm
 
 from spine_gym.cli_conventions import (
+    check_out_dir,
     ENV_IDS,
     Parser,
     add_env_kwargs,
@@ -78,6 +79,7 @@ from spine_gym.cli_conventions import (
     add_progress,
     add_workers,
     check_env_kwargs,
+    module_prog,
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
@@ -94,7 +96,7 @@ from .benchmark_run import (
     read_curve,
     validation_means,
 )
-from .evaluate import write_csv
+from .evaluation import write_csv
 from .registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
@@ -219,15 +221,18 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym benchmark --workers 2                  # every algorithm on the default env ids
-spine-gym benchmark --quick -o /tmp/bench        # the smoke run of CI
+spine-gym benchmark --quick -o runs/bench      # the smoke run of CI
 spine-gym benchmark --algos ppo sac --env SmaSpine-v1 --n-seeds 10 -n 200000
 spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray cluster
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.benchmark") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
     p.add_argument(
@@ -436,14 +441,15 @@ def make_plan(args: argparse.Namespace) -> Plan:
                 s["bootstrap_reps"], units)  # fmt: skip
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.benchmark") -> list[dict]:
-    """Run the CLI; returns the summary rows of the table. Usage errors exit with status 2 before any
-    folder is made."""
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
+    """Run the CLI; exit status 0 (the summary rows are ``table.csv``, :func:`write_report` returns
+    them). Usage errors exit with status 2 before any folder is made."""
     t_start = time.perf_counter()
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     out = Path(args.out)
     with usage_errors(parser):
+        check_out_dir(out)
         plan = make_plan(args)
         restore_records(out)  # the runs of out/records.tar.xz, if any, resume as run folders
         check_finished(plan.specs, out)
@@ -452,7 +458,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     out.mkdir(parents=True, exist_ok=True)
     argv = sys.argv[1:] if argv is None else list(argv)
     with open(out / "command.txt", "a") as f:
-        f.write("python -m spine_gym.agents.benchmark " + " ".join(shlex.quote(a) for a in argv) + "\n")
+        f.write(f"{PROG} " + " ".join(shlex.quote(a) for a in argv) + "\n")
     references = {
         env_id: reference_scores(
             env_id, plan.references, plan.task_kwargs, plan.val_episodes, plan.reference_episodes, out,
@@ -485,8 +491,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     print(f"wrote the table and curves to {out} ({time.perf_counter() - t_start:.0f} s in all)")
     if failed:
         raise SystemExit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
-    return summary
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

@@ -54,7 +54,7 @@ from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
 import spine_gym
-from spine_gym.cli_conventions import Parser, add_out, check_file, first_line
+from spine_gym.cli_conventions import Parser, add_out, check_file, check_out_dir, first_line, module_prog
 
 from . import numpy_policy
 from .export_c import write_c
@@ -346,13 +346,16 @@ class OneUlpUp:
         return self.policy.predict(moved, state, episode_start, deterministic)
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
-spine-gym export spine_gym/agents/policies/ppo -o exported/ppo
-spine-gym export logs/ppo/SmaSpine-v1_1/best_model.zip -o exported/best
+spine-gym export logs/ppo/SmaSpine-v1_1 -o exported/ppo          # a run folder (or a shipped policy's)
+spine-gym export logs/ppo/SmaSpine-v1_1/model.zip -o exported/zip   # a model file
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument(
         "policy", help="a policy folder (model.zip + vecnormalize.pkl + meta.json) or a model .zip"
@@ -361,13 +364,14 @@ def build_parser(prog: str = "python -m spine_gym.agents.export") -> argparse.Ar
     return p
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.export") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0, or 2 (one line on stderr) for a missing or unsupported policy,
     before anything is written."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     try:
         check_file(args.policy, "policy")
+        check_out_dir(args.out)
         paths = export_policy(load_policy(args.policy), args.out, source=args.policy)
     except ValueError as e:  # UnsupportedPolicyError is one
         print(f"{parser.prog}: error: {first_line(e)}", file=sys.stderr)

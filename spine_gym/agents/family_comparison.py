@@ -25,6 +25,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from spine_gym.cli_conventions import module_prog
+
 from . import evaluate as ev
 from .runtime import evaluation_env_kwargs, make_env
 from .zoo_config import ENV_IDS
@@ -113,9 +115,13 @@ def summary_lines(runs: list[Comparison], seconds: float) -> list[str]:
     return lines
 
 
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python -m spine_gym.agents.family_comparison",
+        prog=PROG,
         description=__doc__.split("\n\n")[0].replace("\n", " ").replace("``", ""),
         epilog="Any other argument goes to every python -m spine_gym.agents.evaluate run "
         "(e.g. --suite quick, --no-plots, --plain, --mpc).",
@@ -129,8 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> list[Comparison]:
-    """Run the comparisons; returns them. Bad arguments exit with status 2 before any episode runs."""
+def main(argv: list[str] | None = None) -> int:
+    """Run the comparisons; exit status 0. Bad arguments exit with status 2 before any episode runs."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     t0 = time.perf_counter()
@@ -148,8 +154,8 @@ def main(argv: list[str] | None = None) -> list[Comparison]:
         print(f"\n=== {run.label()}: the baselines and {names}", flush=True)
         ev.main(run.argv(extra))
     print("\n" + "\n".join(summary_lines(runs, time.perf_counter() - t0)))
-    return runs
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

@@ -25,7 +25,7 @@ checkpoint carries them. RLlib's own ``MeanStdFilter`` is not used: with several
 merged statistics drift (ray 2.60: after a few iterations the stored mean wire temperature was
 116 K, below the 293 K ambient that no observation goes under).
 :class:`RLlibPolicy` loads a checkpoint's module and normaliser behind SB3's ``predict``, so
-:func:`spine_gym.agents.evaluate.evaluate` scores it like the shipped policies.
+:func:`spine_gym.agents.evaluation.evaluate` scores it like the shipped policies.
 
 Needs ``ray[rllib]`` (which pins its own gymnasium, e.g. 1.2.2); install it in a separate venv
 (``.ci/run`` builds ``.venv-rllib``).
@@ -56,9 +56,10 @@ from ray.rllib.core.rl_module.rl_module import RLModule
 from ray.rllib.utils.spaces.space_utils import unsquash_action
 from tqdm.auto import tqdm
 
+from spine_gym.cli_conventions import module_prog
 from spine_gym.envs import SmaSpineVectorEnv
 
-from .evaluate import evaluate, format_tables, summarize
+from .evaluation import evaluate, format_tables, summarize
 from .scenarios import SUITES, get_suite
 from .zoo_config import ENV_ID, load_hyperparams, preprocess_hyperparams
 
@@ -296,8 +297,12 @@ class RLlibPolicy:
 
 
 # --------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.rllib_ppo", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("--env-runners", type=int, default=2, help="remote env runners (default 2)")
     p.add_argument("--envs-per-runner", type=int, default=8, help="sub-envs per runner (default 8)")
     p.add_argument("--vectorize", choices=sorted(VECTORIZE), default="native")
@@ -342,7 +347,8 @@ def _train(algo: Algorithm, iterations: int) -> list[dict]:
     return history
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the result is ``<out>/result.json``)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.iterations < 0:
@@ -381,7 +387,7 @@ def main(argv: list[str] | None = None) -> dict:
     finally:
         ray.shutdown()
     result = {
-        "command": shlex.join([sys.executable, "-m", "spine_gym.agents.rllib_ppo", *(argv or sys.argv[1:])]),
+        "command": shlex.join([sys.executable, "-m", __spec__.name, *(argv or sys.argv[1:])]),
         "runner_envs": envs,
         "runner_nodes": placement,
         "cluster_nodes": nodes,
@@ -395,7 +401,7 @@ def main(argv: list[str] | None = None) -> dict:
         result["evaluation"] = rows
     (out / "result.json").write_text(json.dumps(result, indent=2, default=float) + "\n")
     print(f"checkpoint {ckpt}; wrote {out / 'result.json'}")
-    return result
+    return 0
 
 
 if __name__ == "__main__":
@@ -403,4 +409,4 @@ if __name__ == "__main__":
     # ships to the runners and pickles into checkpoints must be importable as spine_gym.agents.rllib_ppo
     from spine_gym.agents.rllib_ppo import main as package_main
 
-    package_main()
+    sys.exit(package_main())

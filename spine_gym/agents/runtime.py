@@ -18,14 +18,12 @@ from here; this module imports no CLI.
 
 from __future__ import annotations
 
-import json
 import pickle
 import zipfile
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-import yaml
 from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
@@ -33,6 +31,7 @@ from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
 
 from .metrics import Trajectory, episode_metrics
 from .observations import feature_policy, specs_from_meta
+from .policy_files import policy_files, policy_meta
 from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
@@ -300,26 +299,9 @@ def load_policy(path: str | Path, name: str | None = None, device: str = "cpu") 
     are looked up beside it (``vecnormalize.pkl`` or the checkpoint's ``*_vecnormalize_*``), and
     a checkpoint in a run's ``checkpoints/`` reads the run's ``meta.json``.
     """
+    _, model_path = policy_files(path)
     path = Path(path)
-    if not path.exists():
-        raise ValueError(f"policy path {path} does not exist")
-    if path.is_dir():
-        folder = path
-        zips = [folder / n for n in ("model.zip", "best_model.zip", f"{ENV_ID}.zip")]
-        zips = [z for z in zips if z.exists()]
-        if not zips:
-            raise ValueError(f"no model.zip / best_model.zip / {ENV_ID}.zip in {folder}")
-        model_path = zips[0]
-    else:
-        folder = path.parent
-        model_path = path
-    if folder.name == "checkpoints" and not (folder / "meta.json").exists():
-        folder = folder.parent  # a checkpoint of spine_gym.agents.train: the run's meta.json (wrappers) is there
-    meta = {}
-    if (folder / "meta.json").exists():
-        meta = json.loads((folder / "meta.json").read_text())
-    elif (folder / "args.yml").exists():
-        meta = yaml.safe_load((folder / "args.yml").read_text()) or {}
+    meta = policy_meta(path)
     algo = str(meta.get("algo", "")).lower()
     if algo not in ALGOS:
         # guess from the file (SAC has critic weights)

@@ -29,7 +29,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from .evaluate import write_csv
+from spine_gym.cli_conventions import module_prog
+
+from .evaluation import write_csv
 from .runtime import (
     OBSERVATION_KWARGS,
     VALIDATION_SEED_BASE,
@@ -63,8 +65,13 @@ def score_row(name: str, controller, n_episodes: int, env_kwargs: dict, env_id: 
     return {"model": name, **mean}
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    p = argparse.ArgumentParser(prog="python -m spine_gym.agents.selection", description=__doc__.split("\n")[0])
+#: this command's name as ``python -m <module>``
+PROG = module_prog(__spec__.name)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; exit status 0 (the scores are printed and, with ``--out``, written as CSV)."""
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0], allow_abbrev=False)
     p.add_argument("runs", nargs="+", help="run folders of spine_gym.agents.train")
     p.add_argument(
         "--env", default=ENV_ID, choices=ENV_IDS, help="env id the runs were trained on (default: %(default)s)"
@@ -110,8 +117,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     )
     if args.out:
         write_csv(Path(args.out), rows)
-    return rows
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

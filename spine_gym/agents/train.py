@@ -1,4 +1,4 @@
-"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v0`` or a spatial spine (``--env SmaSpine3D-v0``, ...).
+"""Train PPO, SAC, TD3 or TQC on ``SmaSpine-v1`` or another spine env (``--env SmaSpine3D-v1``, ...).
 
 RL-Zoo-style CLI (``spine-gym train``; the conventions of :mod:`spine_gym.cli_conventions`).
 
@@ -9,7 +9,12 @@ Example::
         --env-kwargs episode_duration:60.0
 
 Every argument is checked before the run folder is made (the env id, the env kwargs by building one
-env, the hyperparameter keys, the files to read): a bad one is a one-line usage error, exit status 2.
+env, the hyperparameter keys, the files to read, that ``-o`` can be written, that an ``-i`` model was
+trained on ``--env``): a bad one is a one-line usage error, exit status 2. Without ``--env`` the run
+uses ``-i``'s env (its ``meta.json``), else ``SmaSpine-v1``.
+
+By default it prints one progress line and, at the end, where the model went and the command that
+evaluates it; ``-v`` adds Stable-Baselines3's tables (``-v 2``: its debug output).
 
 Hyperparameters come from ``spine_gym/agents/hyperparams/{algo}.yml`` (entry keyed by the env id, RL Zoo's
 format: ``n_envs``, ``n_timesteps``, ``policy``, ``normalize``, ``policy_kwargs`` as a
@@ -85,7 +90,9 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
 from stable_baselines3.common.utils import set_random_seed
 
+from spine_gym.cli_conventions import PROG as SPINE_GYM
 from spine_gym.cli_conventions import (
+    ENV_IDS,
     Parser,
     add_env,
     add_env_kwargs,
@@ -95,7 +102,9 @@ from spine_gym.cli_conventions import (
     check_env_kwargs,
     check_file,
     check_keys,
+    check_out_dir,
     first_line,
+    module_prog,
     usage_errors,
 )
 
@@ -116,20 +125,24 @@ from .training import (
     resolve_config,
     yaml_safe,
 )
-from .zoo_config import ALGOS, ENV_ID, StoreDict
+from .policy_files import check_policy_env, trained_env_id
+from .zoo_config import ALGOS, DEFAULT_ENV_ID, ENV_ID, StoreDict
+
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym train --algo ppo -n 300000 --seed 1 --n-envs 8 -o logs --env-kwargs episode_duration=60.0
-spine-gym train --algo sac --env SmaSpine-v1 -params learning_starts=1000 batch_size=256
-spine-gym train --resume logs/ppo/SmaSpine-v0_3           # an interrupted run, from its newest checkpoint
-python -m spine_gym.agents.train --algo ppo -f logs        # the same module, RL Zoo's -f
+spine-gym train --algo ppo -n 4000 --seed 1 --n-envs 8 --save-freq 2000 -o logs --env-kwargs episode_duration=60.0
+spine-gym train --algo sac --env SmaSpine-v1 -n 2000 -params learning_starts=1000 batch_size=256
+spine-gym train --resume logs/ppo/SmaSpine-v1_1           # an interrupted run, from its newest checkpoint
+python -m spine_gym.agents.train --algo ppo -n 2000 -f logs        # the same module, RL Zoo's -f
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algo", choices=ALGOS, help="RL algorithm (required unless --resume)")
-    add_env(p, default=ENV_ID)
+    add_env(p, help=f"environment id (default: -i's env, else {DEFAULT_ENV_ID}), one of: " + ", ".join(ENV_IDS))
     p.add_argument(
         "-n", "--n-timesteps", type=int, default=-1, help="training steps (default: from the YAML)"
     )
@@ -177,7 +190,10 @@ def build_parser(prog: str = "python -m spine_gym.agents.train") -> argparse.Arg
     p.add_argument("--no-tensorboard", action="store_true", help="do not write TensorBoard logs")
     add_workers(p, "--torch-threads", dest="torch_threads", help="torch intra-op threads")
     p.add_argument("--device", default="cpu", help="torch device (default: %(default)s)")
-    p.add_argument("-v", "--verbose", type=int, default=1, help="verbosity 0/1/2")
+    p.add_argument(
+        "-v", "--verbose", type=int, nargs="?", const=1, default=0, metavar="LEVEL",
+        help="Stable-Baselines3's output: -v its tables (1), -v 2 its debug output (default: 0, a progress line)",
+    )  # fmt: skip
     return p
 
 
@@ -215,7 +231,7 @@ def _resume_target(path: Path) -> tuple[Path, Path]:
     return run, ckpt
 
 
-def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train"):
+def _parse(argv: list[str] | None, prog: str = PROG):
     """(arguments, argv, resume target or None, run config). With ``--resume`` the run's first command
     line comes first and this one's flags after it, so they override. Every argument is checked here,
     before a run folder exists: a bad one is a one-line usage error (exit status 2)."""
@@ -232,8 +248,22 @@ def _parse(argv: list[str] | None, prog: str = "python -m spine_gym.agents.train
             args = parser.parse_args([*first[3:], *argv])  # first[:3]: python -m spine_gym.agents.train
         if args.algo is None:
             raise ValueError("--algo is required (or --resume RUN)")
+        args.env = _resolved_env(args, resume)
         cfg = _checked_config(args, str(resume[1]) if resume else args.trained_agent)
+        check_out_dir(resume[0] if resume else args.log_folder, "--resume" if resume else "-o/--out")
     return args, argv, resume, cfg
+
+
+def _resolved_env(args, resume: tuple[Path, Path] | None) -> str:
+    """``--env``, else the env of the run resumed or of the ``-i`` model (their ``meta.json``),
+    else :data:`DEFAULT_ENV_ID`."""
+    if args.env:
+        return args.env
+    if resume:
+        return json.loads((resume[0] / "meta.json").read_text()).get("env_id", ENV_ID)
+    if args.trained_agent and Path(args.trained_agent).exists():
+        return trained_env_id(args.trained_agent) or DEFAULT_ENV_ID
+    return DEFAULT_ENV_ID
 
 
 def _checked_config(args, checkpoint: str) -> RunConfig:
@@ -261,6 +291,8 @@ def _checked_config(args, checkpoint: str) -> RunConfig:
     except (ValueError, TypeError, SyntaxError, NameError) as e:
         raise ValueError(f"hyperparameters of {args.algo} on {args.env}: {first_line(e)}") from None
     check_env_kwargs(args.env, cfg.env_kwargs)
+    if args.trained_agent:
+        check_policy_env(args.trained_agent, args.env, "-i/--trained-agent", cfg.env_kwargs)
     if checkpoint and cfg.special["normalize"] is not None:
         checkpoint_vecnormalize(Path(checkpoint))
     return cfg
@@ -270,7 +302,7 @@ def _start_run(args, argv: list[str], cfg: RunConfig, resume: tuple[Path, Path] 
     """(run folder, meta): a new folder with ``command.txt``, ``args.yml``, ``config.yml``; or with
     ``resume`` the run's folder, this command line appended to ``command.txt`` and a new entry in
     ``meta["resumes"]``."""
-    command = "python -m spine_gym.agents.train " + " ".join(shlex.quote(a) for a in argv)
+    command = f"{PROG} " + " ".join(shlex.quote(a) for a in argv)
     if resume:
         run = resume[0]
         with open(run / "command.txt", "a") as f:
@@ -333,7 +365,42 @@ def _eval_callback(args, run: Path, eval_env, normalized: bool, n_envs: int, res
     return evaluation
 
 
-def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> Path:
+class ProgressLine(BaseCallback):
+    """One line of progress on stdout: rewritten in place on a terminal, else printed at each
+    quarter of the run."""
+
+    def __init__(self, total: int, start: int):
+        super().__init__()
+        self.total, self.start, self.t0 = max(1, total), start, time.perf_counter()
+        self.tty, self.shown = sys.stdout.isatty(), 0
+
+    def _on_training_start(self) -> None:
+        self.t0 = time.perf_counter()
+
+    def _line(self) -> str:
+        done = min(self.num_timesteps - self.start, self.total)
+        return f"training: {done}/{self.total} steps ({100 * done // self.total} %), {time.perf_counter() - self.t0:.0f} s"
+
+    def _on_step(self) -> bool:
+        done = min(self.num_timesteps - self.start, self.total)  # the last rollout may run past -n
+        if self.tty and done % 512 < self.training_env.num_envs:
+            print("\r" + self._line(), end="", flush=True)
+        elif not self.tty and 4 * done // self.total > self.shown:
+            self.shown = 4 * done // self.total
+            print(self._line(), flush=True)
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.tty or self.shown < 4:
+            print(("\r" if self.tty else "") + self._line(), flush=True)
+
+
+def _next_step(run: Path, args) -> str:
+    """The command that evaluates the run's model."""
+    return f"{SPINE_GYM} evaluate --models {args.algo}={shlex.quote(str(run))} --suite quick"
+
+
+def train(argv: list[str] | None = None, prog: str = PROG) -> Path:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``; ``prog``: the name in its messages);
     returns the run folder."""
     args, argv, resume, cfg = _parse(argv, prog)
@@ -372,6 +439,8 @@ def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents
         callbacks.append(
             RunCheckpointCallback(run / "checkpoints", save_freq, start, envs.budget_env, args.verbose)
         )
+    if not args.verbose and not args.progress:
+        callbacks.append(ProgressLine(remaining, int(model.num_timesteps)))
     if eval_env is not None:
         resumed_at = int(model.num_timesteps) if resume else None
         callbacks.append(_eval_callback(args, run, eval_env, norm is not None, cfg.n_envs, resumed_at))
@@ -398,15 +467,16 @@ def train(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents
         meta["lagrangian_final"] = envs.budget_env.lam
         save_lagrangian(envs.budget_env, run / "lagrangian.json")
     (run / "meta.json").write_text(json.dumps(meta, indent=2))
-    if args.verbose:
-        print(f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s")
+    print(
+        f"saved {run / 'model.zip'} after {model.num_timesteps} steps in {wall:.0f} s — next: {_next_step(run, args)}"
+    )
     env.close()
     if eval_env is not None:
         eval_env.close()
     return run
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.train") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """The command line (``spine-gym train``); exit status 0 (usage errors exit with 2)."""
     train(argv, prog)
     return 0

@@ -4,13 +4,13 @@ Example (``spine-gym tune`` is the same command)::
 
     python -m spine_gym.agents.tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
     python -m spine_gym.agents.tune --env SmaSpine3D-v0 --controllers pid  # results/tune/baselines_SmaSpine3D-v0.yml
-    python -m spine_gym.agents.tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite  # the shipped gains
+    python -m spine_gym.agents.tune --env SmaSpine-v0 -o spine_gym/agents/hyperparams/baselines.yml --overwrite  # the shipped gains
 
 An existing output file is refused unless ``--overwrite`` (which replaces the tuned controllers'
 entries and keeps the others).
 
 The objective is the mean tracking RMSE [deg; mm for the chain's tip position] over ``--episodes``
-episodes of the env (``--env``, default ``SmaSpine-v0``)
+episodes of the env (``--env``, default ``SmaSpine-v1``)
 drawn by the env's own samplers (random targets and loads) with reset seeds
 ``TRAIN_SEED_BASE + i`` — the same distribution the RL agents train on, and disjoint from the
 evaluation suite's seeds (:data:`spine_gym.agents.scenarios.EVAL_SEED_BASE`). Optuna's TPE sampler is
@@ -35,7 +35,7 @@ from spine_gym.envs import base_id
 from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
-from .zoo_config import ENV_ID
+from .zoo_config import DEFAULT_ENV_ID, ENV_ID
 
 __all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
 
@@ -120,17 +120,20 @@ def tune(
     }
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = cli.module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
 spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
-spine-gym tune -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # update the shipped gains
+spine-gym tune --env SmaSpine-v0 -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # the shipped gains
 """
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 
 
-def build_parser(prog: str = "python -m spine_gym.agents.tune") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = cli.Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    cli.add_env(p, default=ENV_ID)
+    cli.add_env(p, default=DEFAULT_ENV_ID)
     p.add_argument(
         "--controllers", nargs="+", default=None, help="tuned registry entries (default: all of --env)"
     )
@@ -163,19 +166,21 @@ def _check(args) -> Path:
     out = Path(args.out) if args.out else DEFAULT_OUT / tuned_file(args.env).name
     if out.is_dir():
         raise ValueError(f"--out {out} is a folder; give a file name (.yml)")
+    cli.check_out_file(out)
     if out.exists() and not args.overwrite:
         raise ValueError(f"--out {out} exists; pass --overwrite to update it or give another --out")
     cli.check_env_kwargs(args.env, args.env_kwargs)
     return out
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.tune") -> dict:
-    """Run the CLI; returns the record written. Usage errors exit with status 2 before any tuning."""
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
+    """Run the CLI; exit status 0 (the record is the YAML file written). Usage errors exit with
+    status 2 before any tuning."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)
     with cli.usage_errors(parser):
         out = _check(args)
-    command = "python -m spine_gym.agents.tune " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = f"{PROG} " + " ".join(sys.argv[1:] if argv is None else argv)
     record = yaml.safe_load(out.read_text()) if out.exists() else {}
     for kind in args.controllers:
         rec = tune(
@@ -191,8 +196,8 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.agents.
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(header + yaml.safe_dump(record, sort_keys=False))
     print(f"wrote {out}")
-    return record
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -75,7 +75,7 @@ def record_episode(path: Path, env: gym.Env, run: Callable[[gym.Env], object], *
     Args:
         path: output file (folders are created).
         env: the env to film.
-        run: plays the episode on the env it gets (e.g. ``spine_gym.agents.evaluate.run_episode`` with a
+        run: plays the episode on the env it gets (e.g. ``spine_gym.agents.runtime.run_episode`` with a
             policy and a scenario bound).
         speed: playback speed (1 = real time: ``env.metadata["render_fps"]`` frames per second).
 

@@ -24,7 +24,8 @@ from spine_gym.envs import ENV_SPECS
 
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
-ENV_ID = "SmaSpine-v0"
+ENV_ID = "SmaSpine-v0"  # the planar family's base id (its controller table, tuned file, shipped policies)
+DEFAULT_ENV_ID = "SmaSpine-v1"  # what train, evaluate and tune run on without --env: the current planar id
 SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
 CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
 ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, -v1 and the -v1 tiers of the three families

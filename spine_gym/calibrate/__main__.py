@@ -20,7 +20,17 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, first_line
+from ..cli_conventions import (
+    Parser,
+    add_out,
+    add_progress,
+    add_workers,
+    check_file,
+    check_out_dir,
+    first_line,
+    module_prog,
+    positive_int,
+)
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams
 from .data import Experiment
@@ -98,14 +108,17 @@ def _parameters(names: str, bounds: str | None, start) -> tuple[FitParameter, ..
     return resolve_parameters(params, start)
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = """
 spine-gym calibrate run1.csv run2.csv --params alpha,E_t,T_shift,lam_A -o results/calibration
-spine-gym calibrate hysteresis.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
+spine-gym calibrate run1.csv --start alternative --noise angle=0.5,temperature=1 --workers 2
 spine-gym calibrate results/spatial_example/*.csv --layout seed --params wires --no-progress
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     ap = Parser(
         prog=prog,
         examples=EXAMPLES,
@@ -135,9 +148,15 @@ def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.Argume
         "--layout", default="seed", help="spatial CSVs: the layout, 'seed' (four-wire module) or 'chain:<n>'"
     )
     add_out(ap, default="results/calibration")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--n-starts", type=int, default=2)
-    ap.add_argument("--cma-evals", type=int, default=None, help="CMA-ES budget in candidates")
+    ap.add_argument("--seed", type=int, default=0, help="random seed of the CMA-ES stage and of the random starts")
+    ap.add_argument(
+        "--n-starts", type=positive_int, default=2,
+        help="least-squares starts: the CMA-ES optimum, the start preset, then random points",
+    )  # fmt: skip
+    ap.add_argument(
+        "--cma-evals", type=positive_int, default=None,
+        help="CMA-ES budget in candidates (default: 30 generations of its default population)",
+    )  # fmt: skip
     ap.add_argument("--no-global", action="store_true", help="skip the CMA-ES global stage")
     ap.add_argument("--max-nfev", type=int, default=30, help="evaluations per least-squares start")
     ap.add_argument("--loss", default="linear", help="least_squares loss (linear, soft_l1, huber, ...)")
@@ -147,7 +166,7 @@ def build_parser(prog: str = "python -m spine_gym.calibrate") -> argparse.Argume
     return ap
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.calibrate") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0 (130 if interrupted), or 2 (one line on stderr) on a bad argument,
     before the fit starts."""
     parser = build_parser(prog)
@@ -155,6 +174,7 @@ def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.calibra
     try:
         for path in args.csv:
             check_file(path, "csv")
+        check_out_dir(args.out)
         start, start_name = _start(args.start)
         noise = _noise(args.noise)
         experiments, start = _experiments(args.csv, noise, args.layout, start)

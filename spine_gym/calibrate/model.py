@@ -1,6 +1,6 @@
 """The model side of a fit: simulate an experiment, weighted residuals, candidates in parallel.
 
-Candidates are simulated on a thread pool: the time loop (:func:`spine_gym.physics.planar.batch.run`) is
+Candidates are simulated on a thread pool: the time loop (:func:`spine_gym.physics.planar.run.run`) is
 a ``nogil`` numba kernel, so threads run it on all cores while only the short Python set-up of
 each run holds the GIL. Every simulation is independent and deterministic, so a fit gives the same
 numbers with one worker or many.

@@ -7,7 +7,7 @@ the tube. :class:`PhaseEstimator` keeps a full model state and, each control per
 
 1. **predict** — advance its state by one control period with the voltages the env applied (the
    observation's previous action), nominal parameters and no external load (the loads are not
-   observed), on the env's physics (:func:`spine_gym.physics.planar.solver.advance`, same sub-steps);
+   observed), on the env's physics (:func:`spine_gym.physics.planar.integrate.advance`, same sub-steps);
 2. **correct** — replace what is measured:
 
    * the temperatures by the measured ones;
@@ -58,11 +58,15 @@ from ..envs.planar import OBS_NAMES, EnvConfig, planar_obs_index
 from ..envs.spatial import SpatialConfig
 from ..physics import columns as L
 from ..physics.planar import columns as PL
-from ..physics.planar.solver import advance, composite, init_state
+from ..physics.planar.composite import composite
+from ..physics.planar.integrate import advance, init_state
 from ..physics.planar.stability import needs_stability_check
 from ..physics.spatial import columns as SL
-from ..physics.spatial import solver as sps
+from ..physics.spatial.composite import composite as spatial_composite
+from ..physics.spatial.integrate import advance as spatial_advance
+from ..physics.spatial.integrate import init_state as spatial_init_state
 from ..physics.spatial.stability import needs_stability_check as spatial_needs_check
+from ..physics.spatial.work import make_work
 
 __all__ = ["DisturbanceConfig", "PhaseEstimator", "SpatialPhaseEstimator", "austenite_from_resistance"]
 
@@ -340,7 +344,7 @@ class SpatialPhaseEstimator:
     The same predict/correct cycle on the spatial core (SPATIAL.md), per wire group: predict one
     control period with the applied voltages (the observation's previous actions, the env's
     per-wire scale), nominal parameters and no external load
-    (:func:`spine_gym.physics.spatial.solver.advance`); correct the temperatures to the measured
+    (:func:`spine_gym.physics.spatial.integrate.advance`); correct the temperatures to the measured
     ones and each wire's austenite fraction to its resistance (MODEL.md §3.7 with the wire's own
     length, split of the martensite as predicted); solve the shape again (the composite solve).
     ``identify=True`` takes T_E and λ_M from the first observation as the planar estimator does.
@@ -381,8 +385,8 @@ class SpatialPhaseEstimator:
     def _set_params(self, params) -> None:
         self.params = params
         self.kp, self.kw, self.km = self.config.layout_for(params).to_kernel()
-        self._wk = sps.make_work(self.n_wires, self.n_modules, self.n_seg)
-        st = sps.init_state(self.state, self.kp, self.ks, self.kw, self.km, self.loads)
+        self._wk = make_work(self.n_wires, self.n_modules, self.n_seg)
+        st = spatial_init_state(self.state, self.kp, self.ks, self.kw, self.km, self.loads)
         if st != L.OK:  # pragma: no cover - the nominal unloaded start always solves
             raise RuntimeError(L.STATUS_TEXT.get(st, str(st)))
 
@@ -422,7 +426,7 @@ class SpatialPhaseEstimator:
         volts = (np.clip(self._read(obs, "previous_action"), -1.0, 1.0) + 1.0) * self.volt_coef
         backup = self.state.copy()
         for _ in range(self.config.n_sub):
-            st, _, _ = sps.advance(
+            st, _, _ = spatial_advance(
                 self.state,
                 self.kp,
                 self.ks,
@@ -449,6 +453,6 @@ class SpatialPhaseEstimator:
         xp[:] = (1.0 - xa) * share
         xm[:] = (1.0 - xa) * (1.0 - share)
         check = spatial_needs_check(self.loads, self.kp, self.km)
-        st, _ = sps.composite(s, self.loads, self.kp, self.ks, self.kw, self.km, self._wk, check)
+        st, _ = spatial_composite(s, self.loads, self.kp, self.ks, self.kw, self.km, self._wk, check)
         if st != L.OK or not np.all(np.isfinite(s)):
             s[:] = backup

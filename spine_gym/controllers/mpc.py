@@ -3,7 +3,7 @@
 Every control period :class:`MPPIController` plans the next ``horizon`` seconds of both wire
 voltages by model-predictive path integral control (Williams et al., "Information theoretic MPC",
 2017): ``n_samples`` voltage sequences are drawn around the current plan, rolled out from the
-current state in one parallel numba call (:func:`spine_gym.physics.rollout.rollout_many`, the
+current state in one parallel numba call (:func:`spine_gym.physics.planar.rollout.rollout_many`, the
 env's step loop), scored, and the plan becomes their average weighted by ``exp(−cost / λ)``. The
 first voltages are applied; the plan shifted by one period warm-starts the next step.
 
@@ -60,7 +60,7 @@ from ..envs.targets import ANGLE_LIMIT
 from ..params import SolverOptions
 from ..physics import columns as L
 from ..physics.planar import columns as PL
-from ..physics.rollout import rollout_many, rollout_many_serial
+from ..physics.planar.rollout import rollout_many, rollout_many_serial
 from .baselines import BaseController, check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
 

@@ -4,8 +4,8 @@ The MPPI of :mod:`.mpc` (smooth voltage sequences, weighting by ``exp(−cost / 
 from the shifted plan, the same :class:`~.mpc.MPPIConfig`) generic over the wires of a
 :class:`~spine_gym.layout.SpineLayout`: one voltage sequence per wire group (4 for the seed's
 module, 4 per module for a chain). The rollouts are one call of
-:func:`spine_gym.physics.rollout.rollout_many_spatial` on the spatial core the env runs
-(:func:`spine_gym.physics.spatial.solver.advance`); what they record is turned into the env's
+:func:`spine_gym.physics.spatial.rollout.rollout_many` on the spatial core the env runs
+(:func:`spine_gym.physics.spatial.integrate.advance`); what they record is turned into the env's
 readings by the env's own probe (tip bending vector [deg], tip position [mm], temperatures [K],
 cumulative Joule heat [J]), so the cost uses the env's definitions:
 
@@ -42,9 +42,11 @@ from ..envs.loads import LoadSchedule
 from ..envs.planar import EnvConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
-from ..physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
 from ..physics.spatial import columns as SL
-from ..physics.spatial.solver import make_work, record, record_size
+from ..physics.spatial.record import record, record_size
+from ..physics.spatial.rollout import rollout_many as rollout_many_spatial
+from ..physics.spatial.rollout import rollout_many_serial as rollout_many_spatial_serial
+from ..physics.spatial.work import make_work
 from .baselines import volts_to_action
 from .estimator import SpatialPhaseEstimator
 from .mpc import PLAN_FIELDS, PRIVILEGED_MODES, MPPIBase, MPPIConfig

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from ..capacity import CapacityProtocol
-from ..cli_conventions import Parser, add_out, add_progress, add_workers, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, add_workers, check_file, check_out_dir, module_prog, usage_errors
 from ..layout import SpineLayout
 from ..params import PRESETS, ModelParams, SolverOptions
 from .space import (
@@ -111,8 +111,11 @@ def _add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--solver", action="append", metavar="KEY=VALUE", help="SolverOptions overrides, e.g. method=bisect"
     )
-    add_workers(p, "--n-workers", dest="n_workers", help="parallel worker processes (-1 = all cores)")
-    p.add_argument("--mp-context", choices=("spawn", "forkserver"), default="spawn")
+    add_workers(p, "--n-workers", dest="n_workers", all_cores=True, help="parallel worker processes (-1 = all cores)")
+    p.add_argument(
+        "--mp-context", choices=("spawn", "forkserver"), default="spawn",
+        help="how worker processes start (multiprocessing start method)",
+    )  # fmt: skip
     add_out(p, type=Path, help="output folder (default: runs/design/<sweep-time> or runs/design/opt-<study>)")
     add_progress(p)
 
@@ -146,7 +149,9 @@ def _cmd_params(args) -> int:
 def _cmd_sweep(args, parser) -> int:
     from .sweeps import sweep
 
+    out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     with usage_errors(parser):
+        check_out_dir(out)
         base = PRESETS[args.preset]()
         fixed = _fixed(args.set)
         protocol = _protocol(args.protocol)
@@ -168,7 +173,6 @@ def _cmd_sweep(args, parser) -> int:
             mp_context=args.mp_context,
             progress=args.progress,
         )
-    out = args.out or Path("runs/design") / time.strftime("sweep-%Y%m%d-%H%M%S")
     csv_path = res.to_csv(out / "sweep.csv")
     res.write_metadata(
         out / "sweep.json", command=shlex.join([sys.executable, "-m", "spine_gym.design", *sys.argv[1:]])
@@ -208,6 +212,7 @@ def _cmd_optimize(args, parser) -> int:
     out = args.out or Path("runs/design") / f"opt-{args.study_name}"
     storage = args.storage or str(out / "study.journal")
     with usage_errors(parser):
+        check_out_dir(out)
         problem = DesignProblem(
             space=tuple(args.space),
             metric=args.maximize or args.minimize,
@@ -254,6 +259,8 @@ def _cmd_best(args, parser) -> int:
     from .optimizer import load_result
 
     with usage_errors(parser):
+        if "://" not in args.storage:  # a journal file, which reading would create
+            check_file(args.storage, "--storage")
         res = load_result(args.storage, args.study_name)
     print(res.summary())
     if args.json:
@@ -272,11 +279,14 @@ def _cmd_best(args, parser) -> int:
     return 0
 
 
+#: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
+PROG = module_prog(__spec__.name)
+
 EXAMPLES = {
     "params": ("spine-gym design params --preset alternative",),
     "sweep": (
-        "spine-gym design sweep --param a=6e-3:14e-3:9 --param n_w=1,2,3 --workers 2 -o runs/design/grid",
-        "spine-gym design sweep --param n_modules=1,2,3 --param a=6e-3:12e-3:4   # chained layouts",
+        "spine-gym design sweep --param a=6e-3:14e-3:3 --param n_w=1,2 --workers 2 -o runs/design/grid",
+        "spine-gym design sweep --param n_modules=1,2 --param a=6e-3:12e-3:2 -o runs/design/chain   # chained layouts",
     ),
     "optimize": (
         'spine-gym design optimize --space a=6e-3:14e-3 --space n_w=1,2,3 --maximize stable_angle '
@@ -327,7 +337,7 @@ def _add_sweep_parser(sub) -> None:
         default=None,
         help="comma-separated metrics to plot/print (default stable angle, responding time, ability)",
     )
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
 def _add_optimize_parser(sub) -> None:
@@ -340,8 +350,9 @@ def _add_optimize_parser(sub) -> None:
         examples=EXAMPLES["optimize"],
     )
     _add_axes(p, "--space", "search dimension, e.g. a=6e-3:14e-3, n_w=1,2,3, E_t=10e6:100e6:log")
-    p.add_argument("--maximize", "--maximise", metavar="METRIC")
-    p.add_argument("--minimize", "--minimise", metavar="METRIC")
+    metrics = ", ".join(METRICS)
+    p.add_argument("--maximize", "--maximise", metavar="METRIC", help=f"the objective to maximise, one of: {metrics}")
+    p.add_argument("--minimize", "--minimise", metavar="METRIC", help="the objective to minimise (give one of the two)")
     p.add_argument(
         "--constraint",
         action="append",
@@ -361,8 +372,8 @@ def _add_optimize_parser(sub) -> None:
         help="journal file path or RDB URL (sqlite:///..., postgresql+psycopg2://..., "
         "mysql+pymysql://...); default OUT/study.journal",
     )
-    p.add_argument("--study-name", default="spine-design")
-    p.add_argument("--sampler", choices=("tpe", "nsga2", "random"), default="tpe")
+    p.add_argument("--study-name", default="spine-design", help="the study's name in --storage")
+    p.add_argument("--sampler", choices=("tpe", "nsga2", "random"), default="tpe", help="Optuna sampler")
     p.add_argument("--n-startup-trials", type=int, default=10, help="random trials before TPE (per worker)")
     p.add_argument("--seed", type=int, default=0, help="sampler seed (worker i uses seed+i)")
     p.add_argument("--timeout", type=float, default=None, help="per-worker time limit [s]")
@@ -375,12 +386,12 @@ def _add_best_parser(sub) -> None:
         "best", help="print the best design of a stored study",
         description="The best design of a stored study.", examples=EXAMPLES["best"],
     )  # fmt: skip
-    p.add_argument("--storage", required=True)
-    p.add_argument("--study-name", default="spine-design")
+    p.add_argument("--storage", required=True, help="journal file path or RDB URL of the study")
+    p.add_argument("--study-name", default="spine-design", help="the study's name in --storage")
     p.add_argument("--json", action="store_true", help="also print the full summary as JSON")
 
 
-def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser = Parser(
         prog=prog,
         description="Design studies of the SMA spine: capacity sweeps, constrained optimisation "
@@ -396,7 +407,7 @@ def build_parser(prog: str = "python -m spine_gym.design") -> argparse.ArgumentP
     return parser
 
 
-def main(argv: list[str] | None = None, prog: str = "python -m spine_gym.design") -> int:
+def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     """Run the CLI; exit status 0, or 2 (one line on stderr) on a bad argument, before any work."""
     parser = build_parser(prog)
     args = parser.parse_args(argv)

@@ -4,7 +4,7 @@
 declares the observation/info table (:meth:`EnvConfig.table`, see :mod:`.table`);
 :data:`OBS_NAMES`, :data:`OBS_UNITS` and :func:`planar_obs_index` give its layout to controllers.
 :class:`PlanarBatch` is :class:`.batch.TableBatch` over the planar kernel (MODEL.md): the
-planar pair keeps its specialised kernel (:func:`spine_gym.physics.env_kernels.step_spine`,
+planar pair keeps its specialised kernel (:func:`spine_gym.physics.planar.control.step_spine`,
 proven equal to the spatial core in the planar case, SPATIAL.md §7.1), stepped with the env's
 readout in one call (:func:`.step_kernels.planar_step`); everything above the physics — sensors,
 observation, reward, info, snapshots — is the table-driven layer every env shares.
@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 
 from ..params import ModelParams
-from ..physics import env_kernels
-from ..physics.planar import batch
 from ..physics.planar import columns as PL
-from ..physics.planar.solver import init_state
+from ..physics.planar.control import record_many
+from ..physics.planar.integrate import init_state
+from ..physics.planar.record import OUT_SIZE
 from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
@@ -150,7 +150,7 @@ class PlanarBatch(TableBatch):
         self.kps = np.tile(self.nominal_kp, (b, 1))
 
     def record_size(self) -> int:
-        return batch.OUT_SIZE
+        return OUT_SIZE
 
     def _parse_target(self, target) -> TargetProfile:
         if isinstance(target, int | float | np.number) and not isinstance(target, bool):
@@ -185,7 +185,7 @@ class PlanarBatch(TableBatch):
         return sk.planar_step if self.parallel else sk.planar_step_serial
 
     def _record(self, rows: np.ndarray) -> None:
-        env_kernels.record_many(self.states, self.kps, rows, self.meas)
+        record_many(self.states, self.kps, rows, self.meas)
 
     def _probe(self, rows: np.ndarray) -> None:
         ro.planar_probe(rows, self.meas, self.ohm, self.wvol, self.probe_cols, self.probe)

@@ -1,7 +1,7 @@
 """The jitted readout of one env step: sensors, observation, reward, info (no physics here).
 
-After the plant's physics (:func:`spine_gym.physics.env_kernels.step_spine` for the planar
-spine, :func:`~spine_gym.physics.env_kernels.step_spine_spatial` for the spatial ones) has advanced
+After the plant's physics (:func:`spine_gym.physics.planar.control.step_spine` for the planar
+spine, :func:`spine_gym.physics.spatial.control.step_spine` for the spatial ones) has advanced
 the spines and recorded them (all in the one call of :mod:`.step_kernels`), a probe
 (:func:`planar_probe`, :func:`spatial_probe`) converts each record into the common probe row
 (degrees, millimetres, Ohm, joules), and :func:`finish_rows` turns it into what the environment
@@ -28,7 +28,7 @@ import numpy as np
 
 from ..physics._jit import hot, jit, jit_inline
 from ..physics.columns import OK
-from ..physics.planar.batch import OUT_ANGLE, OUT_RES_L, OUT_RES_R
+from ..physics.planar.record import OUT_ANGLE, OUT_RES_L, OUT_RES_R
 from ..physics.planar.columns import X_QJL, X_QJR, X_TL, X_TR
 
 # scalar settings passed as one float array (Spec.settings)
@@ -317,13 +317,13 @@ def planar_probe_row(i, meas, ohm, vol, probe_cols, probe):
     p[jl + 1] = m[X_QJL] * vol[i, 1]
 
 
-# columns of a spatial.solver.record row the probe reads (SpatialPlant.record_cols)
+# columns of a spatial.record.record row the probe reads (SpatialPlant.record_cols)
 R_MODB, R_TIPB, R_TIPP, R_RHO, R_TEMP, R_QJ, N_R = range(7)
 
 
 @jit
 def spatial_probe(rows, rec, record_cols, ohm, vol, probe_cols, probe):
-    """Probe rows of spatial spines from their ``spatial.solver.record`` rows (``ohm`` (B, W)
+    """Probe rows of spatial spines from their ``spatial.record.record`` rows (``ohm`` (B, W)
     L0/A_w of each wire [1/m], ``vol`` (B, W) wire volume of each group [m^3])."""
     for j in range(rows.shape[0]):
         spatial_probe_row(rows[j], rec, record_cols, ohm, vol, probe_cols, probe)

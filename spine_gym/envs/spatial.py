@@ -1,7 +1,7 @@
 """Configuration, tables and batch of the spatial envs ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
 
-The physics is the wire- and module-generic core of ``spine_gym.physics.spatial.solver``
-(SPATIAL.md) through :func:`spine_gym.physics.env_kernels.step_spine_spatial`, stepped with the
+The physics is the wire- and module-generic core ``spine_gym.physics.spatial``
+(SPATIAL.md) through :func:`spine_gym.physics.spatial.control.step_spine`, stepped with the
 bookkeeping in one call (:func:`.step_kernels.spatial_step`); the bookkeeping
 is the table-driven writer every env shares (:class:`.batch.TableBatch`). The env classes
 (their docstrings are the documentation pages) are in :mod:`.spatial_env`.
@@ -17,9 +17,10 @@ import numpy as np
 
 from ..layout import MAX_MODULES, SpineLayout
 from ..params import ModelParams
-from ..physics import env_kernels
 from ..physics.spatial import columns as SL
-from ..physics.spatial.solver import init_state, record_size
+from ..physics.spatial.control import record_many
+from ..physics.spatial.integrate import init_state
+from ..physics.spatial.record import record_size
 from ..uncertainty import ParameterUncertainty
 from . import readout as ro
 from . import step_kernels as sk
@@ -428,7 +429,7 @@ class SpatialBatch(TableBatch):
         return sk.spatial_step if self.parallel else sk.spatial_step_serial
 
     def _record(self, rows: np.ndarray) -> None:
-        env_kernels.record_many_spatial(self.states, self.kps, self.kws, self.kms, rows, self.meas)
+        record_many(self.states, self.kps, self.kws, self.kms, rows, self.meas)
 
     def _probe(self, rows: np.ndarray) -> None:
         ro.spatial_probe(rows, self.meas, self.record_cols, self.ohm, self.wvol, self.probe_cols, self.probe)

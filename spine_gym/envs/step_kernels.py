@@ -2,7 +2,7 @@
 
 A step of every env id is four jitted pieces — :func:`begin_step` (clipped actions,
 voltages, loads, resolve flags), the plant's per-spine control period
-(:func:`spine_gym.physics.env_kernels.step_spine` or its spatial twin), the plant's probe
+(:func:`spine_gym.physics.planar.control.step_spine` or the spatial core's ``step_spine``), the plant's probe
 (:func:`.readout.planar_probe`, :func:`.readout.spatial_probe`) and the table-driven
 writer (:func:`.readout.finish_rows`) — and this module runs them in one call from Python, so
 a vector step pays numba's dispatch and argument unboxing once, not four times. Nothing is
@@ -13,7 +13,8 @@ The argument groups are plain tuples built once per batch (numba types a plain t
 its fast C path; :class:`.batch.TableBatch` holds them):
 
 * ``drive``: ``(coef, forces, plan, resolve)``, as :func:`begin_step` takes them;
-* ``plant``: the plant's arrays, :data:`PLANAR_PLANT` / :data:`SPATIAL_PLANT` order;
+* ``plant``: the plant's arrays in the field order of :data:`PlanarPlant` / :data:`SpatialPlant`
+  (the batch packs them by these names, the kernels unpack them by name);
 * ``step``, ``mem``, ``spec``, ``out``: :data:`.readout.Step`, ``Memory``, ``Spec``, ``Out``.
 
 Each kernel is one body compiled twice, so that the serial and the parallel loop cannot differ
@@ -32,30 +33,36 @@ documented ValueError).
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numba
 import numpy as np
 
 from ..physics._deal import counter, take
 from ..physics._jit import jit, pjit
-from ..physics.env_kernels import step_spine, step_spine_spatial
+from ..physics.planar.control import step_spine
+from ..physics.spatial.control import step_spine as step_spine_spatial
 from . import readout as ro
 
 __all__ = [
     "begin_step",
     "PLANAR_PLANT",
+    "PlanarPlant",
     "SPATIAL_PLANT",
+    "SpatialPlant",
     "planar_step",
     "planar_step_serial",
     "spatial_step",
     "spatial_step_serial",
 ]
 
-# the plant tuples: per-spine (B, ...) arrays, then the solver options and the physics step
-PLANAR_PLANT = ("states", "backup", "kps", "ks", "ohm", "wvol", "meas", "physics_dt", "n_sub")
-SPATIAL_PLANT = (
-    "states", "backup", "kps", "ks", "kws", "kms", "record_cols", "ohm", "wvol", "meas", "physics_dt", "n_sub"
-)  # fmt: skip
+# the plants: per-spine (B, ...) arrays, then the solver options and the physics step
+PlanarPlant = namedtuple("PlanarPlant", "states backup kps ks ohm wvol meas physics_dt n_sub")
+SpatialPlant = namedtuple(
+    "SpatialPlant", "states backup kps ks kws kms record_cols ohm wvol meas physics_dt n_sub"
+)
+PLANAR_PLANT = PlanarPlant._fields  # the names a batch packs its plant tuple by
+SPATIAL_PLANT = SpatialPlant._fields
 
 
 @jit
@@ -104,7 +111,9 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     """
     st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
-    states, backup, kps, ks, ohm, wvol, meas, dt, n_sub = plant
+    p = PlanarPlant(*plant)
+    states, backup, kps, ks, meas, dt, n_sub = p.states, p.backup, p.kps, p.ks, p.meas, p.physics_dt, p.n_sub
+    ohm, wvol = p.ohm, p.wvol
     if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
@@ -141,7 +150,9 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     would change what the parallel loop compiles to."""
     st, m, sp = ro.Step(*step), ro.Memory(*mem), ro.Spec(*spec)
     coef, forces, plan, resolve = drive
-    states, backup, kps, ks, kws, kms, record_cols, ohm, wvol, meas, dt, n_sub = plant
+    p = SpatialPlant(*plant)
+    states, backup, kps, ks, meas, dt, n_sub = p.states, p.backup, p.kps, p.ks, p.meas, p.physics_dt, p.n_sub
+    kws, kms, record_cols, ohm, wvol = p.kws, p.kms, p.record_cols, p.ohm, p.wvol
     if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols

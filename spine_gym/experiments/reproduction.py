@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 
 from .. import plotting
 from ..capacity import CapacityMetrics, CapacityProtocol, capacity_metrics
-from ..cli_conventions import Parser, add_out, add_progress, usage_errors
+from ..cli_conventions import Parser, add_out, add_progress, check_out_dir, module_prog, usage_errors
 from ..params import ModelParams, SolverOptions
 from ..simulate import SimulationResult
 from .references import (
@@ -264,14 +264,17 @@ def _reference_metrics(case: str) -> dict[str, float]:
 
 
 # ------------------------------------------------------------------------------------- CLI
+#: this command's name as ``python -m spine_gym.experiments`` (``spine-gym reproduce`` passes its own ``prog``)
+PROG = module_prog(__package__)
+
 EXAMPLES = """
 spine-gym reproduce                           # every experiment, tables and plots in runs/experiments
-spine-gym reproduce --quick -o /tmp/repro --no-progress
+spine-gym reproduce --quick -o runs/repro --no-progress
 spine-gym reproduce --method bisect --strict  # the seed's solver; exit status 1 if a row is off
 """
 
 
-def build_parser(prog: str = "python -m spine_gym.experiments") -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     """The command line of :func:`main` (``spine-gym reproduce``)."""
     ap = Parser(
         prog=prog,
@@ -297,7 +300,7 @@ def build_parser(prog: str = "python -m spine_gym.experiments") -> argparse.Argu
     return ap
 
 
-def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.experiments") -> int:
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     """``python -m spine_gym.experiments`` (``spine-gym reproduce``): run, print the tables, write
     files; exit code 0.
 
@@ -307,6 +310,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m spine_gym.exp
     ap = build_parser(prog)
     args = ap.parse_args(argv)
     with usage_errors(ap):
+        check_out_dir(args.out)
         rep = reproduce(
             args.out,
             quick=args.quick,

@@ -53,8 +53,8 @@ def hot(func):
     NRT a kernel may not allocate (compile error, also in whatever it calls: numba compiles the
     callees for its flags) and must not return an array or call a kernel that returns one (views,
     wire_block: that reference would never be released). Its arrays are borrowed from the caller,
-    which keeps them alive; so a ``jit`` wrapper allocates the scratch (``planar.solver.composite``,
-    ``planar.solver._advance``, ``planar.tube.solve_shape``) and hands it to the ``hot`` kernel (``*_in``,
-    ``planar.solver._span``). Arithmetic and results are unchanged (bit for bit).
+    which keeps them alive; so a ``jit`` wrapper allocates the scratch (``planar.composite.composite``,
+    ``planar.integrate._advance``, ``planar.tube.solve_shape``) and hands it to the ``hot`` kernel (``*_in``,
+    ``planar.integrate._span``). Arithmetic and results are unchanged (bit for bit).
     """
     return numba.njit(cache=True, nogil=True, _nrt=False)(func)

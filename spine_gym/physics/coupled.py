@@ -1,6 +1,6 @@
 """Per-wire pieces of the coupled (linearly implicit) phase step, shared by both cores (MODEL.md §6.5).
 
-The planar core (:mod:`.planar.solver`, two wires) and the spatial core (:mod:`.spatial.solver`, any
+The planar core (:mod:`.planar.substep`, two wires) and the spatial core (:mod:`.spatial.substep`, any
 number of wires) build the same step from these: the kinetics F of §3.5, the quiet-step test, the
 matrix of the linearly implicit Euler step of all wires' fractions (coupled through the composite
 equilibrium's dσ/dx), the heating rate of §3.9 for the error estimate and the step-size factor of

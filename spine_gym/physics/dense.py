@@ -1,12 +1,12 @@
 """Sub-steps across output steps whose inputs are held, with dense output (MODEL.md §6.5).
 
-The time loops of both cores (:func:`.planar.batch.run`, :func:`.spatial.solver.run`) hand every run of
+The time loops of both cores (:func:`.planar.run.run`, :func:`.spatial.run.run`) hand every run of
 consecutive output steps with equal inputs (voltages and loads: the zero-order hold of
-``simulate``) to one call of the core's span advance (:func:`.planar.solver.advance_held`,
-:func:`.spatial.solver.advance_held_in`), so the error-controlled sub-steps are not cut at every
+``simulate``) to one call of the core's span advance (:func:`.planar.integrate.advance_held`,
+:func:`.spatial.integrate.advance_held_in`), so the error-controlled sub-steps are not cut at every
 output point. An output that falls inside an accepted sub-step is recorded from the state linearly
 interpolated between the sub-step's ends; one at a sub-step's end is that state itself. This
-module holds the rule both drivers share: which output steps form a span (:func:`held_steps`),
+module holds the rule both drivers share: which output steps form a span (:func:`held_steps`, :func:`next_span`),
 where an output falls in a sub-step (:func:`output_fraction`) and the interpolation
 (:func:`interpolate`) and the sub-step cap of a span (:func:`span_options`: ``SolverOptions.dense_h_max``,
 never below the output step). ``SolverOptions.dense_output`` switches it off (one call per output
@@ -50,6 +50,23 @@ def held_steps(volts, loads, k):
             return m
         m += 1
     return m
+
+
+@jit
+def next_span(volts, loads, k, dense, ks, ks_span):
+    """The span of a recorded time loop that starts at output step k: (its loads, whether the
+    mechanics must be solved again first, its output steps m, its solver options).
+
+    The loads are ``loads[k]`` (``loads[0]`` for constant loads); the caller solved the mechanics
+    for ``loads[0]``, so a re-solve is due only where the loads changed since step k − 1. With
+    ``dense`` (:func:`spans_outputs`) the span is the run of held steps (:func:`held_steps`) and a
+    span of two or more steps takes ``ks_span`` (:func:`span_options`), else one step with ``ks``.
+    """
+    varying = loads.shape[0] > 1
+    vf = loads[k] if varying else loads[0]
+    resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
+    m = held_steps(volts, loads, k) if dense else 1
+    return vf, resolve, m, (ks_span if m > 1 else ks)
 
 
 @jit

@@ -1,7 +1,7 @@
 """Müller–Achenbach–Seelecke (MAS) wire model, per unit volume (MODEL.md §3).
 
 Pure jitted kernels: scalars and the constant array ``kp`` in, scalars out. Energies and stresses
-are in J/m^3 ≡ Pa. Nothing here knows about the spine; :mod:`spine_gym.physics.planar.solver` couples it.
+are in J/m^3 ≡ Pa. Nothing here knows about the spine; the cores' ``substep`` modules couple it.
 """
 
 from __future__ import annotations

@@ -105,19 +105,11 @@ def solve_in_place(a, b):
         b[0] = x0
         return True
     for k in range(n):
-        piv = k
-        big = abs(a[k, k])
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > big:
-                big = abs(a[i, k])
-                piv = i
-        if big == 0.0 or not math.isfinite(big):
+        piv = _pivot_row(a, k)
+        if piv < 0:
             return False
         if piv != k:
-            for j in range(n):
-                t = a[k, j]
-                a[k, j] = a[piv, j]
-                a[piv, j] = t
+            _swap_rows(a, k, piv)
             t = b[k]
             b[k] = b[piv]
             b[piv] = t
@@ -146,20 +138,12 @@ def lu_factor(a, piv):
     """
     n = a.shape[0]
     for k in range(n):
-        p = k
-        big = abs(a[k, k])
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > big:
-                big = abs(a[i, k])
-                p = i
-        if big == 0.0 or not math.isfinite(big):
+        p = _pivot_row(a, k)
+        if p < 0:
             return False
         piv[k] = p
         if p != k:
-            for j in range(n):
-                t = a[k, j]
-                a[k, j] = a[p, j]
-                a[p, j] = t
+            _swap_rows(a, k, p)
         for i in range(k + 1, n):
             f = a[i, k] / a[k, k]
             a[i, k] = f
@@ -167,6 +151,30 @@ def lu_factor(a, piv):
                 for j in range(k + 1, n):
                     a[i, j] -= f * a[k, j]
     return True
+
+
+@hot
+def _pivot_row(a, k):
+    """The row p >= k with the largest |a[p, k]| (the first of equals), or -1 if that is 0 or not
+    finite (``a`` singular to working precision): the partial pivoting of both eliminations."""
+    p = k
+    big = abs(a[k, k])
+    for i in range(k + 1, a.shape[0]):
+        if abs(a[i, k]) > big:
+            big = abs(a[i, k])
+            p = i
+    if big == 0.0 or not math.isfinite(big):
+        return -1
+    return p
+
+
+@hot
+def _swap_rows(a, k, p):
+    """Exchange the whole rows k and p of ``a``."""
+    for j in range(a.shape[1]):
+        t = a[k, j]
+        a[k, j] = a[p, j]
+        a[p, j] = t
 
 
 @hot

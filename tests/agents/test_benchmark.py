@@ -139,7 +139,7 @@ def test_every_algorithm_has_an_entry_for_every_v0_id(algo):
         (["-n", "0"], "-n/--n-timesteps must be a positive integer"),
         (["--n-seeds", "0"], "--n-seeds must be a positive integer"),
         (["--eval-freq", "-5"], "--eval-freq must be a positive integer"),
-        (["--workers", "0"], "--workers must be a positive integer"),
+        (["--workers", "0"], "argument --workers: must be an integer >= 1"),
         (["--budget", "SmaSpine-v0:abc"], "--budget takes ID:N"),
         (["--envs", "SmaSpine-v0", "--budget", "SmaSpine3D-v0:100"], "--budget takes ID:N"),
         (["--val-episodes", "2", "--reference-episodes", "3"], "--reference-episodes must be <="),

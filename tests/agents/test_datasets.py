@@ -9,7 +9,8 @@ import minari
 import numpy as np
 import pytest
 
-from spine_gym.agents.datasets import DATASET_SEED_BASE, dataset_id, load_metadata, main, transitions
+from spine_gym.agents.datasets import main
+from spine_gym.agents.minari_datasets import DATASET_SEED_BASE, dataset_id, load_metadata, transitions
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, make_env
 
 ENV_KWARGS = {"episode_duration": 5.0}

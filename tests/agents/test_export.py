@@ -23,7 +23,7 @@ from repo import ROOT
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from spine_gym.agents.evaluate import evaluate
+from spine_gym.agents.evaluation import evaluate
 from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
 from spine_gym.agents.export_c import compile_driver
 from spine_gym.agents.numpy_policy import load_bundle

@@ -1,6 +1,6 @@
 """Bounded smoke of the RLlib example (``python -m spine_gym.agents.rllib_ppo``): PPO with two env runners on a
 local Ray cluster, each stepping the native ``SmaSpineVectorEnv``; a checkpoint, a restore that
-continues the run, and a score of the checkpoint by ``spine_gym.agents.evaluate``.
+continues the run, and a score of the checkpoint by ``spine_gym.agents.evaluation``.
 
 Runs where ``ray[rllib]`` is installed (``.ci/run`` builds ``.venv-rllib`` with RLlib's pinned
 gymnasium and fails if these tests are skipped there); skipped in the main venv.

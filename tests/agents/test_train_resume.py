@@ -32,7 +32,7 @@ ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 N = 2048  # env steps of the run: 1024 vector steps of 2 envs, 64 rollouts of 16 steps
 N_ENVS = 2
 RUN = [
-    "-m", "spine_gym.agents.train", "--algo", "ppo", "-n", str(N), "--n-envs", str(N_ENVS), "--seed", "5",
+    "-m", "spine_gym.agents.train", "--algo", "ppo", "--env", "SmaSpine-v0", "-n", str(N), "--n-envs", str(N_ENVS), "--seed", "5",
     "--eval-freq", "0", "--save-freq", "64", "--no-tensorboard", "-v", "0",
     "--env-kwargs", "episode_duration:2.0",
     "-params", "n_steps:16", "batch_size:32", "n_epochs:2", "learning_rate:lin_0.001",

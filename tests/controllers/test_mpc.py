@@ -19,7 +19,7 @@ from spine_gym.envs.loads import LoadSchedule
 from spine_gym.envs.targets import TargetProfile
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL
-from spine_gym.physics.rollout import rollout_many, rollout_many_serial
+from spine_gym.physics.planar.rollout import rollout_many, rollout_many_serial
 
 NOISY = {
     "sensor_noise": {"angle": 0.2, "temperature": 0.5, "resistance": 0.002},

@@ -13,7 +13,8 @@ from spine_gym.controllers.mpc_spatial import SpatialReadings, drive_patterns
 from spine_gym.envs.loads import LoadSchedule
 from spine_gym.envs.targets_spatial import BendTarget
 from spine_gym.physics import columns as L
-from spine_gym.physics.rollout import rollout_many_spatial, rollout_many_spatial_serial
+from spine_gym.physics.spatial.rollout import rollout_many as rollout_many_spatial
+from spine_gym.physics.spatial.rollout import rollout_many_serial as rollout_many_spatial_serial
 from spine_gym.physics.spatial import columns as SL
 
 

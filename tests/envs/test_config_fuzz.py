@@ -24,7 +24,7 @@ from spine_gym.envs.targets_spatial import BEND_KINDS
 from spine_gym.params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from spine_gym.physics import columns as L
 from spine_gym.physics.planar import columns as PL
-from spine_gym.physics.planar.solver import init_state
+from spine_gym.physics.planar.integrate import init_state
 
 IDS = ("SmaSpine-v0", "SmaSpine3D-v0", "SmaSpineChain-v0")
 EXAMPLES = {"SmaSpine-v0": 25, "SmaSpine3D-v0": 20, "SmaSpineChain-v0": 15}

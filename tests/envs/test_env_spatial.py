@@ -242,8 +242,8 @@ def test_a_failed_step_is_rolled_back_and_terminates_without_nan():
     force=st.floats(0.0, 20.0),
     payload=st.floats(0.0, 0.3),
 )
-# found by this test: the spatial core returned OK with a NaN state at step 14 (env_kernels now
-# rolls such a step back and terminates with ERR_NONFINITE)
+# found by this test: the spatial core returned OK with a NaN state at step 14 (its
+# control.step_spine now rolls such a step back and terminates with ERR_NONFINITE)
 @example(env_id="SmaSpineChain-v0", seed=65535, amp=1000.0, force=0.125, payload=0.1875)
 def test_fuzz_extreme_actions_and_3d_loads_give_no_nan_and_no_crash(env_id, seed, amp, force, payload):
     env = gym.make(

@@ -140,7 +140,7 @@ def test_cli_rejects_an_out_path_that_is_a_file(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         ex.main(["--out", str(f), "--no-progress"])
     assert e.value.code == 2
-    assert "out_dir must be a directory" in capsys.readouterr().err
+    assert "is a file, not a folder" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------ library pieces

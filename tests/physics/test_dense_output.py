@@ -15,7 +15,7 @@ from spine_gym.experiments import hysteresis_voltages
 from spine_gym.params import FINE_REFERENCE, ModelParams
 from spine_gym.physics import columns as L
 from spine_gym.physics import dense
-from spine_gym.physics.planar import batch, solver
+from spine_gym.physics.planar import integrate, record
 from spine_gym.physics.planar import columns as PL
 
 GATE_DEG = 0.5  # every output within 0.5° of the fine-step reference
@@ -98,16 +98,16 @@ def test_output_at_the_span_end_is_the_state_one_long_output_step_gives():
     vf = np.zeros((p.n_seg, 2))
     m, dt = 40, 0.01
     held, long = start.copy(), start.copy()
-    out = np.empty((m, batch.OUT_SIZE))
-    st, done, nsub, _ = solver.advance_held(held, kp, ks, 3.2, 0.0, vf, dt, m, False, out, 0)
+    out = np.empty((m, record.OUT_SIZE))
+    st, done, nsub, _ = integrate.advance_held(held, kp, ks, 3.2, 0.0, vf, dt, m, False, out, 0)
     assert (st, done) == (L.OK, m)
-    st2, nsub2, _ = solver.advance(long, kp, ks, 3.2, 0.0, vf, m * dt, False)
+    st2, nsub2, _ = integrate.advance(long, kp, ks, 3.2, 0.0, vf, m * dt, False)
     assert st2 == L.OK and nsub2 == nsub < m  # fewer sub-steps than outputs
     heads = slice(0, PL.X_TIME)  # the model time differs: m additions of dt against one of m dt
     np.testing.assert_array_equal(held[heads], long[heads])
     np.testing.assert_array_equal(held[PL.X_HEAD :], long[PL.X_HEAD :])
-    row = np.empty(batch.OUT_SIZE)
-    batch.record(held, kp, row)
+    row = np.empty(record.OUT_SIZE)
+    record.record(held, kp, row)
     np.testing.assert_array_equal(out[-1], row)
     assert held[PL.X_TIME] == pytest.approx(start[PL.X_TIME] + m * dt, abs=1e-12)
     np.testing.assert_allclose(out[:, PL.X_TIME], start[PL.X_TIME] + dt * np.arange(1, m + 1), atol=1e-12)

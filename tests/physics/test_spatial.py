@@ -14,6 +14,7 @@ adaptive solver the spatial core is required to stay inside the planar run's own
 
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -29,10 +30,10 @@ from spine_gym.experiments import (
 )
 from spine_gym.layout import Module, SpineLayout, WireGroup, seed_module
 from spine_gym.physics import columns as L
-from spine_gym.physics import env_kernels
 from spine_gym.physics.spatial import columns as SL
-from spine_gym.physics.spatial import solver as ss
 from spine_gym.physics.spatial import tube as tube3
+from spine_gym.physics.spatial.composite import composite, composite_newton
+from spine_gym.physics.spatial.work import make_work, views, wire_block
 from spine_gym.physics.stability import solve_in_place
 from spine_gym.simulate_spatial import SpatialResult
 
@@ -567,43 +568,22 @@ def test_capacity_metrics_of_a_chain():
         capacity_metrics(layout=one_pair)
 
 
-def test_batch_of_spatial_spines_equals_single_spines():
-    """The env kernels' parallel loop over spatial spines (rows dealt out to the threads) advances
-    each spine exactly as :func:`env_kernels.step_spine_spatial` does alone."""
-    lay = SpineLayout.chain(2)
-    kp, kw, km = lay.to_kernel()
-    ks = SolverOptions().to_kernel()
-    rng = np.random.default_rng(0)
-    b = 3
-    volts = rng.uniform(0.0, 2.5, size=(b, lay.n_wires))
-    loads = np.zeros((b, lay.n_seg, 3))
-    loads[:, 0] = rng.uniform(-0.3, 0.3, size=(b, 3))
-    init = np.stack(
-        [
-            simulate(0.01, np.zeros(lay.n_wires), layout=lay, tip_force=loads[i, 0]).final_state
-            for i in range(b)
-        ]
-    )
-    kps = np.tile(kp, (b, 1))
-    kps[1, L.K_EI] *= 1.2  # per-spine constants
-    kws, kms = np.stack([kw] * b), np.stack([km] * b)
-    states = init.copy()
-    backup = np.empty_like(states)
-    resolve, active = np.ones(b, dtype=np.bool_), np.ones(b, dtype=np.bool_)
-    status = np.empty(b, dtype=np.int64)
-    rec = np.empty((b, ss.record_size(*ss.sizes(kw, km))))
-    env_kernels.step_many_spatial(  # the prange loop
-        states, backup, kps, ks, kws, kms, volts, loads, resolve, active, 0.1, 30, status, rec
-    )
-    assert np.all(status == L.OK)
-    for i in range(b):
-        single, rec_i = init[i].copy(), np.empty(rec.shape[1])
-        st = env_kernels.step_spine_spatial(
-            single, np.empty_like(single), kps[i], ks, kw, km, volts[i], loads[i], True, 0.1, 30, rec_i
+def test_parallel_loop_over_spatial_spines_equals_the_serial_one():
+    """The vector env's parallel loop over spatial spines (rows dealt out to the threads) advances
+    each spine exactly as the serial loop, one spine after another, does."""
+    runs = []
+    for parallel in (True, False):
+        venv = gym.make_vec(
+            "SmaSpineChain-v0", num_envs=3, vectorization_mode="vector_entry_point", parallel=parallel
         )
-        assert st == L.OK
-        np.testing.assert_array_equal(states[i], single)
-        np.testing.assert_array_equal(rec[i], rec_i)
+        obs, _ = venv.reset(seed=0)
+        actions = np.random.default_rng(0).uniform(-1.0, 1.0, (8, *venv.action_space.shape))
+        rows = [obs]
+        for a in actions.astype(np.float32):
+            rows.append(venv.step(a)[0])
+        venv.close()
+        runs.append(np.stack(rows))
+    np.testing.assert_array_equal(runs[0], runs[1])
 
 
 def test_layout_replace_and_non_tuple_wires():
@@ -625,20 +605,20 @@ def test_safeguard_recovers_when_the_newton_sensitivity_is_wrong():
     r = simulate(8.0, (2.0, 0.0, 0.0, 0.0, 0.0, 1.8, 0.0, 0.0), layout=lay, tip_force=vf[0])
     nw, nm, ns = lay.n_wires, lay.n_modules, lay.n_seg
     good = r.final_state.copy()
-    wk = ss.make_work(nw, nm, ns)
-    assert ss.composite(good, vf, kp, ks, kw, km, wk)[0] == L.OK
+    wk = make_work(nw, nm, ns)
+    assert composite(good, vf, kp, ks, kw, km, wk)[0] == L.OK
     bad = good.copy()
-    mw, omega, sens = ss.views(bad, nw, nm, ns)
+    mw, omega, sens = views(bad, nw, nm, ns)
     mw += 0.03  # start away from the solution ...
     sens *= -4.0  # ... with a sensitivity of the wrong sign: the plain Newton cannot converge
     trial = bad.copy()
-    tm, tw, ts = ss.views(trial, nw, nm, ns)
-    xp = ss.wire_block(trial, SL.F_XP, nw)
-    xm = ss.wire_block(trial, SL.F_XM, nw)
-    assert ss.composite_newton(tm, tw, ts, xp, xm, vf, kp, ks, kw, km, wk)[0] != L.OK
-    st, passes = ss.composite(bad, vf, kp, ks, kw, km, wk)
+    tm, tw, ts = views(trial, nw, nm, ns)
+    xp = wire_block(trial, SL.F_XP, nw)
+    xm = wire_block(trial, SL.F_XM, nw)
+    assert composite_newton(tm, tw, ts, xp, xm, vf, kp, ks, kw, km, wk)[0] != L.OK
+    st, passes = composite(bad, vf, kp, ks, kw, km, wk)
     assert st == L.OK and passes > 0
-    gm, gw, _ = ss.views(good, nw, nm, ns)
+    gm, gw, _ = views(good, nw, nm, ns)
     np.testing.assert_allclose(mw, gm, rtol=0, atol=1e-6)
     np.testing.assert_allclose(omega, gw, rtol=0, atol=1e-6)
 

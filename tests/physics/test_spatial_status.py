@@ -18,12 +18,26 @@ import pytest
 
 import spine_gym  # noqa: F401  (registers the ids)
 from spine_gym.physics import columns as L
-from spine_gym.physics.spatial import solver as ss
+from spine_gym.physics.spatial.columns import F_SIG, F_XM, F_XP, W_L0, W_LAMS
+from spine_gym.physics.spatial.composite import composite, solve_mechanics
+from spine_gym.physics.spatial.integrate import _load_rates, wire_constants
 from spine_gym.physics.spatial.stability import (
     is_buckled,
     is_buckled_at,
     needs_stability_check,
     stability_work,
+)
+from spine_gym.physics.spatial.substep import _substep_coupled
+from spine_gym.physics.spatial.work import (
+    WK_JNUM,
+    WK_KPW,
+    WK_RT,
+    WK_XS,
+    make_work,
+    sizes,
+    views,
+    wire_block,
+    wire_blocks,
 )
 
 SOLVER_LIMITS = (L.ERR_SHAPE, L.ERR_ROOT, L.ERR_SUBSTEPS)
@@ -62,37 +76,35 @@ def run_episode(env_id, seed, count):
 
 def parts(state, kw, km):
     """(M_w, ω, S, x+, x-, σ) views of a spatial state."""
-    nw, nm, ns = ss.sizes(kw, km)
-    mw, omega, sens = ss.views(state, nw, nm, ns)
-    return mw, omega, sens, ss.wire_block(state, ss.F_XP, nw), ss.wire_block(state, ss.F_XM, nw), ss.wire_block(
-        state, ss.F_SIG, nw
+    nw, nm, ns = sizes(kw, km)
+    mw, omega, sens = views(state, nw, nm, ns)
+    return mw, omega, sens, wire_block(state, F_XP, nw), wire_block(state, F_XM, nw), wire_block(
+        state, F_SIG, nw
     )
 
 
 def replay_substeps(r):
-    """The failing step sub-step by sub-step (as ``spatial.solver._span``): (state at the start of
+    """The failing step sub-step by sub-step (as ``spatial.integrate._span``): (state at the start of
     the sub-step that failed, its end fractions (x+, x-) per wire) or (the state the step ended on, None)."""
     kp, ks, kw, km, vf = r["kp"], r["ks"], r["kw"], r["km"], r["loads"]
-    nw, nm, ns = ss.sizes(kw, km)
+    nw, nm, ns = sizes(kw, km)
     state = r["state"].copy()
-    wk = ss.make_work(nw, nm, ns)
-    mw, omega, sens = ss.views(state, nw, nm, ns)
-    wb = tuple(
-        ss.wire_block(state, f, nw) for f in (ss.F_XP, ss.F_XM, ss.F_T, ss.F_SIG, ss.F_EPS, ss.F_QJ, ss.F_QC, ss.F_QL)
-    )
+    wk = make_work(nw, nm, ns)
+    mw, omega, sens = views(state, nw, nm, ns)
+    wb = wire_blocks(state, nw)
     if r["resolve"]:
         check = needs_stability_check(vf, kp, km)
-        st, _ = ss.solve_mechanics(mw, omega, sens, wb[0], wb[1], wb[4], wb[3], vf, kp, ks, kw, km, wk, check)
+        st, _ = solve_mechanics(mw, omega, sens, wb.xp, wb.xm, wb.eps, wb.sig, vf, kp, ks, kw, km, wk, check)
         assert st == L.OK, "the load change itself failed, yet the start was found stable"
-    ss.wire_constants(kp, kw, wk[ss.WK_KPW])
-    wk[ss.WK_JNUM][:] = r["volts"] ** 2 / kw[:, ss.W_L0] ** 2 / kw[:, ss.W_LAMS]
-    ss._load_rates(state, kp, kw, km, ns, wk[ss.WK_RT], wk[ss.WK_KPW])
+    wire_constants(kp, kw, wk[WK_KPW])
+    wk[WK_JNUM][:] = r["volts"] ** 2 / kw[:, W_L0] ** 2 / kw[:, W_LAMS]
+    _load_rates(state, kp, kw, km, ns, wk[WK_RT], wk[WK_KPW])
     rem = r["dt"]
     while rem > 0.0:
         start = state.copy()
-        st, h, _, _ = ss._substep_coupled(state, mw, omega, sens, wb, vf, kp, ks, kw, km, rem, r["dt"], wk)
+        st, h, _, _ = _substep_coupled(state, mw, omega, sens, wb, vf, kp, ks, kw, km, rem, r["dt"], wk)
         if st != L.OK:
-            return start, wk[ss.WK_XS].reshape(nw, 2).copy()
+            return start, wk[WK_XS].reshape(nw, 2).copy()
         rem -= h
     return state, None
 
@@ -103,7 +115,7 @@ def slack_limit_point(r, start, xs):
     is slack to 1e-3 of its starting stress and the stability test with that wire slack fails
     there, while the start, with the wire taut, passes it: a stable branch that ends at a kink."""
     kp, kw, km, vf = r["kp"], r["kw"], r["km"], r["loads"]
-    nw, nm, ns = ss.sizes(kw, km)
+    nw, nm, ns = sizes(kw, km)
     ks = r["ks"]
     x0 = np.stack(parts(start, kw, km)[3:5], axis=1)
     sig0 = parts(start, kw, km)[5].copy()
@@ -113,7 +125,7 @@ def slack_limit_point(r, start, xs):
         _, _, _, xp, xm, _ = parts(trial, kw, km)
         x = x0 + min(lam + dl, 1.0) * (xs - x0)
         xp[:], xm[:] = x[:, 0], x[:, 1]
-        if ss.composite(trial, vf, kp, ks, kw, km, ss.make_work(nw, nm, ns))[0] == L.OK:
+        if composite(trial, vf, kp, ks, kw, km, make_work(nw, nm, ns))[0] == L.OK:
             at_lam, lam = trial, min(lam + dl, 1.0)
         else:
             dl *= 0.25

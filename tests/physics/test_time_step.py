@@ -8,7 +8,9 @@ from spine_gym import ModelParams, SolverOptions, simulate
 from spine_gym.physics import columns as L
 from spine_gym.physics import sma
 from spine_gym.physics.planar import columns as PL
-from spine_gym.physics.planar import solver
+from spine_gym.physics.planar.composite import composite
+from spine_gym.physics.planar.integrate import advance
+from spine_gym.physics.planar.mechanics import stress_sensitivity
 
 KP = ModelParams().to_kernel()
 
@@ -45,7 +47,7 @@ def test_stress_sensitivity_matches_re_solved_composite():
     dth = st[PL.X_HEAD : PL.X_HEAD + n]
     s = st[PL.X_HEAD + n :]
     xs = st[[PL.X_PR, PL.X_MR, PL.X_PL, PL.X_ML]]
-    solver.stress_sensitivity(dth, s, st[PL.X_SR], st[PL.X_SL], *xs, KP, sens)
+    stress_sensitivity(dth, s, st[PL.X_SR], st[PL.X_SL], *xs, KP, sens)
     assert st[PL.X_SR] > 1e8 and st[PL.X_SL] > 1e8
     fd = np.empty((2, 4))
     h = 1e-7
@@ -54,7 +56,7 @@ def test_stress_sensitivity_matches_re_solved_composite():
         for sgn in (1, -1):
             trial = st.copy()
             trial[idx] += sgn * h
-            assert solver.composite(trial, vf, KP, ks, work, saved, False)[0] == L.OK
+            assert composite(trial, vf, KP, ks, work, saved, False)[0] == L.OK
             got.append(trial[[PL.X_SR, PL.X_SL]])
         fd[:, j] = (got[0] - got[1]) / (2 * h)
     # the secant sensitivity and the small-angle slopes make it a Jacobian to ~1 %, not exact
@@ -103,5 +105,5 @@ def test_rate_cache_never_serves_rates_of_other_constants():
     cold[PL.X_RCACHE : PL.X_RCACHE + PL.RCACHE_SIZE] = 0.0
     for s in (warm, cold):
         for _ in range(20):
-            assert solver.advance(s, kp2, ks, 3.2, 0.0, vf, 0.01, False)[0] == L.OK
+            assert advance(s, kp2, ks, 3.2, 0.0, vf, 0.01, False)[0] == L.OK
     np.testing.assert_array_equal(warm, cold)

@@ -9,8 +9,9 @@ from repo import ROOT
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 
-# a training or evaluation command's options for a smoke run: 3-s episodes, one evaluation episode, quiet
-TINY = ["--env-kwargs", "episode_duration:3.0", "--eval-episodes", "1", "-v", "0"]
+# a training command's options for a smoke run on SmaSpine-v0 (the runs' folders are named after it):
+# 3-s episodes, one evaluation episode, quiet
+TINY = ["--env", "SmaSpine-v0", "--env-kwargs", "episode_duration:3.0", "--eval-episodes", "1", "-v", "0"]
 
 
 def run_cli(*args, cwd=ROOT, timeout=240):

@@ -1,18 +1,13 @@
-"""The recorded time loop of one planar spine (MODEL.md §6): :func:`run`, used by :func:`spine_gym.simulate`.
+"""The planar core's recorded time loop under its former module name, kept for one release.
 
-The per-spine physics is :func:`spine_gym.physics.planar.solver.advance_held`; nothing here repeats
-an equation. The envs step their spines with :mod:`spine_gym.physics.env_kernels` instead.
+The loop of one spine is :mod:`.run` (:func:`~.run.run`, :func:`~.run.empty_record`), the record row
+:mod:`.record`. Import from those; this module only re-exports their names.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from .._jit import jit
-from ..columns import OK
-from ..dense import held_steps, span_options, spans_outputs
 from .record import OUT_ANGLE, OUT_RES_L, OUT_RES_R, OUT_SIZE, OUT_TIP_X, OUT_TIP_Y, record
-from .solver import advance_held
+from .run import empty_record, run
 
 __all__ = [
     "OUT_ANGLE",
@@ -25,53 +20,3 @@ __all__ = [
     "record",
     "run",
 ]
-
-
-@jit
-def run(state, kp, ks, v_r, v_l, loads, dt, out):
-    """Integrate one spine over ``v_r.shape[0]`` output steps, recording every step.
-
-    Consecutive output steps with equal inputs are advanced as one span (:func:`.solver.advance_held`,
-    the sub-steps crossing their output points, the outputs in between interpolated: MODEL.md
-    §6.5, :mod:`.dense`) unless the option ``dense_output`` is off; then every output step is one
-    :func:`.solver.advance`.
-
-    Args:
-        state: initial state, advanced in place.
-        v_r, v_l: (n,) voltages held over [t_k, t_k + dt) [V].
-        loads: (n, N, 2) vertex forces over each step, or (1, N, 2) for constant loads [N].
-        dt: output step [s].
-        out: (n + 1, OUT_SIZE) record; row 0 is the initial state.
-
-    Returns:
-        (status, index of the failing step or n, total sub-steps, total shape passes).
-    """
-    n = v_r.shape[0]
-    record(state, kp, out[0])
-    volts = np.empty((n, 2))
-    volts[:, 0] = v_r
-    volts[:, 1] = v_l
-    dense = spans_outputs(ks)
-    ks_span = span_options(ks, dt)
-    nsub = 0
-    npass = 0
-    varying = loads.shape[0] > 1
-    k = 0
-    while k < n:
-        vf = loads[k] if varying else loads[0]
-        # the caller solved the mechanics for loads[0]; re-solve only when the loads change
-        resolve = varying and k > 0 and not np.array_equal(loads[k], loads[k - 1])
-        m = held_steps(volts, loads, k) if dense else 1
-        kss = ks_span if m > 1 else ks
-        st, done, a, b = advance_held(state, kp, kss, v_r[k], v_l[k], vf, dt, m, resolve, out, k + 1)
-        nsub += a
-        npass += b
-        if st != OK:
-            return st, k + done, nsub, npass
-        k += m
-    return OK, n, nsub, npass
-
-
-def empty_record(n_steps: int) -> np.ndarray:
-    """Allocate the output array of :func:`run`."""
-    return np.empty((n_steps + 1, OUT_SIZE))

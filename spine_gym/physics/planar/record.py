@@ -1,8 +1,8 @@
 """The record row of one planar spine: the state's head and the outputs derived from it (MODEL.md §6.1, 2.).
 
 One row per output step: the state's head (``columns`` X_*), then the bending angle Θ, the wire
-resistivities and the tip position in the OUT_* columns. :func:`.batch.run` and the
-:func:`.solver.advance_held` dense output write it; the env kernels measure with it.
+resistivities and the tip position in the OUT_* columns. :func:`.run.run` and the
+:func:`.integrate.advance_held` dense output write it; the envs measure with it (:mod:`.control`).
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 The planar shape is the fixed point Δθ = f(Δθ, G(Δθ)) of :func:`.tube.shape_pass` with the wire
 moment G following the shape through the two wire lengths; :func:`.stability.unstable_modes` on the
 (N × N) Jacobian of that map (:func:`equilibrium_jacobian`) decides whether a converged fixed point
-is stable (see :mod:`.stability` for the criterion). :func:`.solver.composite` and the sub-step
-kernels of :mod:`.solver` call :func:`is_buckled_in` when :func:`needs_stability_check` (the
+is stable (see :mod:`.stability` for the criterion). :func:`.composite.composite` and the sub-step
+kernels of :mod:`.composite` and :mod:`.integrate` call :func:`is_buckled_in` when :func:`needs_stability_check` (the
 Dunkerley screen :func:`.tube.load_ratio`, O(N)) says the loads might buckle the bare tube.
 """
 
@@ -26,7 +26,7 @@ def needs_stability_check(vforce, kp):
     """False when the loads cannot buckle the spine in any shape (Dunkerley screen, §4.9).
 
     The screen :func:`tube.load_ratio` is a lower bound for the bare tube (the wires only add
-    stiffness); below ``BUCKLING_SCREEN`` the O(N³) stability test of :func:`.solver.composite` is skipped,
+    stiffness); below ``BUCKLING_SCREEN`` the O(N³) stability test of :func:`.composite.composite` is skipped,
     so the unloaded and lightly loaded spine (the §10 runs, the env's default loads) pay nothing.
     """
     return load_ratio(vforce, kp) > BUCKLING_SCREEN

@@ -1,0 +1,99 @@
+"""Many open-loop rollouts of one planar spine from one start state: the predictor of sampling MPC.
+
+Nothing here adds an equation. Every rollout copies the start state and is advanced control step by
+control step with :func:`.integrate.advance`, ``n_sub`` physics steps of ``dt`` per control step
+and the mechanics re-solved on the first physics step of a control step whose loads changed —
+exactly the loop of :func:`.control.step_spine`, so a rollout of the env's state with the env's
+voltages and loads gives the env's trajectory bit for bit (tested). What a rollout records per
+control step is what a controller's cost needs: the bending angle Θ [rad], both wire temperatures
+[K] and both wires' accumulated Joule heat per unit volume [J/m^3] (the env's energy accounting,
+:mod:`spine_gym.envs.readout`). A rollout whose step fails (``columns`` status != OK) keeps its
+last valid values for the rest of the horizon and reports the status
+(:mod:`spine_gym.physics.rollout_rows`), so the caller can reject it.
+
+Compiled twice from one body, so that the serial twin the tests compare the parallel loop with
+(tests/controllers/test_mpc.py) runs the same code: :data:`rollout_many` runs the rollouts in parallel
+with ``prange`` (dealt out to the threads one at a time, :mod:`spine_gym.physics._deal`: sampled
+voltage sequences differ in cost); :data:`rollout_many_serial` is the serial twin. The spatial
+twin is :mod:`spine_gym.physics.spatial.rollout`.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from .._deal import counter, take
+from .._jit import jit, pjit
+from ..columns import OK
+from ..rollout_rows import HOLD, RECORD, record_source
+from .columns import X_HEAD, X_QJL, X_QJR, X_TL, X_TR
+from .integrate import advance
+
+__all__ = ["rollout_many", "rollout_many_serial"]
+
+
+@jit
+def _record_row(st, n, angle, temp, joule, h):
+    """Θ, both temperatures and both Joule heats of the state ``st`` into row ``h``."""
+    theta = 0.0
+    for q in range(n):
+        theta += st[X_HEAD + q]
+    angle[h] = theta
+    temp[h, 0] = st[X_TR]
+    temp[h, 1] = st[X_TL]
+    joule[h, 0] = st[X_QJR]
+    joule[h, 1] = st[X_QJL]
+
+
+def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, angle, temp, joule, status):
+    """Roll ``B`` copies of ``state0`` over ``H`` control steps with their own voltage sequences.
+
+    Args:
+        state0: (S,) start state (not modified).
+        kp, ks: constants and solver options.
+        v_r, v_l: (B, H) voltages held over control step h [V].
+        loads: (H, N, 2) vertex forces held over control step h [N] (shared by every rollout).
+        resolve: (H,) bool, the loads of step h differ from those of the last mechanical solve
+            (for h = 0: from the loads ``state0`` was solved under).
+        dt: physics step [s]; n_sub: physics steps per control step.
+        work: (B, S) scratch, row b receives rollout b's state (its final state on return).
+        angle: (B, H) out, Θ [rad] after each control step.
+        temp: (B, H, 2) out, right and left wire temperature [K] after each control step.
+        joule: (B, H, 2) out, accumulated Joule heat per unit volume [J/m^3] after each step.
+        status: (B,) int64 out, OK or the first failure's status code.
+    """
+    b = v_r.shape[0]
+    horizon = v_r.shape[1]
+    s = state0.shape[0]
+    n = (s - X_HEAD) // 2
+    todo = counter()
+    for _slot in numba.prange(b):  # rows dealt out one at a time (._deal)
+        i = take(todo, b)
+        while i >= 0:
+            st = work[i]
+            for q in range(s):
+                st[q] = state0[q]
+            status[i] = OK
+            for h in range(horizon):
+                if status[i] == OK:
+                    for j in range(n_sub):
+                        code, _, _ = advance(
+                            st, kp, ks, v_r[i, h], v_l[i, h], loads[h], dt, resolve[h] and j == 0
+                        )
+                        if code != OK:
+                            status[i] = code
+                            break
+                src = record_source(status[i], h)
+                if src == HOLD:
+                    angle[i, h] = angle[i, h - 1]
+                    temp[i, h, :] = temp[i, h - 1, :]
+                    joule[i, h, :] = joule[i, h - 1, :]
+                elif src == RECORD:
+                    _record_row(st, n, angle[i], temp[i], joule[i], h)
+                else:
+                    _record_row(state0, n, angle[i], temp[i], joule[i], h)
+            i = take(todo, b)
+
+
+rollout_many = pjit(_rollout_many)
+rollout_many_serial = jit(_rollout_many)
