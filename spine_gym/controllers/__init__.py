@@ -12,6 +12,8 @@
 * :mod:`.mpc_spatial` — the same MPPI for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (one voltage
   sequence per wire, the spatial core's batched rollouts).
 * :mod:`.estimator` — the phase-fraction estimators behind the ``estimated`` mode.
+* :mod:`.sliding_mode` — adaptive terminal sliding-mode control (boundary layer, adaptive switching
+  gain), planar and per bending axis of the spatial spines.
 * :mod:`.spatial` — the three baselines for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (per
   bending axis and module; the chain's references from the arc inverse kinematics).
 """
@@ -21,6 +23,7 @@ from .estimator import DisturbanceConfig, PhaseEstimator, SpatialPhaseEstimator,
 from .mpc import MODES, PRIVILEGED_MODES, MPPIConfig, MPPIController
 from .mpc_spatial import SpatialMPPIController
 from .planar import BangBangController, PIDController, PlanarController, StepVoltageController
+from .sliding_mode import SlidingModeController, SMCGains, SpatialSlidingModeController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialSignals, SpatialStepController
 from .steady_state import SteadyStateMap, steady_state_map
 
@@ -39,9 +42,12 @@ __all__ = [
     "SpatialBangBangController",
     "SpatialMPPIController",
     "SpatialPIDController",
+    "SpatialSlidingModeController",
     "SpatialPhaseEstimator",
     "SpatialSignals",
     "SpatialStepController",
+    "SMCGains",
+    "SlidingModeController",
     "SteadyStateMap",
     "StepVoltageController",
     "action_to_volts",

@@ -19,6 +19,7 @@ whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` 
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,7 @@ from ..envs import ENV_ID_CHAIN as CHAIN_ENV_ID
 from .mpc import MPPIController
 from .mpc_spatial import SpatialMPPIController
 from .planar import BangBangController, PIDController, StepVoltageController
+from .sliding_mode import SlidingModeController, SMCGains, SpatialSlidingModeController
 from .spatial import SpatialBangBangController, SpatialPIDController, SpatialStepController
 
 __all__ = [
@@ -69,6 +71,7 @@ DEFAULT_TUNED = {
         "feedforward": 0.0,
         "preview": 0.0,
     },
+    "smc": {k: v for k, v in dataclasses.asdict(SMCGains()).items() if k != "kaw"},
 }
 
 
@@ -87,6 +90,25 @@ def _pid_space(trial, v_max: float) -> dict:
 
 def _chain_pid_space(trial, v_max: float) -> dict:
     return {**_pid_space(trial, v_max), "tip_ki": trial.suggest_float("tip_ki", 0.0, 1.0)}
+
+
+def _smc_space(trial, v_max: float) -> dict:
+    k_min = trial.suggest_float("k_min", 0.0, 0.3 * v_max)
+    return {
+        "lam": trial.suggest_float("lam", 0.1, 20.0, log=True),
+        "gamma": trial.suggest_float("gamma", 0.3, 1.0),
+        "tau_d": trial.suggest_float("tau_d", 0.05, 2.0, log=True),
+        "k_s": trial.suggest_float("k_s", 0.01, 2.0, log=True),
+        "k_i": trial.suggest_float("k_i", 1e-3, 1.0, log=True),
+        "phi": trial.suggest_float("phi", 0.1, 10.0, log=True),
+        "k_min": k_min,
+        "k_max": trial.suggest_float("k_max", k_min, 0.6 * v_max),
+        "rho": trial.suggest_float("rho", 1e-3, 1.0, log=True),
+        "sigma": trial.suggest_float("sigma", 0.01, 2.0, log=True),
+        "bias": trial.suggest_float("bias", 0.0, 0.5 * v_max),
+        "feedforward": trial.suggest_float("feedforward", 0.0, 1.0),
+        "preview": trial.suggest_float("preview", 0.0, 1.0),
+    }
 
 
 def _bang_bang_space(trial, v_max: float) -> dict:
@@ -157,6 +179,12 @@ REGISTRY: dict[str, ControllerSpec] = {
     ),
     "bang_bang": ControllerSpec(BangBangController, "three-level relay with hysteresis", _bang_bang_space),
     "pid": ControllerSpec(PIDController, "PID with feedforward, preview and anti-windup", _pid_space),
+    "smc": ControllerSpec(
+        SlidingModeController,
+        "adaptive terminal sliding mode with a boundary layer",
+        _smc_space,
+        in_default=False,
+    ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
 }
 BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
@@ -180,6 +208,13 @@ def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
             pid_space,
             from_env=True,
         ),  # fmt: skip
+        "smc": ControllerSpec(
+            SpatialSlidingModeController,
+            "adaptive terminal sliding mode per module and bending axis",
+            _smc_space,
+            in_default=False,
+            from_env=True,
+        ),
         **_mpc_specs(
             SpatialMPPIController, "the spatial core", "per-wire phase-fraction estimator", from_env=True
         ),

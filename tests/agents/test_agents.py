@@ -355,7 +355,7 @@ def test_registry_is_the_one_place_controllers_are_chosen():
 
     env = ev.make_env()
     assert set(registry.BASELINES) == {"step", "bang_bang", "pid"}
-    assert set(registry.TUNABLE) == {"bang_bang", "pid"}
+    assert set(registry.TUNABLE) == {"bang_bang", "pid", "smc"}
     for name in registry.REGISTRY:
         ctrl = build_controller(name, env)
         assert isinstance(ctrl, registry.REGISTRY[name].cls)
