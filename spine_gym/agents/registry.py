@@ -3,40 +3,5 @@ live with the controllers, :mod:`spine_gym.controllers.registry`."""
 
 from __future__ import annotations
 
-from spine_gym.controllers.registry import (
-    BASELINES,
-    DEFAULT_TUNED,
-    DEFAULT_TUNED_BY_ENV,
-    GUARD_MARGIN_K,
-    REGISTRIES,
-    REGISTRY,
-    TUNABLE,
-    TUNED_DIR,
-    TUNED_FILE,
-    ControllerSpec,
-    baselines_for,
-    get_spec,
-    load_tuned,
-    registry_for,
-    tunable_for,
-    tuned_file,
-)
-
-__all__ = [
-    "GUARD_MARGIN_K",
-    "TUNED_DIR",
-    "TUNED_FILE",
-    "DEFAULT_TUNED",
-    "DEFAULT_TUNED_BY_ENV",
-    "ControllerSpec",
-    "REGISTRY",
-    "REGISTRIES",
-    "BASELINES",
-    "TUNABLE",
-    "registry_for",
-    "baselines_for",
-    "tunable_for",
-    "get_spec",
-    "tuned_file",
-    "load_tuned",
-]
+from spine_gym.controllers.registry import *  # noqa: F403  (every public name, re-exported)
+from spine_gym.controllers.registry import __all__  # noqa: F401

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import spine_gym  # noqa: F401 - registers the envs
-from spine_gym.agents.registry import GUARD_MARGIN_K, get_spec, load_tuned
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
 from spine_gym.agents.runtime import build_controller, env_temperature_limit, make_env
 from spine_gym.controllers import (
     PIDController,
