@@ -50,7 +50,7 @@ import numba
 import numpy as np
 
 import spine_gym
-from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
+from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS
 
 OUT = Path(__file__).resolve().parent / "results"
 SEED = 1000

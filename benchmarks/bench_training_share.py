@@ -70,7 +70,7 @@ from spine_loops import step_many, step_many_serial, step_many_spatial_serial  #
 import spine_gym  # noqa: E402, F401 - registers the env ids
 from spine_gym.envs import readout as ro  # noqa: E402
 from spine_gym.envs import step_kernels as sk  # noqa: E402
-from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS  # noqa: E402
+from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS  # noqa: E402
 from spine_gym.physics.planar.control import step_spine  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results"

@@ -29,7 +29,6 @@ import inspect
 import os
 import re
 import textwrap
-import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -37,7 +36,7 @@ from typing import Any
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from spine_gym.envs import ENV_SPECS  # registers the spine envs
+from spine_gym.envs import ENV_SPECS, config_of  # registers the spine envs
 
 __all__ = [
     "PROG",
@@ -263,18 +262,16 @@ def env_parameters(env: str) -> tuple[str, ...] | None:
 
 def check_env_kwargs(env: str, env_kwargs: dict, flag: str = "--env-kwargs") -> None:
     """ValueError (one line) unless ``env`` takes ``env_kwargs``: the names are checked against its
-    class, then one env is built (and closed) so that the values are checked too."""
+    class, then its configuration is validated (:func:`spine_gym.envs.config_of`, the checks the
+    env makes; no env is built) so that the values are checked too."""
     accepted = env_parameters(env)
     for key in env_kwargs:
         if accepted is not None and key not in accepted:
             raise ValueError(f"{flag}: {env} takes no argument {key!r}{did_you_mean(key, accepted)}")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # gymnasium's note that a -v0 id has a newer version
-        try:
-            made = gym.make(env, **env_kwargs)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"{flag}: not accepted by {env}: {first_line(e)}") from None
-    made.close()
+    try:
+        config_of(env, **env_kwargs)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{flag}: not accepted by {env}: {first_line(e)}") from None
 
 
 def check_keys(keys: Iterable[str], allowed: Iterable[str], flag: str, what: str = "key") -> None:

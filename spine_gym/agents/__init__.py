@@ -11,7 +11,7 @@ Command lines (each ``python -m spine_gym.agents.<name>``, and ``spine-gym <name
 
 Runtime (no command line):
 
-* :mod:`~spine_gym.agents.registry` — the one table of controllers; :mod:`~spine_gym.agents.runtime` — envs,
+* :mod:`~spine_gym.controllers.registry` — the one table of controllers (with the controllers); :mod:`~spine_gym.agents.runtime` — envs,
   controllers, saved policies, episodes; :mod:`~spine_gym.agents.scenarios`, :mod:`~spine_gym.agents.metrics`.
 * :mod:`~spine_gym.agents.evaluation` — controllers on the scenario suite, its tables and files;
   :mod:`~spine_gym.agents.minari_datasets` — Minari datasets recorded and read.

@@ -38,9 +38,10 @@ Output folder (``--out``, default ``results/benchmark``):
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
   CI over seeds per evaluation), ``curves_<env id>.png``;
 * ``table.csv`` (per algorithm x env id: IQM and 95 % stratified bootstrap CI over seeds of the
-  final validation metrics, from ``rliable``; the references' means), ``runs.csv`` (per run: wall
-  and CPU time, steps, steps and wall time to reach the PID's validation RMSE), ``table.md``,
-  ``table.png``; ``command.txt`` (every invocation).
+  final validation metrics, from ``rliable``; the references' means; the envelope and budget),
+  ``runs.csv`` (per run: wall and CPU time, steps, steps and wall time to reach the PID's
+  validation RMSE), ``table.md`` (the constrained ranking first:
+  :mod:`spine_gym.agents.benchmark_ranking`), ``table.png``; ``command.txt`` (every invocation).
 
 ``--address`` farms the runs out to a Ray cluster (``local``: a Ray instance started here with
 ``--workers`` CPUs; ``auto`` or ``HOST:PORT``: a running cluster), one run per Ray task of one CPU.
@@ -83,8 +84,10 @@ from spine_gym.cli_conventions import (
     usage_errors,
 )
 from spine_gym.cli_conventions import env_id as env_id_type
-from spine_gym.envs import BENCHMARK_IDS
+from spine_gym.controllers.registry import registry_for
+from spine_gym.envs import BENCHMARK_IDS, config_of
 
+from . import benchmark_ranking as ranking
 from . import benchmark_stats as stats
 from .benchmark_records import restore_records
 from .benchmark_run import (
@@ -97,7 +100,6 @@ from .benchmark_run import (
     validation_means,
 )
 from .evaluation import write_csv
-from .registry import registry_for
 from .runtime import (
     MAX_VALIDATION_EPISODES,
     OBSERVATION_KWARGS,
@@ -214,8 +216,9 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
         stats.plot_curves(out / f"curves_{env_id}.png", env_id, plotted, references[env_id], units[env_id])
     write_csv(out / "learning_curves.csv", curve_rows)
     summary = stats.summary_rows(runs, {k: v for k, v in references.items() if k in curves}, reps=reps)
+    summary = ranking.with_envelope(summary, {s.env_id: s.env_kwargs for s in specs})
     write_csv(out / "table.csv", summary)
-    (out / "table.md").write_text(stats.markdown_table(summary, runs, units))
+    (out / "table.md").write_text(ranking.report_markdown(summary, runs, units))
     stats.plot_table(out / "table.png", summary, units)
     return summary
 
@@ -414,11 +417,9 @@ def make_plan(args: argparse.Namespace) -> Plan:
             raise ValueError(f"unknown reference(s) {missing} for {env_id}; choose from {sorted(table)}")
         check_env_kwargs(env_id, task_kwargs)
         try:
-            probe = make_env(task_kwargs, env_id=env_id)
+            units[env_id] = config_of(env_id, **task_kwargs).table().task.unit
         except TypeError as e:
             raise ValueError(f"--env-kwargs not accepted by {env_id}: {e}") from None
-        units[env_id] = probe.config.table().task.unit
-        probe.close()
         for algo in args.algos:
             hyperparams = dict(QUICK_HYPERPARAMS[algo]) if args.quick else {}
             n = budgets.get(env_id, s["n_timesteps"])

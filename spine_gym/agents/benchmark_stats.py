@@ -5,9 +5,10 @@
   (:func:`rliable.metrics.aggregate_iqm`, :func:`rliable.library.get_interval_estimates`);
   :func:`curve_intervals` — the same at every evaluation of a learning curve.
 * :func:`time_to_level` — the first evaluation of a run at or below a reference level.
-* :func:`summary_rows`, :func:`markdown_table`, :func:`plot_table`, :func:`plot_curves` — the
-  final table (per algorithm x env id, plus the reference controllers) as CSV rows, Markdown and
-  PNG, and the learning curves per env id.
+* :func:`summary_rows`, :func:`training_markdown`, :func:`plot_table`, :func:`plot_curves` — the
+  final table (per algorithm x env id, plus the reference controllers) as CSV rows, the training
+  cost as Markdown, the table as PNG, and the learning curves per env id. The table's Markdown,
+  the constrained ranking first, is :mod:`spine_gym.agents.benchmark_ranking`.
 
 rliable draws its bootstrap indices from NumPy's global generator; :func:`_estimates` seeds it for
 the call (so a table is reproducible) and restores the caller's state afterwards.
@@ -22,6 +23,8 @@ import numpy as np
 from matplotlib.figure import Figure  # figures without pyplot: no global backend switch
 from rliable import library as rly
 from rliable import metrics as rly_metrics
+
+from .metrics import TIME_OVER_LIMIT_CAP_S
 
 CONFIDENCE = 0.95  # size of the confidence intervals
 BOOTSTRAP_REPS = 2000  # bootstrap resamples per interval (rliable's own default is 50 000)
@@ -97,11 +100,20 @@ def time_to_level(
 
 
 # --------------------------------------------------------------------------- tables
+def _metric_cells(scores: list, reps: int) -> tuple:
+    """``(IQM, CI low, CI high)`` of a metric over seeds; all None if a seed lacks it (e.g. records
+    written before the metric was recorded) or it is not finite."""
+    if any(x is None or not math.isfinite(x) for x in scores):
+        return None, None, None
+    return iqm_interval(scores, reps=reps)
+
+
 def summary_rows(
     runs: list[dict], references: dict[str, dict[str, dict]], reps: int = BOOTSTRAP_REPS
 ) -> list[dict]:
     """One row per (env id, algorithm) with the IQM and CI over seeds of each final metric and the
     mean wall/CPU time, then one row per reference controller of the env id (its validation means).
+    A metric that some seed (or a reference) did not record gets None cells, not a number.
 
     Args:
         runs: per-run records (``env_id``, ``algo``, ``seed``, ``steps``, ``wall_s``, ``cpu_s``,
@@ -118,7 +130,7 @@ def summary_rows(
             row = {"env_id": env_id, "method": algo, "kind": "rl", "n_seeds": len(group)}
             row["steps"] = int(np.median([r["steps"] for r in group]))
             for m in METRICS:
-                iqm, lo, hi = iqm_interval([r[f"final_{m}"] for r in group], reps=reps)
+                iqm, lo, hi = _metric_cells([r.get(f"final_{m}") for r in group], reps)
                 row |= {f"{m}_iqm": iqm, f"{m}_ci_low": lo, f"{m}_ci_high": hi}
             row["wall_s_mean"] = float(np.mean([r["wall_s"] for r in group]))
             row["cpu_s_mean"] = float(np.mean([r["cpu_s"] for r in group]))
@@ -128,7 +140,7 @@ def summary_rows(
         for name, ref in references.get(env_id, {}).items():
             row = {"env_id": env_id, "method": name, "kind": "reference", "n_seeds": None, "steps": None}
             for m in METRICS:
-                row |= {f"{m}_iqm": ref[m], f"{m}_ci_low": None, f"{m}_ci_high": None}
+                row |= {f"{m}_iqm": ref.get(m), f"{m}_ci_low": None, f"{m}_ci_high": None}
             row |= {"wall_s_mean": None, "cpu_s_mean": None, "reached_pid": None}
             row["n_episodes"] = ref["n_episodes"]
             out.append(row)
@@ -144,19 +156,21 @@ def duration(seconds: float | None) -> str:
     return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
 
 
-def _fmt(x, spec: str = "{:.2f}") -> str:
+def fmt(x, spec: str = "{:.2f}") -> str:
     return DASH if x is None or (isinstance(x, float) and math.isnan(x)) else spec.format(x)
 
 
-def _interval_cell(row: dict, m: str, spec: str) -> str:
+def interval_cell(row: dict, m: str, spec: str) -> str:
+    """``IQM [CI low, CI high]`` of metric ``m`` of a summary row (the value alone without a CI)."""
     if row[f"{m}_ci_low"] is None:
-        return _fmt(row[f"{m}_iqm"], spec)
+        return fmt(row[f"{m}_iqm"], spec)
     return (
-        f"{_fmt(row[f'{m}_iqm'], spec)} [{_fmt(row[f'{m}_ci_low'], spec)}, {_fmt(row[f'{m}_ci_high'], spec)}]"
+        f"{fmt(row[f'{m}_iqm'], spec)} [{fmt(row[f'{m}_ci_low'], spec)}, {fmt(row[f'{m}_ci_high'], spec)}]"
     )
 
 
-def _md(head: list[str], body: list[list[str]]) -> list[str]:
+def md_table(head: list[str], body: list[list[str]]) -> list[str]:
+    """The lines of a Markdown table (first column left-aligned, the others right-aligned)."""
     lines = [
         "| " + " | ".join(head) + " |",
         "|" + "|".join("---" if i == 0 else "---:" for i in range(len(head))) + "|",
@@ -164,30 +178,20 @@ def _md(head: list[str], body: list[list[str]]) -> list[str]:
     return lines + ["| " + " | ".join(r) + " |" for r in body]
 
 
-def markdown_table(summary: list[dict], runs: list[dict], units: dict[str, str]) -> str:
-    """The final table as Markdown: per env id the algorithms (IQM [95 % CI] over seeds) and the
-    references (means over the validation episodes), then one line per run."""
-    pct = round(100 * CONFIDENCE)
+def training_markdown(summary: list[dict], runs: list[dict], units: dict[str, str]) -> str:
+    """What the runs cost, as Markdown: per env id each algorithm's seeds, env steps, mean wall and
+    CPU time and how many runs reached the PID's validation RMSE; then one line per run."""
     lines = []
     for env_id in dict.fromkeys(r["env_id"] for r in summary):
-        unit = units.get(env_id, "deg")
-        sel = [r for r in summary if r["env_id"] == env_id]
-        head = ["method", "seeds", "steps"]
-        head += [f"{h.format(unit=unit)} IQM [{pct} % CI]" for h in METRICS.values()]
-        head += ["wall (mean)", "CPU (mean)", "reached PID"]
-        body = []
-        for r in sel:
-            rl = r["kind"] == "rl"
-            n_ep = r["n_episodes"]
-            name = r["method"] if rl else f"{r['method']} (reference, {n_ep} episode{'s' * (n_ep != 1)})"
-            body.append(
-                [name, _fmt(r["n_seeds"], "{}"), _fmt(r["steps"], "{:,}")]
-                + [_interval_cell(r, "rmse", "{:.2f}"), _interval_cell(r, "energy_J", "{:.0f}")]
-                + [_interval_cell(r, "time_over_limit_s", "{:.1f}")]
-                + [duration(r["wall_s_mean"]), duration(r["cpu_s_mean"])]
-                + [f"{r['reached_pid']}/{r['n_seeds']}" if rl else DASH]
-            )
-        lines += [f"### {env_id}", "", *_md(head, body), ""]
+        head = ["algorithm", "seeds", "steps", "wall (mean)", "CPU (mean)", "reached PID"]
+        body = [
+            [r["method"], fmt(r["n_seeds"], "{}"), fmt(r["steps"], "{:,}")]
+            + [duration(r["wall_s_mean"]), duration(r["cpu_s_mean"]), f"{r['reached_pid']}/{r['n_seeds']}"]
+            for r in summary
+            if r["env_id"] == env_id and r["kind"] == "rl"
+        ]
+        if body:
+            lines += [f"### {env_id}", "", *md_table(head, body), ""]
     head = [
         "env id",
         "algorithm",
@@ -209,46 +213,60 @@ def markdown_table(summary: list[dict], runs: list[dict], units: dict[str, str])
             duration(r["cpu_s"]),
         ]
         + [f"{r['final_rmse']:.2f} {units.get(r['env_id'], 'deg')}"]
-        + [_fmt(r["steps_to_pid"], "{:,}"), duration(r["wall_to_pid_s"])]
+        + [fmt(r["steps_to_pid"], "{:,}"), duration(r["wall_to_pid_s"])]
         for r in runs
     ]
-    lines += ["### Runs", "", *_md(head, body), ""]
+    lines += ["### Runs", "", *md_table(head, body), ""]
     return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- plots
+def _over_cap(row: dict) -> bool:
+    t = row["time_over_limit_s_iqm"]
+    return t is None or not math.isfinite(t) or t > TIME_OVER_LIMIT_CAP_S
+
+
 def plot_table(path, summary: list[dict], units: dict[str, str]) -> None:
-    """One row of panels per env id: RMSE and energy of each algorithm (IQM, CI bar) with the
-    references as vertical lines."""
+    """One row of panels per env id: RMSE, energy and time over the temperature limit of each
+    algorithm (IQM, CI bar; hollow grey: over :data:`~spine_gym.agents.metrics.TIME_OVER_LIMIT_CAP_S`
+    or not recorded, so not ranked) with the references as vertical lines and the cap dotted."""
     env_ids = list(dict.fromkeys(r["env_id"] for r in summary))
     per_id = max(2, len(summary) // max(1, len(env_ids)))
-    fig = Figure(figsize=(10, 1.2 + 0.45 * per_id * len(env_ids) + 0.6 * len(env_ids)))
-    axes = fig.subplots(len(env_ids), 2, squeeze=False)
+    fig = Figure(figsize=(13, 1.2 + 0.45 * per_id * len(env_ids) + 0.6 * len(env_ids)))
+    axes = fig.subplots(len(env_ids), 3, squeeze=False)
     for i, env_id in enumerate(env_ids):
         sel = [r for r in summary if r["env_id"] == env_id]
         rl, refs = [r for r in sel if r["kind"] == "rl"], [r for r in sel if r["kind"] == "reference"]
-        for j, (m, label) in enumerate(
-            (("rmse", f"RMSE [{units.get(env_id, 'deg')}]"), ("energy_J", "energy [J]"))
-        ):
+        panels = (
+            ("rmse", f"RMSE [{units.get(env_id, 'deg')}]"),
+            ("energy_J", "energy [J]"),
+            ("time_over_limit_s", "time over the temperature limit [s]"),
+        )
+        for j, (m, label) in enumerate(panels):
             ax = axes[i, j]
-            y = np.arange(len(rl))
-            x = np.array([r[f"{m}_iqm"] for r in rl], dtype=float)
-            err = np.array(
-                [[r[f"{m}_iqm"] - r[f"{m}_ci_low"], r[f"{m}_ci_high"] - r[f"{m}_iqm"]] for r in rl]
-            ).T
-            if len(rl):
-                ax.errorbar(x, y, xerr=err, fmt="o", capsize=4, color="C0")
-            ax.set_yticks(y, [r["method"] for r in rl])
+            for k, r in enumerate(rl):
+                if r[f"{m}_iqm"] is None:
+                    continue
+                x, lo, hi = r[f"{m}_iqm"], r[f"{m}_ci_low"], r[f"{m}_ci_high"]
+                over = _over_cap(r)
+                ax.errorbar([x], [k], xerr=[[x - lo], [hi - x]], fmt="o", capsize=4,
+                            color="0.55" if over else "C0", mfc="none" if over else "C0")  # fmt: skip
+            ax.set_yticks(np.arange(len(rl)), [r["method"] for r in rl])
             for k, r in enumerate(refs):
-                ax.axvline(r[f"{m}_iqm"], color=f"C{k + 1}", ls="--", lw=1, label=r["method"])
+                if r[f"{m}_iqm"] is not None:
+                    ax.axvline(r[f"{m}_iqm"], color=f"C{k + 1}", ls="--", lw=1, label=r["method"])
+            if m == "time_over_limit_s":
+                ax.axvline(TIME_OVER_LIMIT_CAP_S, color="C3", ls=":", lw=1.2, label="cap")
             ax.set_xlabel(f"final validation {label}")
             ax.set_title(env_id if j == 0 else "", loc="left", fontsize=10)
-            if refs and j == 1:
+            if j == 2:
                 ax.legend(fontsize=7, loc="best")
     fig.suptitle(
-        f"IQM over seeds, {round(100 * CONFIDENCE)} % stratified bootstrap CI (rliable)", fontsize=10
+        f"IQM over seeds, {round(100 * CONFIDENCE)} % stratified bootstrap CI (rliable); hollow grey: "
+        f"over {TIME_OVER_LIMIT_CAP_S} s per episode above the temperature limit (not ranked)",
+        fontsize=10,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.35 / fig.get_figheight()))  # room for the title
     fig.savefig(path, dpi=90)
 
 

@@ -54,7 +54,7 @@ from .evaluation_job import controllers_of as _controllers  # noqa: F401  (the o
 from .evaluation_job import env_of as _env  # noqa: F401
 from .evaluation_job import models_of as _models  # noqa: F401
 from .evaluation_job import plan as _plan  # noqa: F401
-from .registry import BASELINES, REGISTRY  # noqa: F401
+from spine_gym.controllers.registry import BASELINES, REGISTRY  # noqa: F401
 from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported for one release)
     build_controller,
     env_temperature_limit,

@@ -12,6 +12,7 @@ from pathlib import Path
 import torch
 
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
 from spine_gym.envs import base_id
 
 from .evaluation import (
@@ -27,8 +28,7 @@ from .evaluation import (
     write_trajectories,
 )
 from .policy_files import check_policy_env, trained_env_id
-from .registry import BASELINES, REGISTRY, baselines_for, registry_for
-from .runtime import build_controller, env_temperature_limit, evaluation_env_kwargs, load_policy, make_env, run_episode
+from .runtime import build_controller, env_temperature_limit, load_policy, make_env, policy_env_kwargs, run_episode
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
 from .zoo_config import DEFAULT_ENV_ID
@@ -160,7 +160,7 @@ def controllers_of(args, baselines: list[str], models: dict[str, Path]) -> tuple
     for name, path in models.items():
         pol = load_policy(path, name=name)
         controllers[name] = pol
-        env_kwargs[name] = {**evaluation_env_kwargs(pol.env_kwargs), **args.env_kwargs}
+        env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
     probe.close()
     return controllers, env_kwargs, limit
 

@@ -1,13 +1,15 @@
 """A constrained energy budget for training (Lagrangian relaxation, dual ascent on the weight).
 
 The env's reward has a fixed energy weight; which weight gives a policy that uses *no more energy
-than the tuned PID* is only found by trial. Here the energy term becomes a Lagrange multiplier λ:
+than the tuned PID* is only found by trial. Here the weight of the env's energy term becomes a
+Lagrange multiplier λ: the env's reward with its energy term replaced,
 
-    r = r_tracking − λ · E / E_ref
+    r = r_env − r_energy − λ · E / E_ref = r_tracking − cost_weight · cost − λ · E / E_ref
 
-(``r_tracking`` and ``E`` [J] are the env's ``info["reward_tracking"]`` / ``info["energy_J"]``,
-``E_ref`` the env's energy normaliser), and after every rollout λ follows the constraint
-"mean episode energy ≤ budget":
+(``r_env`` the env's reward, ``r_energy`` = −energy_weight · E / E_ref and ``E`` [J] its
+``info["reward_energy"]`` / ``info["energy_J"]``, ``E_ref`` the env's energy normaliser; every other
+term of the env's reward, the temperature cost among them, is kept), and after every rollout λ
+follows the constraint "mean episode energy ≤ budget":
 
     λ ← clip(λ · exp(η · (Ē / budget − 1)), λ_min, λ_max)
 
@@ -18,7 +20,7 @@ cap (as measured in a budgeted run), and then needs as long to come down; ``wind
 mean episode energy on the training distribution (validation reset seeds, never the evaluation
 suite): :func:`spine_gym.agents.runtime.validation_scores`.
 
-* :class:`EnergyBudgetVecEnv` — an SB3 ``VecEnvWrapper`` that replaces the reward (sits below
+* :class:`EnergyBudgetVecEnv` — an SB3 ``VecEnvWrapper`` that adjusts the reward (sits below
   ``VecNormalize``, above ``VecMonitor``/:class:`spine_gym.agents.residual.ResidualVecEnv`).
 * :class:`LagrangianCallback` — the dual update, logged as ``lagrangian/lambda`` and
   ``lagrangian/energy_ratio``.
@@ -52,20 +54,29 @@ def dual_step(lam: float, energy_ratio: float, eta: float, lam_range: tuple[floa
 
 
 class EnergyBudgetVecEnv(VecEnvWrapper):
-    """Reward = tracking term − λ · energy / E_ref; records each finished episode's energy [J].
+    """Reward = the env's reward with its energy term's weight replaced by λ (module docstring);
+    records each finished episode's energy [J].
 
     Args:
-        venv: the vector env whose infos carry ``reward_tracking`` and ``energy_J`` per step.
+        venv: the vector env whose infos carry ``reward_energy`` and ``energy_J`` per step.
         budget_J: the energy budget per episode [J].
         energy_ref_J: the env's energy normaliser E_ref [J] (one control period at full power).
-        lam0: initial λ (the env's default energy weight is 0.5).
+        lam0: initial λ; ``None``: the env's own ``energy_weight`` (so the reward starts as the
+            env's).
         window: how many finished episodes the mean energy Ē is taken over (>= 0; 0: those
             finished since the previous :meth:`dual_ratio`).
     """
 
     def __init__(
-        self, venv: VecEnv, budget_J: float, energy_ref_J: float, lam0: float = 0.5, window: int = 32
+        self,
+        venv: VecEnv,
+        budget_J: float,
+        energy_ref_J: float,
+        lam0: float | None = None,
+        window: int = 32,
     ):
+        if lam0 is None:
+            lam0 = float(venv.get_attr("config", [0])[0].energy_weight)
         check_budget_args(budget_J, energy_ref_J, lam0, 1.0)
         if isinstance(window, bool) or int(window) != window or window < 0:
             raise ValueError(f"budget_window must be an integer >= 0 (0: since the last dual step), got {window!r}")
@@ -82,15 +93,16 @@ class EnergyBudgetVecEnv(VecEnvWrapper):
         return self.venv.reset()
 
     def step_wait(self):
-        obs, _, dones, infos = self.venv.step_wait()
+        obs, env_rewards, dones, infos = self.venv.step_wait()
         energy = np.array([float(info["energy_J"]) for info in infos])
-        track = np.array([float(info["reward_tracking"]) for info in infos])
+        env_energy_term = np.array([float(info["reward_energy"]) for info in infos])
         self._episode_energy += energy
         for i in np.flatnonzero(dones):
             self.finished.append(self._episode_energy[i])
             self._episode_energy[i] = 0.0
-        rewards = (track - self.lam * energy / self.energy_ref).astype(np.float32)
-        return obs, rewards, dones, infos
+        rewards = np.asarray(env_rewards, dtype=np.float64) - env_energy_term
+        rewards -= self.lam * energy / self.energy_ref
+        return obs, rewards.astype(np.float32), dones, infos
 
     def state_dict(self) -> dict:
         """What a checkpoint keeps to resume the dual ascent: λ, the budget and the finished-episode

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "episode_metrics", "METRIC_COLUMNS", "settling_times"]
+__all__ = ["Trajectory", "episode_metrics", "METRIC_COLUMNS", "TIME_OVER_LIMIT_CAP_S", "settling_times"]
 
 # column name -> (header, format) of the evaluation table, in display order
 METRIC_COLUMNS = {
@@ -25,6 +25,10 @@ METRIC_COLUMNS = {
     "peak_temperature_K": ("peak T [K]", "{:.0f}"),
     "time_over_limit_s": ("T>limit [s]", "{:.1f}"),
 }
+
+#: [s] the thermal constraint of the constrained rankings: at most this much time per episode with a
+#: wire over the temperature limit (``time_over_limit_s``), as a cost threshold in Safety-Gymnasium
+TIME_OVER_LIMIT_CAP_S = 0.5
 
 
 #: info keys (tracked quantity, target) of the planar env; the spatial envs name theirs in their table

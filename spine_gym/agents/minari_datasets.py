@@ -37,11 +37,11 @@ import numpy as np
 from tqdm import tqdm
 
 import spine_gym
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 from spine_gym.envs import ENV_SPECS, tier_of
 
 from . import runtime
 from .metrics import episode_metrics
-from .registry import GUARD_MARGIN_K, get_spec, load_tuned, registry_for
 
 __all__ = [
     "DATASET_SEED_BASE",
@@ -145,7 +145,7 @@ def _controller(controller: str, env_id: str, env_kwargs: dict):
         )
     policy = runtime.load_policy(controller)
     # what the policy observes
-    env_kwargs = {**runtime.evaluation_env_kwargs(policy.env_kwargs), **env_kwargs}
+    env_kwargs = runtime.policy_env_kwargs(policy.env_kwargs, env_kwargs)
     env = _make(env_id, env_kwargs)
     obs, _ = env.reset(seed=DATASET_SEED_BASE)
     try:

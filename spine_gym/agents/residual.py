@@ -5,7 +5,7 @@ The learned policy does not drive the wires alone: the applied action is
     a = clip(a_base + scale · clip(a_res, -1, 1), -1, 1)
 
 where ``a_base`` is the action of a classical controller (the tuned PID of
-``spine_gym/agents/hyperparams/baselines.yml``) and ``a_res`` the policy's output. The policy observes the
+``spine_gym/controllers/tuned/baselines.yml``) and ``a_res`` the policy's output. The policy observes the
 env's observation with ``a_base`` appended (one more entry per wire, in [-1, 1]), so it knows what the
 baseline is about to do. The baseline keeps its integral action (precise holding, ramps); the
 policy learns what the PID cannot do from the error alone — anticipating target moves from the
@@ -24,14 +24,13 @@ preview, pre-heating the wire that will be needed, shaping the heating pulse of 
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-from spine_gym.envs import base_id
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
+from spine_gym.envs import base_id, config_of
 
-from .registry import GUARD_MARGIN_K, get_spec, load_tuned
 from .zoo_config import ENV_ID
 
 __all__ = ["ResidualVecEnv", "ResidualPolicy", "build_base", "base_spec", "combine"]
@@ -76,10 +75,8 @@ def build_base(spec: dict):
     env_id = spec.get("env_id", ENV_ID)
     cls = get_spec(spec["kind"], env_id).cls
     if base_id(env_id) != ENV_ID:  # a spatial controller reads the env's layout and observation table
-        env = gym.make(env_id, **spec["env_kwargs"]).unwrapped
-        ctrl = cls.from_env(env, **spec["params"], temperature_limit=spec["temperature_limit"])
-        env.close()
-        return ctrl
+        cfg = config_of(env_id, **spec["env_kwargs"])
+        return cls.from_config(cfg, **spec["params"], temperature_limit=spec["temperature_limit"])
     return cls(
         **spec["params"], v_max=spec["v_max"], dt=spec["dt"], temperature_limit=spec["temperature_limit"]
     )

@@ -2,7 +2,7 @@
 
 * :func:`make_env` — a plain env (``SmaSpine-v0`` or a spatial id); :func:`env_temperature_limit`,
   :func:`env_id_of`, :func:`tracking_keys`.
-* :func:`build_controller` — any :data:`spine_gym.agents.registry.REGISTRY` entry configured for an env
+* :func:`build_controller` — any :data:`spine_gym.controllers.registry.REGISTRY` entry configured for an env
   (its v_max, control period, temperature guard, tuned settings from :func:`load_tuned`).
 * :class:`SavedPolicy`, :func:`load_policy` — a trained model plus its ``VecNormalize``
   statistics behind SB3's ``predict`` interface (a residual model comes back as
@@ -28,11 +28,12 @@ from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
+from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
+from spine_gym.envs import config_of
 
 from .metrics import Trajectory, episode_metrics
 from .observations import feature_policy, specs_from_meta
 from .policy_files import policy_files, policy_meta
-from .registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
 from .residual import ResidualPolicy
 from .scenarios import EVAL_SEED_BASE, Scenario
 from .zoo_config import ALGOS, ENV_ID, algo_class
@@ -43,6 +44,7 @@ __all__ = [
     "tracking_keys",
     "env_temperature_limit",
     "build_controller",
+    "controller_for",
     "energy_weighted_oracle",
     "ORACLE_NAMES",
     "run_episode",
@@ -55,6 +57,7 @@ __all__ = [
     "OBSERVATION_KWARGS",
     "TASK_KWARGS",
     "evaluation_env_kwargs",
+    "policy_env_kwargs",
     "VALIDATION_SEED_BASE",
     "validation_scores",
     "validation_metrics",
@@ -146,6 +149,14 @@ def evaluation_env_kwargs(policy_env_kwargs: dict) -> dict:
     return {k: v for k, v in policy_env_kwargs.items() if k not in TASK_KWARGS}
 
 
+def policy_env_kwargs(own: dict, given: dict | None = None) -> dict:
+    """The one rule for the env a saved policy runs in: the caller's ``given`` env kwargs (the
+    distribution to run on) with what the suite keeps of the policy's training kwargs ``own``
+    (:func:`evaluation_env_kwargs`: what it observes, its voltage ceiling, its reward weights) on
+    top: a policy always sees the observation it was trained on, whatever the distribution."""
+    return {**(given or {}), **evaluation_env_kwargs(own)}
+
+
 VALIDATION_SEED_BASE = 500_000  # < EVAL_SEED_BASE (900 000), > training/tuning seeds
 MAX_VALIDATION_EPISODES = EVAL_SEED_BASE - VALIDATION_SEED_BASE  # the seeds stay below the suite's
 
@@ -189,23 +200,50 @@ def env_temperature_limit(env) -> float:
 
 
 def build_controller(name: str, env, tuned: dict | None = None):
-    """Registered controller ``name`` of the env's registry (:func:`spine_gym.agents.registry.registry_for`)
+    """Registered controller ``name`` of the env's registry (:func:`spine_gym.controllers.registry.registry_for`)
     configured for ``env``.
 
     ``tuned`` overrides the tuned settings of :func:`load_tuned` (``{name: {...}}``).
     """
     env_id = env_id_of(env)
     spec = get_spec(name, env_id)
-    kwargs = dict(spec.kwargs)
-    if spec.tuned:
-        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
-    if spec.guard:
-        kwargs["temperature_limit"] = env_temperature_limit(env) - GUARD_MARGIN_K
+    kwargs = _controller_kwargs(name, env_id, tuned, env_temperature_limit(env))
     if spec.from_env:
         return spec.cls.from_env(env, **kwargs)
     if spec.plans_on_env:
         return spec.cls(env.unwrapped.config, env=env, **kwargs)
     return spec.cls(v_max=float(env.v_max), dt=float(env.control_period), **kwargs)
+
+
+def controller_for(
+    name: str, env_id: str = ENV_ID, env_kwargs: dict | None = None, tuned: dict | None = None
+):
+    """:func:`build_controller` for an env of ``env_id`` made with ``env_kwargs``, read from its
+    configuration (:func:`spine_gym.envs.config_of`) without making the env; only a planner that
+    plans on the env itself (the MPC entries) gets a probe env."""
+    spec = get_spec(name, env_id)
+    if spec.plans_on_env or not hasattr(spec.cls, "from_config") and spec.from_env:
+        probe = make_env(env_kwargs, env_id=env_id)
+        ctrl = build_controller(name, probe, tuned)
+        probe.close()
+        return ctrl
+    cfg = config_of(env_id, **(env_kwargs or {}))
+    kwargs = _controller_kwargs(name, env_id, tuned, cfg.temperature_limit)
+    if spec.from_env:
+        return spec.cls.from_config(cfg, **kwargs)
+    return spec.cls(v_max=float(cfg.v_max), dt=float(cfg.control_period), **kwargs)
+
+
+def _controller_kwargs(name: str, env_id: str, tuned: dict | None, temperature_limit: float) -> dict:
+    """The constructor kwargs of registry entry ``name``: fixed, tuned, and the guard below the env's
+    ``temperature_limit`` [K]."""
+    spec = get_spec(name, env_id)
+    kwargs = dict(spec.kwargs)
+    if spec.tuned:
+        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
+    if spec.guard:
+        kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
+    return kwargs
 
 
 # --------------------------------------------------------------------------- saved policies

@@ -2,7 +2,7 @@
 
 A :class:`Scenario` is pure data (target profile, load schedule, duration, reset seed); its
 :meth:`Scenario.reset_options` turns it into the env's ``reset(options={"target": ...,
-"loads": ...})`` objects (:mod:`spine_gym.envs.targets`, :mod:`spine_gym.envs.loads`). The suite has
+"loads": ...})`` objects (:mod:`spine_gym.envs.targets_planar`, :mod:`spine_gym.envs.loads`). The suite has
 two groups with the same target profiles:
 
 * ``nominal`` — no external load;
@@ -46,7 +46,7 @@ import numpy as np
 from spine_gym import ModelParams
 from spine_gym.envs import ENV_SPECS, base_id, default_randomization
 from spine_gym.envs.loads import LoadSchedule
-from spine_gym.envs.targets import TargetProfile
+from spine_gym.envs.targets_planar import TargetProfile
 from spine_gym.envs.targets_spatial import BendTarget, ChainTarget
 
 from .zoo_config import CHAIN_ENV_ID, ENV_ID, SPATIAL_ENV_ID
@@ -64,7 +64,7 @@ class Scenario:
         group: ``"nominal"`` or ``"disturbed"``.
         kind: ``"step"``, ``"ramp"`` or ``"sine"`` (settling time is reported for steps).
         target: ``(constructor, kwargs)`` of the env's target class (:data:`TARGET_CLASSES`:
-            :class:`~spine_gym.envs.targets.TargetProfile` for ``SmaSpine-v0``); constructor ``""``
+            :class:`~spine_gym.envs.targets_planar.TargetProfile` for ``SmaSpine-v0``); constructor ``""``
             calls the class itself.
         payload_kg: mass hung on the top disk [kg] (a constant downward tip force m g).
         tip_pulses: ``(t_start [s], t_end [s], fx [N], fy [N])`` tip-force pulses (global x/y), or

@@ -39,6 +39,7 @@ from .runtime import (
     evaluation_env_kwargs,
     load_policy,
     make_env,
+    policy_env_kwargs,
     validation_metrics,
     validation_scores,
 )
@@ -54,7 +55,7 @@ def model_env_kwargs(own: dict, given: dict | None) -> dict:
     ...) on top."""
     if given is None:
         return {k: v for k, v in own.items() if k != "episode_duration"}
-    return {**given, **evaluation_env_kwargs(own)}
+    return policy_env_kwargs(own, given)
 
 
 def score_row(name: str, controller, n_episodes: int, env_kwargs: dict, env_id: str) -> dict:

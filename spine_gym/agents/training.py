@@ -24,14 +24,15 @@ import numpy as np
 from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
 from stable_baselines3.common.vec_env import VecNormalize
 
+from spine_gym.envs import config_of
+
 from .checkpoints import lagrangian_candidates, load_lagrangian
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
     OBSERVATION_KWARGS,
-    build_controller,
-    env_temperature_limit,
+    controller_for,
     make_env,
     validation_scores,
     vecnormalize_candidates,
@@ -195,21 +196,24 @@ def _observation_wrappers(cfg: RunConfig, meta: dict) -> list:
     if not special["residual"] and special["obs_integral"] is None and special["obs_history"] is None:
         return []
     wrappers = []
-    probe = make_env(cfg.env_kwargs, env_id=cfg.env_id)
+    conf = config_of(cfg.env_id, **cfg.env_kwargs)
     if special["residual"]:
         spec = base_spec(
             special["residual"],
-            v_max=probe.v_max,
-            dt=probe.control_period,
-            temperature_limit=env_temperature_limit(probe),
+            v_max=conf.v_max,
+            dt=conf.control_period,
+            temperature_limit=conf.temperature_limit,
             scale=special["residual_scale"],
             env_id=cfg.env_id,
             env_kwargs=cfg.env_kwargs,
         )
         meta["residual"] = spec
         wrappers.append(lambda venv: ResidualVecEnv(venv, spec))
-    specs = feature_specs(probe, special)
-    probe.close()
+    specs = {}
+    if special["obs_integral"] is not None or special["obs_history"] is not None:
+        probe = make_env(cfg.env_kwargs, env_id=cfg.env_id)  # the features read its spaces
+        specs = feature_specs(probe, special)
+        probe.close()
     if specs:
         meta |= {key: spec.to_dict() for key, spec in specs.items()}
         wrappers.append(lambda venv: feature_vec_env(venv, specs))
@@ -230,15 +234,13 @@ def _budget_env(cfg: RunConfig, env, checkpoint: str = "", verbose: int = 0) -> 
             special["budget_scale"],
             env_id=cfg.env_id,
         )
-    probe = make_env(cfg.env_kwargs, env_id=cfg.env_id)
     budget_env = EnergyBudgetVecEnv(
         env,
         budget,
-        probe.config.energy_reference,
+        config_of(cfg.env_id, **cfg.env_kwargs).energy_reference,
         lam0=float(special["lagrangian_init"]),
         window=int(special["budget_window"]),
     )
-    probe.close()
     if checkpoint:
         load_lagrangian(budget_env, Path(checkpoint))
     if verbose:
@@ -324,9 +326,7 @@ def energy_budget(
     scale = checked_number(scale, lambda x: 0.0 < x <= 2.0, message)
     if spec == "pid":  # the PID as evaluated: the task's kwargs, the env's default observation
         kw = {k: v for k, v in env_kwargs.items() if k not in OBSERVATION_KWARGS}
-        probe = make_env(kw, env_id=env_id)
-        pid = build_controller("pid", probe)
-        probe.close()
+        pid = controller_for("pid", env_id, kw)
         return scale * validation_scores(pid, n_episodes, kw, env_id)[1]
     message = f"energy_budget must be 'pid' or a number of joules > 0, got {spec!r}"
     return scale * checked_number(spec, lambda x: x > 0.0, message)

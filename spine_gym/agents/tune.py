@@ -4,7 +4,7 @@ Example (``spine-gym tune`` is the same command)::
 
     python -m spine_gym.agents.tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
     python -m spine_gym.agents.tune --env SmaSpine3D-v0 --controllers pid  # results/tune/baselines_SmaSpine3D-v0.yml
-    python -m spine_gym.agents.tune --env SmaSpine-v0 -o spine_gym/agents/hyperparams/baselines.yml --overwrite  # the shipped gains
+    python -m spine_gym.agents.tune --env SmaSpine-v0 -o spine_gym/controllers/tuned/baselines.yml --overwrite  # the shipped gains
 
 An existing output file is refused unless ``--overwrite`` (which replaces the tuned controllers'
 entries and keeps the others).
@@ -30,9 +30,16 @@ import numpy as np
 import yaml
 
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import (
+    DEFAULT_TUNED_BY_ENV,
+    GUARD_MARGIN_K,
+    get_spec,
+    load_tuned,
+    tunable_for,
+    tuned_file,
+)
 from spine_gym.envs import base_id
 
-from .registry import DEFAULT_TUNED_BY_ENV, GUARD_MARGIN_K, get_spec, load_tuned, tunable_for, tuned_file
 from .runtime import build_controller, run_episode
 from .runtime import make_env as default_make_env
 from .zoo_config import DEFAULT_ENV_ID, ENV_ID
@@ -126,7 +133,7 @@ PROG = cli.module_prog(__spec__.name)
 EXAMPLES = """
 spine-gym tune --trials 60 --episodes 8 --seed 0      # writes results/tune/baselines.yml
 spine-gym tune --env SmaSpine3D-v0 --controllers pid -o results/tune/pid_3d.yml
-spine-gym tune --env SmaSpine-v0 -o spine_gym/agents/hyperparams/baselines.yml --overwrite   # the shipped gains
+spine-gym tune --env SmaSpine-v0 -o spine_gym/controllers/tuned/baselines.yml --overwrite   # the shipped gains
 """
 DEFAULT_OUT = Path("results/tune")  # the default output folder (the file is named after the shipped one)
 

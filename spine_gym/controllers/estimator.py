@@ -54,7 +54,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.planar import OBS_NAMES, EnvConfig, planar_obs_index
+from ..envs.drive import action_to_volts
+from ..envs.planar import OBS_NAMES, PlanarConfig, planar_obs_index
 from ..envs.spatial import SpatialConfig
 from ..physics import columns as L
 from ..physics.planar import columns as PL
@@ -133,7 +134,7 @@ class PhaseEstimator:
     """Model state of one spine inferred from the observations (see the module docstring).
 
     Args:
-        config: the env's :class:`~spine_gym.envs.EnvConfig` (nominal parameters, solver, periods,
+        config: the env's :class:`~spine_gym.envs.PlanarConfig` (nominal parameters, solver, periods,
             ``v_max``). Loads and sensor noise of an episode are not known.
         identify: identify T_E and λ_M from each episode's first observation (module docstring).
         disturbance: settings of the equivalent tip-force filter, or None for no load estimate
@@ -142,12 +143,12 @@ class PhaseEstimator:
 
     def __init__(
         self,
-        config: EnvConfig,
+        config: PlanarConfig,
         identify: bool = True,
         disturbance: DisturbanceConfig | None = DisturbanceConfig(),
     ):
-        if not isinstance(config, EnvConfig):
-            raise ValueError(f"config must be an EnvConfig, got {type(config).__name__}")
+        if not isinstance(config, PlanarConfig):
+            raise ValueError(f"config must be a PlanarConfig, got {type(config).__name__}")
         self.config = config
         self.identify = bool(identify)
         if disturbance is not None and not isinstance(disturbance, DisturbanceConfig):
@@ -246,9 +247,9 @@ class PhaseEstimator:
         return self.state
 
     def _predict(self, obs: np.ndarray) -> None:
-        v_max = self.config.v_max
-        v_r = (np.clip(obs[OBS_PREV_R], -1.0, 1.0) + 1.0) * 0.5 * v_max
-        v_l = (np.clip(obs[OBS_PREV_L], -1.0, 1.0) + 1.0) * 0.5 * v_max
+        coef = self.config.volt_coef
+        v_r = action_to_volts(obs[OBS_PREV_R], coef)
+        v_l = action_to_volts(obs[OBS_PREV_L], coef)
         backup = self.state.copy()
         for _ in range(self.config.n_sub):
             st, _, _ = advance(
@@ -423,7 +424,7 @@ class SpatialPhaseEstimator:
         return self.state
 
     def _predict(self, obs: np.ndarray) -> None:
-        volts = (np.clip(self._read(obs, "previous_action"), -1.0, 1.0) + 1.0) * self.volt_coef
+        volts = action_to_volts(self._read(obs, "previous_action"), self.volt_coef)
         backup = self.state.copy()
         for _ in range(self.config.n_sub):
             st, _, _ = spatial_advance(

@@ -43,7 +43,7 @@ The sampling, the weighting and the warm start are :class:`MPPIBase`, shared wit
 :class:`~spine_gym.controllers.mpc_spatial.SpatialMPPIController` (the same planner, one voltage
 sequence per wire, for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``).
 
-:class:`MPPIController` is a :class:`~spine_gym.controllers.baselines.BaseController`, so it has
+:class:`MPPIController` is a :class:`~spine_gym.controllers.planar.PlanarController`, so it has
 SB3's ``predict`` and runs in ``spine_gym.agents.evaluate`` like any baseline. It plans for one env
 (observation batches of one row).
 """
@@ -55,14 +55,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..envs.planar import EnvConfig, planar_obs_index
-from ..envs.targets import ANGLE_LIMIT
+from ..envs.planar import PlanarConfig, planar_obs_index
+from ..envs.targets_planar import ANGLE_LIMIT
 from ..params import SolverOptions
 from ..physics import columns as L
 from ..physics.planar import columns as PL
 from ..physics.planar.rollout import rollout_many, rollout_many_serial
-from .baselines import BaseController, check_range
+from .base import BaseController, check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
+from .planar import PlanarController
 
 __all__ = [
     "MPPIConfig",
@@ -80,7 +81,7 @@ OBS_PREVIEW = planar_obs_index("target_preview")
 MODES = ("oracle", "oracle_causal", "estimated")
 PRIVILEGED_MODES = ("oracle", "oracle_causal")  # read the env's snapshot()
 FAILED_COST = 1e12  # cost of a rollout whose model step failed
-# EnvConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
+# PlanarConfig fields the plan depends on (an env to bind to must agree on them; episode length may differ)
 MAX_EXTRAPOLATED_RATE = 10.0  # [deg/s] faster preview changes are taken as steps (not extrapolated)
 PLAN_FIELDS = (
     "v_max",
@@ -430,11 +431,11 @@ class MPPIBase(BaseController):
         return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
 
 
-class MPPIController(MPPIBase):
+class MPPIController(PlanarController, MPPIBase):
     """MPPI on the env's physics (see the module docstring).
 
     Args:
-        config: the env's :class:`~spine_gym.envs.EnvConfig` (``env.config``).
+        config: the env's :class:`~spine_gym.envs.PlanarConfig` (``env.config``).
         mode: ``"oracle"`` (privileged: needs ``env``), ``"oracle_causal"`` (privileged state and
             parameters, current load held, observed targets: needs ``env``) or ``"estimated"``.
         env: the :class:`~spine_gym.envs.SmaSpineEnv` whose state the privileged modes read
@@ -447,15 +448,15 @@ class MPPIController(MPPIBase):
 
     def __init__(
         self,
-        config: EnvConfig,
+        config: PlanarConfig,
         mode: str = "estimated",
         *,
         env=None,
         settings: MPPIConfig | None = None,
         **kwargs,
     ):
-        if not isinstance(config, EnvConfig):
-            raise ValueError(f"config must be an EnvConfig (env.config), got {type(config).__name__}")
+        if not isinstance(config, PlanarConfig):
+            raise ValueError(f"config must be a PlanarConfig (env.config), got {type(config).__name__}")
         for key in ("v_max", "dt"):
             if key in kwargs:
                 raise ValueError(f"{key} comes from config; do not pass it to MPPIController")

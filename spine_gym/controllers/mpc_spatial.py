@@ -39,7 +39,7 @@ import numpy as np
 
 from ..envs import readout as ro
 from ..envs.loads import LoadSchedule
-from ..envs.planar import EnvConfig
+from ..envs.planar import PlanarConfig
 from ..envs.spatial import SpatialConfig
 from ..envs.table import SENSOR_SOURCES
 from ..physics.spatial import columns as SL
@@ -47,7 +47,7 @@ from ..physics.spatial.record import record, record_size
 from ..physics.spatial.rollout import rollout_many as rollout_many_spatial
 from ..physics.spatial.rollout import rollout_many_serial as rollout_many_spatial_serial
 from ..physics.spatial.work import make_work
-from .baselines import volts_to_action
+from .base import observation_batch, volts_to_action
 from .estimator import SpatialPhaseEstimator
 from .mpc import PLAN_FIELDS, PRIVILEGED_MODES, MPPIBase, MPPIConfig
 
@@ -60,7 +60,7 @@ __all__ = [
 ]
 
 N_DIRECTIONS = 8  # bending directions of the always-sampled full-drive patterns (drive_patterns)
-REFERENCE_ERROR_SCALE = EnvConfig.error_scale  # [deg] the planar env's default: errors are scaled to it
+REFERENCE_ERROR_SCALE = PlanarConfig.error_scale  # [deg] the planar env's default: errors are scaled to it
 # [deg/s at the reference scale] faster preview changes are steps (held, not extrapolated): the
 # suites' circles and figure-eights move the target by <= ~25 deg/s (3-D) or mm/s (chain), a step's
 # preview jumps by >= 10 x that in one 0.1-s period
@@ -136,7 +136,7 @@ class SpatialMPPIController(MPPIBase):
         mode: ``"oracle"`` (privileged), ``"oracle_causal"`` (privileged state, current load,
             observed targets) or ``"estimated"``.
         settings: :class:`~.mpc.MPPIConfig` (default :meth:`default_settings` of the env).
-        temperature_limit: guard of :class:`~.baselines.BaseController` [K] (a wire observed at or
+        temperature_limit: guard of :class:`~.base.BaseController` [K] (a wire observed at or
             above it gets 0 V), or None.
     """
 
@@ -175,6 +175,8 @@ class SpatialMPPIController(MPPIBase):
         target = [e.key for e in table.entries if e.source == "target"][0]
         preview = [e.key for e in table.entries if e.source == "preview"][0]
         self._target_obs, self._preview_obs = env.obs_index(target), env.obs_index(preview)
+        read = (*self._idx.values(), self._target_obs, self._preview_obs)
+        self._obs_size = 1 + max(i.stop - 1 for i in read)  # entries an observation must have
         self._target_low = table.low[self._target_obs].astype(np.float64)
         self._target_high = table.high[self._target_obs].astype(np.float64)
         self._err_scale = REFERENCE_ERROR_SCALE / cfg.error_scale
@@ -216,7 +218,7 @@ class SpatialMPPIController(MPPIBase):
 
     # ------------------------------------------------------------------ observation
     def _check_obs(self, observation):
-        obs, single = super()._check_obs(observation)
+        obs, single = observation_batch(observation, self._obs_size)
         if not np.all(np.isfinite(obs)):
             raise ValueError("observation must be finite, got NaN or inf")
         return obs, single

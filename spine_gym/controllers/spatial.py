@@ -1,6 +1,6 @@
 """Classical controllers for the spatial spines ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``.
 
-The planar baselines (:mod:`.baselines`) generalised to any :class:`~spine_gym.layout.SpineLayout`
+The planar baselines (:mod:`.planar`) generalised to any :class:`~spine_gym.layout.SpineLayout`
 — one four-wire module, or a chain of them — on the same SB3 ``predict`` interface:
 
 * :class:`SpatialStepController` — the paper's open-loop step voltage per bending axis;
@@ -42,19 +42,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..envs.drive import check_v_max
 from ..kinematics import arc_chain_ik
 from ..layout import SpineLayout
-from .baselines import (
+from .base import (
     BaseController,
     PIDGains,
-    SteadyStateMap,
     check_range,
     checked_relay,
     observation_batch,
     relay_config,
-    steady_state_map,
     volts_to_action,
 )
+from .steady_state import SteadyStateMap, steady_state_map
 
 __all__ = [
     "SpatialSignals",
@@ -121,15 +121,18 @@ class SpatialSignals:
         if self.tip_position is not None:
             s(self, "tip_position", _indices("tip_position", self.tip_position, 3))
         vm = np.broadcast_to(np.asarray(self.v_max, dtype=np.float64), (w,)).copy()
-        if not (np.all(np.isfinite(vm)) and np.all(vm > 0.0) and np.all(vm <= 100.0)):
-            raise ValueError(f"v_max must be in (0, 100] V per wire, got {self.v_max!r}")
-        s(self, "v_max", vm)
+        s(self, "v_max", np.array([check_v_max(v, f"v_max[{j}]") for j, v in enumerate(vm)]))
 
     @classmethod
     def from_env(cls, env) -> SpatialSignals:
-        """Read the layout, the task, the per-wire full scale and the indices from a spatial env
-        (its configuration's declarative observation table, entries found by their source)."""
-        cfg = getattr(env, "unwrapped", env).config
+        """:meth:`from_config` of a spatial env's configuration."""
+        return cls.from_config(getattr(env, "unwrapped", env).config)
+
+    @classmethod
+    def from_config(cls, cfg) -> SpatialSignals:
+        """Read the layout, the task, the per-wire full scale and the indices from a spatial env's
+        configuration (its declarative observation table, entries found by their source; e.g.
+        :func:`spine_gym.envs.config_of`, no env needed)."""
         table = cfg.table()
         task = table.task.source
 
@@ -219,8 +222,12 @@ class SpatialController(BaseController):
     @classmethod
     def from_env(cls, env, **kwargs):
         """Build for a spatial env (its signals, control period)."""
-        env = getattr(env, "unwrapped", env)
-        return cls(SpatialSignals.from_env(env), dt=float(env.control_period), **kwargs)
+        return cls.from_config(getattr(env, "unwrapped", env).config, **kwargs)
+
+    @classmethod
+    def from_config(cls, cfg, **kwargs):
+        """Build for a spatial env's configuration (:func:`spine_gym.envs.config_of`; no env needed)."""
+        return cls(SpatialSignals.from_config(cfg), dt=float(cfg.control_period), **kwargs)
 
     # ---- observation and references
     def _check_obs(self, observation) -> tuple[np.ndarray, bool]:
@@ -272,7 +279,7 @@ class SpatialController(BaseController):
 class SpatialStepController(SpatialController):
     """Open-loop step voltage per bending axis (the paper's drive on each axis).
 
-    Wire j of module k gets the planar steady-state voltage (:func:`.baselines.steady_state_map`
+    Wire j of module k gets the planar steady-state voltage (:func:`.steady_state.steady_state_map`
     of the layout's params) of the bend ``max(r_k · e_j, 0) · L_seed / L_k`` (a module of length
     L_k reaches the curvature of the seed's bend Θ at Θ L_k / L_seed), scaled by the wire's voltage
     scale; r_k is the module's reference (the IK's for a tip-position task). Superposing the two
@@ -308,7 +315,7 @@ class SpatialBangBangController(SpatialController):
     projected on the wire's direction), wire j switches on at ``v_on`` when e_j > ``band`` and off
     when e_j < −``release``; a wire that is off gets ``v_hold`` if no antagonist (a wire of the same
     module pointing the opposite way) is on. For an antagonistic pair this is the planar
-    three-level relay of :class:`.baselines.BangBangController` on that axis.
+    three-level relay of :class:`.planar.BangBangController` on that axis.
 
     Args:
         v_on, band, release, v_hold: as the planar relay ([V], [deg], [deg], [V]).
@@ -349,7 +356,7 @@ class SpatialBangBangController(SpatialController):
 class SpatialPIDController(SpatialController):
     """A PID per module and bending axis, its output split over that axis' antagonistic wires.
 
-    On each axis of each module, as the planar :class:`.baselines.PIDController`:
+    On each axis of each module, as the planar :class:`.planar.PIDController`:
     ``u = ff(r) + kp e + I + D`` [V] with ``e = r − b`` [deg] (reference minus measured bending),
     ``D`` the filtered derivative of −b, ``ff`` the planar steady-state voltage of the reference
     component (signed, times ``feedforward``), ``r`` blended with the previewed target
@@ -358,7 +365,7 @@ class SpatialPIDController(SpatialController):
     inverse kinematics of the (previewed) target plus ``tip_ki`` × the integrated tip error.
 
     Args:
-        kp, ki, kd, tau_d, bias, kaw, feedforward, preview: see :class:`.baselines.PIDGains`.
+        kp, ki, kd, tau_d, bias, kaw, feedforward, preview: see :class:`.base.PIDGains`.
         tip_ki: integral gain on the tip-position error [1/s] (tip-position task only; 0: off),
             in [0, 10].
         ss_map: planar steady-state map for the feedforward.

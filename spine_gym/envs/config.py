@@ -3,7 +3,7 @@
 :class:`BaseEnvConfig` holds and validates the arguments all envs share (voltages, periods, loads,
 domain randomisation, sensors, reward weights) and checks that every reset it can draw solves its
 initial state; the per-geometry configurations add their task and their declarative
-observation/info table (:class:`.planar.EnvConfig`, :mod:`.spatial`). The validators here
+observation/info table (:class:`.planar.PlanarConfig`, :mod:`.spatial`). The validators here
 (:func:`validate_actions` and the argument checks) raise one-line ``ValueError`` s naming the
 argument, its allowed range and the value received. The physics (MODEL.md, SPATIAL.md) lives
 only in ``spine_gym.physics``.
@@ -25,6 +25,7 @@ from ..layout import wire_key
 from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_names
 from ..physics import columns as L
 from ..uncertainty import ParameterUncertainty, apply_offsets
+from .drive import check_v_max
 from .loads import LoadSchedule
 from .table import Entry
 
@@ -41,7 +42,6 @@ ANGLE_OBS_LIMIT = 180.0  # [deg] bound of the angle entry
 RATE_OBS_LIMIT = 1000.0  # [deg/s] bound of the angle-rate entry
 TEMP_OBS_HIGH = 2000.0  # [K] = the kernel's temperature sanity bound (layout.K_TMAX)
 TARGET_REACH = 60.0  # [deg] |angle| the spine reaches at >= ~4 V (±63 deg at full transformation)
-V_MAX_LIMIT = 8.0  # [V] above ~8 V a wire held on for long exceeds the model's 2000 K bound
 MAX_CORNER_FIELDS = 10  # randomised fields of the initial state whose 2^k box corners are checked
 RESET_OPTION_KEYS = ("target", "loads", "params")
 # the env attributes held in TableBatch.episodes[i], in that order
@@ -188,7 +188,7 @@ class BaseEnvConfig:
             raise ValueError(f"solver must be a spine_gym.SolverOptions, got {type(self.solver).__name__}")
         s(self, "params", params)
         s(self, "solver", solver)
-        s(self, "v_max", _real("v_max", self.v_max, 0.0, V_MAX_LIMIT, lo_open=True))
+        s(self, "v_max", check_v_max(self.v_max))
         s(self, "control_period", _real("control_period", self.control_period, 0.0, 10.0, lo_open=True))
         dt = self.control_period if self.physics_dt is None else self.physics_dt
         s(self, "physics_dt", _real("physics_dt", dt, 0.0, self.control_period, lo_open=True))

@@ -42,7 +42,7 @@ __all__ = [
 FAMILIES = ("SmaSpine", "SmaSpine3D", "SmaSpineChain")
 TIERS = ("easy", "default", "hard")
 _ENTRY = {
-    "SmaSpine": ("single_env:SmaSpineEnv", "vector_env:SmaSpineVectorEnv"),
+    "SmaSpine": ("planar_env:SmaSpineEnv", "planar_env:SmaSpineVectorEnv"),
     "SmaSpine3D": ("spatial_env:SmaSpine3DEnv", "spatial_env:SmaSpine3DVectorEnv"),
     "SmaSpineChain": ("spatial_env:SmaSpineChainEnv", "spatial_env:SmaSpineChainVectorEnv"),
 }

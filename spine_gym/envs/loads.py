@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .targets import _finite, _range
+from .targets_planar import _finite, _range
 
 __all__ = ["TipForceEvent", "LoadSchedule", "STANDARD_GRAVITY"]
 

@@ -1,13 +1,15 @@
 """``SmaSpine-v0``'s plant: its configuration, its declarative table and its batch.
 
-:class:`EnvConfig` adds the planar task (target angles) to :class:`.config.BaseEnvConfig` and
-declares the observation/info table (:meth:`EnvConfig.table`, see :mod:`.table`);
+:class:`PlanarConfig` adds the planar task (target angles) to :class:`.config.BaseEnvConfig` and
+declares the observation/info table (:meth:`PlanarConfig.table`, see :mod:`.table`);
 :data:`OBS_NAMES`, :data:`OBS_UNITS` and :func:`planar_obs_index` give its layout to controllers.
 :class:`PlanarBatch` is :class:`.batch.TableBatch` over the planar kernel (MODEL.md): the
 planar pair keeps its specialised kernel (:func:`spine_gym.physics.planar.control.step_spine`,
 proven equal to the spatial core in the planar case, SPATIAL.md §7.1), stepped with the env's
 readout in one call (:func:`.step_kernels.planar_step`); everything above the physics — sensors,
-observation, reward, info, snapshots — is the table-driven layer every env shares.
+observation, reward, info, snapshots — is the table-driven layer every env shares. The env classes
+(their docstrings are the documentation pages) are in :mod:`.planar_env`; ``EnvConfig`` is the
+former name of :class:`PlanarConfig` (kept for one release).
 """
 
 from __future__ import annotations
@@ -26,14 +28,15 @@ from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
 from .config import ANGLE_OBS_LIMIT, RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _pair
+from .drive import action_to_volts, volt_coef
 from .table import Entry, Table
-from .targets import ANGLE_LIMIT, TARGET_KINDS, TargetProfile
+from .targets_planar import ANGLE_LIMIT, TARGET_KINDS, TargetProfile
 
-__all__ = ["EnvConfig", "PlanarBatch", "OBS_NAMES", "OBS_UNITS", "planar_obs_index"]
+__all__ = ["PlanarConfig", "EnvConfig", "PlanarBatch", "OBS_NAMES", "OBS_UNITS", "planar_obs_index"]
 
 
 @dataclass(frozen=True)
-class EnvConfig(BaseEnvConfig):
+class PlanarConfig(BaseEnvConfig):
     """Validated arguments of ``SmaSpine-v0`` (see :class:`spine_gym.envs.SmaSpineEnv` for meanings)."""
 
     target_range: tuple[float, float] = (-45.0, 45.0)
@@ -77,8 +80,8 @@ class EnvConfig(BaseEnvConfig):
 
     @property
     def volt_coef(self) -> float:
-        """Volts per unit of (action + 1)."""
-        return 0.5 * self.v_max
+        """Volts per unit of (action + 1) (:func:`.drive.volt_coef`)."""
+        return volt_coef(self.v_max)
 
     def table(self) -> Table:
         """The declarative observation/info table of ``SmaSpine-v0`` (one place per entry)."""
@@ -136,6 +139,9 @@ class EnvConfig(BaseEnvConfig):
             *self.error_entries("deg", ("angle",), ANGLE_OBS_LIMIT + ANGLE_LIMIT),
         )
         return Table(entries, "angle_deg", self.noise_sigma)
+
+
+EnvConfig = PlanarConfig  # the former name (kept for one release)
 
 
 class PlanarBatch(TableBatch):
@@ -204,12 +210,12 @@ class PlanarBatch(TableBatch):
             "angle_deg": float(np.degrees(self.states[i, PL.X_HEAD : PL.X_HEAD + n].sum())),
             "tip_force": self.forces[i, min(k, self.cfg.n_steps - 1)].copy(),
             "time": k * self.cfg.control_period,
-            "voltage": (self.mem.prev_action[i] + 1.0) * 0.5 * self.cfg.v_max,
+            "voltage": action_to_volts(self.mem.prev_action[i], self.cfg.volt_coef),
         }
 
 
 # the planar observation layout, from its table (units and names of the default configuration)
-_PLANAR_TABLE = EnvConfig().table()
+_PLANAR_TABLE = PlanarConfig().table()
 OBS_NAMES = _PLANAR_TABLE.obs_names
 OBS_UNITS = tuple(e.unit for e in _PLANAR_TABLE.entries if e.obs is not None for _ in e.names)
 

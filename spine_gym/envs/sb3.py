@@ -5,9 +5,9 @@ a list of per-env info dicts, resets finished environments in the same step and 
 observation of the finished episode in ``infos[i]["terminal_observation"]`` and
 ``infos[i]["TimeLimit.truncated"]`` (``truncated and not terminated``), exactly as SB3's own
 ``DummyVecEnv`` does. :class:`SmaSpineSB3VecEnv` gives that over
-:class:`~spine_gym.envs.vector_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
+:class:`~spine_gym.envs.planar_env.SmaSpineVectorEnv` run in ``AutoresetMode.SAME_STEP``, so the
 physics of all environments stays one numba call per step, and the per-env info dicts come
-straight from the vector env's table rows (:meth:`~spine_gym.envs.vector_env.SmaSpineVectorEnv.step_arrays`,
+straight from the vector env's table rows (:meth:`~spine_gym.envs.spine_vector_env.SpineVectorEnv.step_arrays`,
 no Gymnasium info dict in between); they fill themselves on first use
 (:class:`spine_gym.envs._infos.RowInfo`: SB3's algorithms and wrappers read only a few keys of
 most of them, so most are never filled). It composes with
@@ -42,8 +42,8 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvS
 from . import ENV_ID
 from .config import RESET_OPTION_KEYS
 from .ids import ENV_SPECS
+from .planar_env import SmaSpineVectorEnv
 from .spatial_env import SmaSpine3DVectorEnv, SmaSpineChainVectorEnv
-from .vector_env import SmaSpineVectorEnv
 
 __all__ = ["SmaSpineSB3VecEnv", "make_sb3_vec_env", "VECTOR_ENVS"]
 
@@ -135,7 +135,7 @@ class SmaSpineSB3VecEnv(VecEnv):
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """Each environment's value of an attribute, as ``DummyVecEnv`` asks each single env:
         per-env spaces, generators, seeds, states and episodes, the shared configuration
-        otherwise (:meth:`SmaSpineVectorEnv.get_attr`)."""
+        otherwise (:meth:`~spine_gym.envs.spine_vector_env.SpineVectorEnv.get_attr`)."""
         values = self.venv.get_attr(attr_name)
         return [values[i] for i in self._indices(indices)]
 

@@ -26,8 +26,9 @@ from . import readout as ro
 from . import step_kernels as sk
 from .batch import TableBatch
 from .config import RATE_OBS_LIMIT, TARGET_REACH, BaseEnvConfig, _int, _pair, _real
+from .drive import volt_coef
 from .table import Entry, Table
-from .targets import ANGLE_LIMIT
+from .targets_planar import ANGLE_LIMIT
 from .targets_spatial import BEND_KINDS, BendTarget, ChainTarget, arc_tip_position
 
 __all__ = [
@@ -118,7 +119,7 @@ class SpatialConfig(BaseEnvConfig):
     @property
     def volt_coef(self) -> np.ndarray:
         """(W,) volts per unit of (action + 1): ½ v_max × the wire's voltage scale (SPATIAL.md §6)."""
-        return 0.5 * self.v_max * self._layout.voltage_scale
+        return volt_coef(self.v_max, self._layout.voltage_scale)
 
     @property
     def wire_names(self) -> list[str]:

@@ -4,13 +4,13 @@ The class docstrings are the documentation pages; their observation and info tab
 generated from the envs' declarative tables (:meth:`.spatial.Spine3DConfig.table`,
 :meth:`.spatial.ChainConfig.table`), the reach tables were computed from the model by
 :mod:`spine_gym.envs.reach` (and are checked against it by the tests). Everything else is the
-one env layer of spine_gym (:class:`.single_env.SmaSpineEnv`, :class:`.vector_env.SmaSpineVectorEnv`).
+one env layer of spine_gym (:class:`.spine_env.SpineEnv`, :class:`.spine_vector_env.SpineVectorEnv`);
+the planar sibling is in :mod:`.planar_env`.
 """
 
 from __future__ import annotations
 
 from . import reach
-from .single_env import SmaSpineEnv
 from .spatial import (
     ChainBatch,
     ChainConfig,
@@ -19,12 +19,13 @@ from .spatial import (
     workspace_low_mm,
     workspace_radius_mm,
 )
-from .vector_env import SmaSpineVectorEnv
+from .spine_env import SpineEnv
+from .spine_vector_env import SpineVectorEnv
 
 __all__ = ["SmaSpine3DEnv", "SmaSpineChainEnv", "SmaSpine3DVectorEnv", "SmaSpineChainVectorEnv"]
 
 
-class SmaSpine3DEnv(SmaSpineEnv):
+class SmaSpine3DEnv(SpineEnv):
     """SMA-actuated robotic spine with four wires: point the tip in any direction.
 
     ## Description
@@ -163,7 +164,7 @@ class SmaSpine3DEnv(SmaSpineEnv):
     BATCH = Spine3DBatch
 
 
-class SmaSpineChainEnv(SmaSpineEnv):
+class SmaSpineChainEnv(SpineEnv):
     """A chain of four-wire SMA spine modules: move the tip to a target position.
 
     ## Description
@@ -252,17 +253,18 @@ class SmaSpineChainEnv(SmaSpineEnv):
     BATCH = ChainBatch
 
 
-class SmaSpine3DVectorEnv(SmaSpineVectorEnv):
+class SmaSpine3DVectorEnv(SpineVectorEnv):
     """``num_envs`` copies of :class:`SmaSpine3DEnv` in one jitted loop over the spines (conventions of
-    :class:`SmaSpineVectorEnv`: autoreset modes, ``reset_mask``, ``get_attr``, snapshot/restore)."""
+    :class:`~spine_gym.envs.spine_vector_env.SpineVectorEnv`: autoreset modes, ``reset_mask``,
+    ``get_attr``, snapshot/restore)."""
 
     CONFIG = Spine3DConfig
     BATCH = Spine3DBatch
 
 
-class SmaSpineChainVectorEnv(SmaSpineVectorEnv):
+class SmaSpineChainVectorEnv(SpineVectorEnv):
     """``num_envs`` copies of :class:`SmaSpineChainEnv` in one jitted loop over the spines (conventions of
-    :class:`SmaSpineVectorEnv`)."""
+    :class:`~spine_gym.envs.spine_vector_env.SpineVectorEnv`)."""
 
     CONFIG = ChainConfig
     BATCH = ChainBatch

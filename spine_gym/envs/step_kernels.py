@@ -43,6 +43,7 @@ from ..physics._jit import jit, pjit
 from ..physics.planar.control import step_spine
 from ..physics.spatial.control import step_spine as step_spine_spatial
 from . import readout as ro
+from .drive import action_to_volts, clip_action
 
 __all__ = [
     "begin_step",
@@ -70,7 +71,8 @@ def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, reso
     """Inputs of one step: clip the actions, set the voltages and the loads of step k.
 
     Every row gets its clipped action ``clipped`` (B, W) (float64, from float32 or float64
-    ``actions``) and its wire voltages ``volts = (clipped + 1) coef``; each environment of
+    ``actions``) and its wire voltages ``volts = (clipped + 1) coef``
+    (:func:`.drive.action_to_volts`); each environment of
     ``rows`` gets the vertex load of its step index ``k`` (the tip force ``forces[i, k]``, held at
     the last step after the episode's end) and ``resolve[i]``: solve the mechanics again (the load changed,
     ``plan``) within the episode. Returns False if an action is not finite (nothing is changed
@@ -85,9 +87,9 @@ def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, reso
     for i in range(b):
         resolve[i] = False
         for q in range(w):
-            clip = min(max(np.float64(actions[i, q]), -1.0), 1.0)
-            clipped[i, q] = clip
-            volts[i, q] = (clip + 1.0) * coef[q]
+            a = np.float64(actions[i, q])
+            clipped[i, q] = clip_action(a)
+            volts[i, q] = action_to_volts(a, coef[q])
     for j in range(rows.shape[0]):
         i = rows[j]
         k0 = k[i]

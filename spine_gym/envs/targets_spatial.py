@@ -9,7 +9,7 @@
   env's ``module_bend_limit`` lies in the workspace the env documents (and tests: the model
   reaches those bends).
 
-Frozen dataclasses, as :mod:`.targets`: written by hand to pin an episode
+Frozen dataclasses, as :mod:`.targets_planar`: written by hand to pin an episode
 (``reset(options={"target": ...})``) or drawn by ``sample`` from the env's seeded generator.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from ..physics.spatial.columns import M_NSEG, M_SEG0
 from ..physics.spatial.tube import kinematics, positions
-from .targets import ANGLE_LIMIT, _finite, _range
+from .targets_planar import ANGLE_LIMIT, _finite, _range
 
 __all__ = ["BendTarget", "ChainTarget", "BEND_KINDS", "arc_positions", "arc_tip_position"]
 

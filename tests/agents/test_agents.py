@@ -355,7 +355,7 @@ def test_registry_is_the_one_place_controllers_are_chosen():
 
     env = ev.make_env()
     assert set(registry.BASELINES) == {"step", "bang_bang", "pid"}
-    assert set(registry.TUNABLE) == {"bang_bang", "pid"}
+    assert set(registry.TUNABLE) == {"bang_bang", "pid", "smc"}
     for name in registry.REGISTRY:
         ctrl = build_controller(name, env)
         assert isinstance(ctrl, registry.REGISTRY[name].cls)
@@ -400,3 +400,19 @@ def test_a_policy_is_evaluated_without_the_kwargs_of_its_training_distribution()
     env = ev.make_env({**evaluation_env_kwargs(pol.env_kwargs), "episode_duration": 2.0})
     env.reset(seed=EVAL_SEED_BASE)
     assert env.model_params == env.config.params and env.config.target_preview == 3.0
+
+
+@pytest.mark.parametrize("env_id", ["SmaSpine-v1", "SmaSpine3D-v0", "SmaSpineChainHard-v1"])
+def test_controller_for_reads_the_config_and_builds_what_build_controller_builds(env_id):
+    """controller_for(name, id, kwargs) makes no env for a baseline: the same controller (settings
+    and actions) as build_controller on an env made with those kwargs."""
+    from spine_gym.agents.runtime import build_controller, controller_for, make_env
+
+    kw = {"v_max": 6.0, "temperature_limit": 410.0}
+    env = make_env(kw, env_id=env_id)
+    obs, _ = env.reset(seed=3)
+    for name in ("step", "bang_bang", "pid"):
+        a, b = controller_for(name, env_id, kw), build_controller(name, env)
+        assert type(a) is type(b) and repr(a) == repr(b)
+        np.testing.assert_array_equal(a.predict(obs)[0], b.predict(obs)[0])
+    env.close()

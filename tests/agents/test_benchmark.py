@@ -112,9 +112,8 @@ def test_table_rows_and_markdown_from_synthetic_runs():
     pid = next(r for r in rows if r["method"] == "pid")
     assert pid["kind"] == "reference" and pid["rmse_iqm"] == 5.0 and pid["rmse_ci_low"] is None
     assert len({tuple(r) for r in rows}) == 1  # one set of columns for the CSV
-    md = stats.markdown_table(rows, runs, {"SmaSpine-v0": "deg"})
-    assert "| ppo | 5 | 1,000 | 5.00 [" in md and "| 3/5 |" in md and "| 0/5 |" in md
-    assert "pid (reference, 10 episodes)" in md and "RMSE [deg] IQM [95 % CI]" in md
+    md = stats.training_markdown(rows, runs, {"SmaSpine-v0": "deg"})
+    assert "| ppo | 5 | 1,000 | 62 s | 50 s | 3/5 |" in md and "| 0/5 |" in md
     assert "| SmaSpine-v0 | sac | 0 | 1,000 | 60 s | 50 s | 8.00 deg | — | — |" in md
 
 

@@ -51,6 +51,38 @@ def test_budget_reward_is_the_env_reward_with_lambda_as_energy_weight():
     assert sum(float(e.sum()) for _, e in runs[0.5]) > 0.0
 
 
+def test_budget_reward_is_the_env_reward_with_its_energy_weight_replaced_cost_kept():
+    """r = r_env − r_energy − λ · E / E_ref: the env's reward with the weight of its energy term
+    replaced by λ; every other term stays, the temperature cost (cost_weight · cost) among them.
+    A twin env with the same seeds and actions gives r_env. The default λ0 is the env's own
+    energy weight (0.05 on a -v1 id), so the wrapped reward starts as the env's."""
+    kw = {**KW, "temperature_limit": 330.0, "cost_weight": 0.02}
+    e_ref = make_env(kw).config.energy_reference
+    lam = 1.3
+    wrapped = EnergyBudgetVecEnv(make_vec_env(n_envs=2, seed=3, env_kwargs=kw), 100.0, e_ref, lam0=lam)
+    twin = make_vec_env(n_envs=2, seed=3, env_kwargs=kw)
+    wrapped.reset(), twin.reset()
+    costs = 0.0
+    for _ in range(15):
+        a = np.ones((2, 2), dtype=np.float32)  # both wires at v_max: hot wires, cost > 0
+        wrapped.step_async(a), twin.step_async(a)
+        _, r, _, infos = wrapped.step_wait()
+        _, r_env, _, twin_infos = twin.step_wait()
+        e = np.array([i["energy_J"] for i in infos])
+        cost = np.array([i["cost"] for i in infos])
+        r_energy = -0.5 * e / e_ref  # the -v0 default energy weight of KW's env
+        np.testing.assert_allclose([i["energy_J"] for i in twin_infos], e)
+        np.testing.assert_allclose(r, r_env - r_energy - lam * e / e_ref, rtol=1e-5, atol=1e-6)
+        track = np.array([i["reward_tracking"] for i in infos])
+        np.testing.assert_allclose(r, track - 0.02 * cost - lam * e / e_ref, rtol=1e-5, atol=1e-6)
+        costs += cost.sum()
+    assert costs > 0.0  # the cost term was exercised
+    wrapped.close(), twin.close()
+    v1 = EnergyBudgetVecEnv(make_vec_env(n_envs=1, seed=0, env_id="SmaSpine-v1", env_kwargs=KW), 100.0, e_ref)
+    assert v1.lam == 0.05
+    v1.close()
+
+
 def test_dual_step_raises_lambda_over_budget_lowers_it_under_and_clips():
     assert dual_step(1.0, 1.2, 0.5, (0.02, 20.0)) == pytest.approx(np.exp(0.1))
     assert dual_step(1.0, 0.8, 0.5, (0.02, 20.0)) == pytest.approx(np.exp(-0.1))

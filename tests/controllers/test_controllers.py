@@ -225,6 +225,8 @@ def test_bad_observations_raise_clear_errors(factory):
         (lambda: BangBangController(band=1.0, release=-2.0), "release"),
         (lambda: BangBangController(v_on=6.0), "v_on"),
         (lambda: StepVoltageController(v_max=0.0), "v_max"),
+        (lambda: PIDController(v_max=9.0), r"v_max must be in \(0, 8\]"),  # the env's one range
+        (lambda: steady_state_map(v_max=20.0), r"v_max must be in \(0, 8\]"),
         (lambda: StepVoltageController(ss_map="map"), "ss_map"),
         (lambda: PIDController(dt=-0.1), "dt"),
         (lambda: PIDController(temperature_limit=10.0), "temperature_limit"),
@@ -234,3 +236,26 @@ def test_bad_observations_raise_clear_errors(factory):
 def test_bad_constructor_arguments_name_the_parameter(factory, match):
     with pytest.raises(ValueError, match=match):
         factory()
+
+
+def test_the_base_controller_reads_no_observation_entry_each_geometry_says_where():
+    """BaseController knows no observation index: a controller that does not say where its
+    readings are cannot predict; the planar ones read SmaSpine-v0's table."""
+    import inspect
+
+    from spine_gym.controllers import PlanarController, base
+    from spine_gym.envs.planar import planar_obs_index
+
+    class Unplaced(base.BaseController):
+        def _volts(self, obs, mem):
+            return np.zeros((obs.shape[0], 2))
+
+    with pytest.raises(NotImplementedError):
+        Unplaced().predict(obs())
+    assert "obs_index" not in inspect.getsource(base) and "OBS_" not in inspect.getsource(base)
+    for cls in (StepVoltageController, BangBangController, PIDController):
+        assert issubclass(cls, PlanarController)
+    hot = obs(tr=500.0, tl=293.0, target=10.0)
+    assert planar_obs_index("temperature") == 2
+    volts = action_to_volts(BangBangController(temperature_limit=400.0).predict(hot)[0], 5.0)
+    assert volts[0] == 0.0  # the guard read the right wire's temperature at index 2

@@ -85,7 +85,7 @@ def test_chain_reference_is_the_inverse_kinematics_of_the_target():
         ({"bending": [0]}, ["bending", "2"]),
         ({"temperature": [4, 5]}, ["temperature", "4"]),
         ({"task": "angle"}, ["task", "tip_bending"]),
-        ({"v_max": -1.0}, ["v_max", "(0, 100]"]),
+        ({"v_max": -1.0}, ["v_max", "(0, 8]"]),  # the env's range (spine_gym.envs.drive)
     ],
 )
 def test_bad_signals_raise(kwargs, words):

@@ -48,12 +48,72 @@ def random_actions(n, seed=0):
 def test_registration_and_make():
     spec = gym.spec("SmaSpine-v0")
     assert spec.max_episode_steps == 600
-    assert spec.entry_point == "spine_gym.envs.single_env:SmaSpineEnv"
-    assert spec.vector_entry_point == "spine_gym.envs.vector_env:SmaSpineVectorEnv"
+    assert spec.entry_point == "spine_gym.envs.planar_env:SmaSpineEnv"
+    assert spec.vector_entry_point == "spine_gym.envs.planar_env:SmaSpineVectorEnv"
     for env_id in ("SmaSpine-v0", "spine_gym:SmaSpine-v0"):
         env = gym.make(env_id)
         assert isinstance(env.unwrapped, SmaSpineEnv)
         env.close()
+
+
+def test_every_geometry_is_a_sibling_on_the_generic_env_and_old_names_still_import():
+    """The planar env is one geometry beside the spatial ones, on the generic SpineEnv /
+    SpineVectorEnv; the former names and module paths give the same objects (kept one release)."""
+    from spine_gym.envs import (
+        EnvConfig,
+        PlanarConfig,
+        SmaSpine3DEnv,
+        SmaSpine3DVectorEnv,
+        SmaSpineChainEnv,
+        SmaSpineVectorEnv,
+        SpineEnv,
+        SpineVectorEnv,
+        TargetProfile,
+    )
+    from spine_gym.envs import single_env, targets, vector_env
+
+    for cls in (SmaSpineEnv, SmaSpine3DEnv, SmaSpineChainEnv):
+        assert cls.__bases__ == (SpineEnv,)
+    for cls in (SmaSpineVectorEnv, SmaSpine3DVectorEnv):
+        assert cls.__bases__ == (SpineVectorEnv,)
+    assert EnvConfig is PlanarConfig and SmaSpineEnv.CONFIG is PlanarConfig
+    assert single_env.SmaSpineEnv is SmaSpineEnv and vector_env.SmaSpineVectorEnv is SmaSpineVectorEnv
+    assert targets.TargetProfile is TargetProfile
+    assert "SmaSpine" not in (SpineEnv.__doc__ or "") + (SpineVectorEnv.__doc__ or "")
+
+
+@pytest.mark.parametrize("env_id", ["SmaSpine-v0", "SmaSpine3DHard-v1", "SmaSpineChainEasy-v1"])
+def test_config_of_is_the_config_gym_make_builds(env_id):
+    from spine_gym.envs import config_of
+
+    kw = {"v_max": 6.0, "episode_duration": 2.0}
+    env = gym.make(env_id, **kw)
+    assert config_of(env_id, **kw) == env.unwrapped.config
+    env.close()
+    with pytest.raises(TypeError, match="colour"):
+        config_of(env_id, colour="red")
+    with pytest.raises(ValueError, match=r"v_max must be in \(0, 8\]"):
+        config_of(env_id, v_max=9.0)
+    with pytest.raises(ValueError, match="unknown spine_gym env id"):
+        config_of("SmaSpine-v9")
+
+
+def test_the_drive_map_is_the_one_the_env_applies():
+    """info["voltage"] = (clip(a, -1, 1) + 1) · v_max / 2 (spine_gym.envs.drive), bit for bit, and
+    the controllers' action_to_volts / volts_to_action are that map and its inverse."""
+    from spine_gym.controllers import action_to_volts, volts_to_action
+    from spine_gym.envs.drive import action_to_volts as drive_volts
+    from spine_gym.envs.drive import volt_coef
+
+    env = SmaSpineEnv(v_max=4.3, **NO_LOADS)
+    env.reset(seed=0)
+    for a in random_actions(20, seed=4):
+        info = env.step(a)[-1]
+        expected = (np.clip(a.astype(np.float64), -1.0, 1.0) + 1.0) * 0.5 * 4.3
+        assert np.array_equal(info["voltage"], expected)
+        assert np.array_equal(drive_volts(a.astype(np.float64), volt_coef(4.3)), expected)
+        assert np.array_equal(action_to_volts(a, 4.3), expected)
+        np.testing.assert_allclose(volts_to_action(expected, 4.3), np.clip(a, -1, 1), atol=1e-6)
 
 
 def test_spaces():

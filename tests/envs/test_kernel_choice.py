@@ -19,7 +19,7 @@ from repo import ROOT
 import spine_gym  # noqa: F401 - registers the envs
 from spine_gym.envs import SmaSpineVectorEnv
 from spine_gym.envs._kernel_choice import KernelChoice, step_clock
-from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
+from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS
 
 KW = {  # short episodes (autoresets), every source of randomness on
     "episode_duration": 3.0,

@@ -13,7 +13,7 @@ import spine_gym  # noqa: F401 - registers the env
 from spine_gym.envs import SmaSpineEnv, SmaSpineVectorEnv
 from spine_gym.envs.loads import LoadSchedule
 from spine_gym.envs.targets import TargetProfile
-from spine_gym.envs.vector_env import PARALLEL_MIN_ENVS
+from spine_gym.envs.spine_vector_env import PARALLEL_MIN_ENVS
 from spine_gym.physics import columns as L
 
 # short episodes so that autoresets happen; every source of randomness switched on
