@@ -34,6 +34,7 @@ import sys
 import time
 
 from spine_gym import cli_conventions as cli
+from spine_gym.controllers.registry import BASELINES, REGISTRY  # noqa: F401
 
 # the library's names stay importable from here for one release (they moved to .evaluation)
 from .evaluation import (  # noqa: F401
@@ -54,7 +55,6 @@ from .evaluation_job import controllers_of as _controllers  # noqa: F401  (the o
 from .evaluation_job import env_of as _env  # noqa: F401
 from .evaluation_job import models_of as _models  # noqa: F401
 from .evaluation_job import plan as _plan  # noqa: F401
-from spine_gym.controllers.registry import BASELINES, REGISTRY  # noqa: F401
 from .runtime import (  # noqa: F401  (make_env, run_episode, ... re-exported for one release)
     build_controller,
     env_temperature_limit,
