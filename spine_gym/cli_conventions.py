@@ -28,6 +28,7 @@ import difflib
 import inspect
 import os
 import re
+import tempfile
 import textwrap
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -291,7 +292,15 @@ def check_file(path: str | Path, flag: str) -> None:
 
 
 def _writable(folder: Path) -> bool:
-    return os.access(folder, os.W_OK | os.X_OK)
+    """Whether a file can be made in ``folder``, by a real probe: the permission bits say yes to root
+    on read-only and virtual file systems (``/proc``). The probe file is removed at once."""
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return False
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".spine-gym-probe-"):
+            return True
+    except OSError:
+        return False
 
 
 def check_out_dir(path: str | Path, flag: str = "-o/--out") -> None:

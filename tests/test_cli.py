@@ -302,10 +302,13 @@ def test_an_unwritable_output_is_refused(tmp_path, capsys):
 
     with pytest.raises(ValueError, match="is not writable"):
         check_out_dir("/proc/1/spine-gym-out")  # not writable even by root
+    with pytest.raises(ValueError, match="is not writable"):
+        check_out_dir("/proc/spine-gym-out")  # /proc's permission bits say yes to root; a real write fails
     with pytest.raises(ValueError, match="is a folder, not a file"):
         check_out_file(tmp_path)
     check_out_dir(tmp_path / "new" / "deeper")  # creatable
     assert not (tmp_path / "new").exists()
+    assert list(tmp_path.iterdir()) == []  # the write probe leaves nothing behind
 
 
 def test_evaluate_defaults_to_the_one_models_env():
