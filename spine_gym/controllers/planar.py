@@ -64,6 +64,22 @@ class PlanarController(BaseController):
         """(n, 2) observed wire temperatures [K] (the guard's input)."""
         return obs[:, [OBS_TEMP_R, OBS_TEMP_L]]
 
+    def _previewed_target(self, obs: np.ndarray, preview: float) -> np.ndarray:
+        """(n,) the target blended with its preview, ``(1 - preview)·target + preview·ahead``
+        (``ahead``: observation entry ``self.preview_index``; the target alone if ``preview`` is 0)."""
+        target = obs[:, OBS_TARGET]
+        if preview <= 0.0:
+            return target
+        if obs.shape[1] <= self.preview_index:
+            raise ValueError(
+                f"preview > 0 needs observation entry {self.preview_index} (target preview), "
+                f"got observations of size {obs.shape[1]}"
+            )
+        ahead = obs[:, self.preview_index]
+        if not np.all(np.isfinite(ahead)):
+            raise ValueError(f"observation must be finite, got NaN or inf in entry {self.preview_index}")
+        return (1.0 - preview) * target + preview * ahead
+
 
 # --------------------------------------------------------------------------- step voltage
 class StepVoltageController(PlanarController):
@@ -208,17 +224,7 @@ class PIDController(PlanarController):
 
     def _volts(self, obs, mem):
         g = self.gains
-        angle, target = obs[:, OBS_ANGLE], obs[:, OBS_TARGET]
-        if g.preview > 0.0:
-            if obs.shape[1] <= self.preview_index:
-                raise ValueError(
-                    f"preview > 0 needs observation entry {self.preview_index} (target preview), "
-                    f"got observations of size {obs.shape[1]}"
-                )
-            ahead = obs[:, self.preview_index]
-            if not np.all(np.isfinite(ahead)):
-                raise ValueError(f"observation must be finite, got NaN or inf in entry {self.preview_index}")
-            target = (1.0 - g.preview) * target + g.preview * ahead
+        angle, target = obs[:, OBS_ANGLE], self._previewed_target(obs, g.preview)
         e = target - angle
         prev = mem[:, 2]
         first = np.isnan(prev)

@@ -46,7 +46,7 @@ import numpy as np
 from ..envs.planar import planar_obs_index
 from ..params import ModelParams
 from .base import check_range
-from .planar import N_FIXED_OBS, OBS_ANGLE, OBS_TARGET, PlanarController
+from .planar import N_FIXED_OBS, OBS_ANGLE, PlanarController
 from .steady_state import SteadyStateMap, steady_state_map
 from .spatial import SpatialController, SpatialSignals
 
@@ -234,23 +234,9 @@ class SlidingModeController(PlanarController):
     def _initial_state(self, n):
         return _initial_memory(n, 1, self.gains.k_min)
 
-    def _reference(self, obs: np.ndarray) -> np.ndarray:
-        g, target = self.gains, obs[:, OBS_TARGET]
-        if g.preview <= 0.0:
-            return target
-        if obs.shape[1] <= self.preview_index:
-            raise ValueError(
-                f"preview > 0 needs observation entry {self.preview_index} (target preview), "
-                f"got observations of size {obs.shape[1]}"
-            )
-        ahead = obs[:, self.preview_index]
-        if not np.all(np.isfinite(ahead)):
-            raise ValueError(f"observation must be finite, got NaN or inf in entry {self.preview_index}")
-        return (1.0 - g.preview) * target + g.preview * ahead
-
     def _volts(self, obs, mem):
         g = self.gains
-        ref = self._reference(obs)[:, None]
+        ref = self._previewed_target(obs, self.gains.preview)[:, None]
         angle = obs[:, OBS_ANGLE][:, None]
         ff = g.feedforward * np.sign(ref) * self.ss_map.voltage_for(ref) if g.feedforward > 0.0 else 0.0
         u = sliding_mode_step(g, ref - angle, angle, ff, mem, self.dt, self.v_max - g.bias)[:, 0]
