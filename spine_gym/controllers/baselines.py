@@ -3,16 +3,8 @@ steady-state map :mod:`.steady_state`, the planar controllers :mod:`.planar` (be
 
 from __future__ import annotations
 
-from .base import (
-    BaseController,
-    PIDGains,
-    action_to_volts,
-    check_range,
-    checked_relay,
-    observation_batch,
-    relay_config,
-    volts_to_action,
-)
+from .base import BaseController, PIDGains, action_to_volts, check_range, checked_relay  # noqa: F401
+from .base import observation_batch, relay_config, volts_to_action  # noqa: F401
 from .planar import BangBangController, PIDController, StepVoltageController
 from .steady_state import SteadyStateMap, steady_state_map
 

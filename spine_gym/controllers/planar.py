@@ -50,6 +50,18 @@ OBS_TEMP_L = OBS_TEMP_R + 1
 N_FIXED_OBS = 1 + max(OBS_ANGLE, OBS_TARGET, OBS_TEMP_L)
 
 
+def checked_preview_index(preview_index) -> int:
+    """``preview_index`` (the observation entry of the target preview) as an int, or ValueError: an
+    integer past the fixed entries (angle, target, temperatures)."""
+    if (
+        isinstance(preview_index, bool)
+        or not isinstance(preview_index, int | np.integer)
+        or preview_index < N_FIXED_OBS
+    ):
+        raise ValueError(f"preview_index must be an integer >= {N_FIXED_OBS}, got {preview_index!r}")
+    return int(preview_index)
+
+
 class PlanarController(BaseController):
     """A controller of the planar pair: reads ``SmaSpine-v0``'s contract entries (angle, target,
     right and left wire temperature; indices from the env's table) and drives two wires."""
@@ -194,13 +206,7 @@ class PIDController(PlanarController):
     ):
         super().__init__(**kwargs)
         self.gains = PIDGains.checked(kp, ki, kd, tau_d, bias, kaw, feedforward, preview, v_max=self.v_max)
-        if (
-            isinstance(preview_index, bool)
-            or not isinstance(preview_index, int | np.integer)
-            or preview_index < N_FIXED_OBS
-        ):
-            raise ValueError(f"preview_index must be an integer >= {N_FIXED_OBS}, got {preview_index!r}")
-        self.preview_index = int(preview_index)
+        self.preview_index = checked_preview_index(preview_index)
         if ss_map is not None and not isinstance(ss_map, SteadyStateMap):
             raise ValueError(f"ss_map must be a SteadyStateMap, got {type(ss_map).__name__}")
         self.ss_map = ss_map

@@ -46,7 +46,7 @@ import numpy as np
 from ..envs.planar import planar_obs_index
 from ..params import ModelParams
 from .base import check_range
-from .planar import N_FIXED_OBS, OBS_ANGLE, PlanarController
+from .planar import OBS_ANGLE, PlanarController, checked_preview_index
 from .steady_state import SteadyStateMap, steady_state_map
 from .spatial import SpatialController, SpatialSignals
 
@@ -222,13 +222,7 @@ class SlidingModeController(PlanarController):
     ):
         super().__init__(v_max=v_max, dt=dt, temperature_limit=temperature_limit)
         self.gains = SMCGains.checked(v_max=self.v_max, **settings)
-        if (
-            isinstance(preview_index, bool)
-            or not isinstance(preview_index, int | np.integer)
-            or preview_index < N_FIXED_OBS
-        ):
-            raise ValueError(f"preview_index must be an integer >= {N_FIXED_OBS}, got {preview_index!r}")
-        self.preview_index = int(preview_index)
+        self.preview_index = checked_preview_index(preview_index)
         self.ss_map = _checked_map(ss_map, self.gains.feedforward, params, self.v_max)
 
     def _initial_state(self, n):
