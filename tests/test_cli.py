@@ -25,6 +25,7 @@ from spine_gym import cli
 from spine_gym.cli_conventions import ENV_IDS, KeyValues, did_you_mean
 
 V0_POLICY = ROOT / "spine_gym" / "agents" / "policies" / "ppo"  # trained on SmaSpine-v0
+ECO_POLICY = ROOT / "spine_gym" / "agents" / "policies" / "ppo_3d_v1_eco"  # SmaSpine3D-v1 at a 6-V ceiling
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
 TAKES_ENV = ("train", "evaluate", "tune", "benchmark", "datasets")
 
@@ -104,6 +105,10 @@ BAD = {
     "evaluate model without path": (["evaluate", "--models", "mine"], "--models takes NAME=PATH"),
     "evaluate model of another env": (
         ["evaluate", "--env", "SmaSpine-v1", "--models", f"mine={V0_POLICY}"], "was trained on SmaSpine-v0"
+    ),
+    "evaluate model at another ceiling": (
+        ["evaluate", "--env", "SmaSpine3D-v1", "--models", f"eco={ECO_POLICY}", "--env-kwargs", "v_max=5"],
+        "differs from model eco's own v_max=6.0",
     ),
     "benchmark workers 0": (["benchmark", "--quick", "--workers", "0"], "must be an integer >= 1"),
     "calibrate starts 0": (["calibrate", "missing.csv", "--n-starts", "0"], "must be an integer >= 1"),

@@ -27,8 +27,16 @@ from .evaluation import (
     write_csv,
     write_trajectories,
 )
-from .policy_files import check_policy_env, trained_env_id
-from .runtime import build_controller, env_temperature_limit, load_policy, make_env, policy_env_kwargs, run_episode
+from .policy_files import check_policy_env, policy_meta, trained_env_id
+from .runtime import (
+    build_controller,
+    env_temperature_limit,
+    evaluation_env_kwargs,
+    load_policy,
+    make_env,
+    policy_env_kwargs,
+    run_episode,
+)
 from .scenarios import SUITES, Scenario, get_suite
 from .video import require_ffmpeg, write_videos
 from .zoo_config import DEFAULT_ENV_ID
@@ -121,6 +129,24 @@ def env_of(args) -> str:
     return DEFAULT_ENV_ID
 
 
+#: the env settings that make the actuator envelope, the same for every controller of one comparison
+ENVELOPE_KWARGS = ("v_max",)
+
+
+def check_envelope(name: str, own: dict, given: dict) -> None:
+    """ValueError (one line) if ``given`` (``--env-kwargs``) sets an envelope setting that the model
+    ``name`` was trained with at another value: the model keeps its own
+    (:func:`~spine_gym.agents.runtime.policy_env_kwargs`) while the baselines would take the given
+    one, an unequal comparison."""
+    kept = evaluation_env_kwargs(own)
+    for key in ENVELOPE_KWARGS:
+        if key in given and key in kept and float(given[key]) != float(kept[key]):
+            raise ValueError(
+                f"--env-kwargs {key}={given[key]} differs from model {name}'s own {key}={kept[key]}, "
+                f"which it keeps: pass {key}={kept[key]} to run every controller at it, or leave {key} out"
+            )
+
+
 def plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     """(scenarios, baselines, models) of the arguments, every one checked (ValueError, one line)
     before anything is built or written."""
@@ -134,6 +160,7 @@ def plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     if args.models:
         for name, path in models.items():
             check_policy_env(path, args.env, f"--models {name}")
+            check_envelope(name, policy_meta(path).get("env_kwargs") or {}, args.env_kwargs)
     if not baselines and not models:
         raise ValueError("nothing to evaluate: no baselines and no models")
     names = [*baselines, *models]
