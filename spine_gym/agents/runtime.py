@@ -199,6 +199,14 @@ def env_temperature_limit(env) -> float:
     raise AttributeError("the env exposes no temperature_limit attribute")
 
 
+def env_thermal_cutoff(env) -> float | None:
+    """The env's driver cut-off [K] (``-v2`` ids), ``None`` if its plant has none."""
+    for e in (env, getattr(env, "unwrapped", env)):
+        if hasattr(e, "thermal_cutoff"):
+            return e.thermal_cutoff
+    return None
+
+
 def build_controller(name: str, env, tuned: dict | None = None):
     """Registered controller ``name`` of the env's registry (:func:`spine_gym.controllers.registry.registry_for`)
     configured for ``env``.
@@ -207,7 +215,7 @@ def build_controller(name: str, env, tuned: dict | None = None):
     """
     env_id = env_id_of(env)
     spec = get_spec(name, env_id)
-    kwargs = _controller_kwargs(name, env_id, tuned, env_temperature_limit(env))
+    kwargs = _controller_kwargs(name, env_id, tuned, env_temperature_limit(env), env_thermal_cutoff(env))
     if spec.from_env:
         return spec.cls.from_env(env, **kwargs)
     if spec.plans_on_env:
@@ -228,20 +236,23 @@ def controller_for(
         probe.close()
         return ctrl
     cfg = config_of(env_id, **(env_kwargs or {}))
-    kwargs = _controller_kwargs(name, env_id, tuned, cfg.temperature_limit)
+    kwargs = _controller_kwargs(name, env_id, tuned, cfg.temperature_limit, cfg.thermal_cutoff)
     if spec.from_env:
         return spec.cls.from_config(cfg, **kwargs)
     return spec.cls(v_max=float(cfg.v_max), dt=float(cfg.control_period), **kwargs)
 
 
-def _controller_kwargs(name: str, env_id: str, tuned: dict | None, temperature_limit: float) -> dict:
+def _controller_kwargs(
+    name: str, env_id: str, tuned: dict | None, temperature_limit: float, cutoff: float | None = None
+) -> dict:
     """The constructor kwargs of registry entry ``name``: fixed, tuned, and the guard below the env's
-    ``temperature_limit`` [K]."""
+    ``temperature_limit`` [K] — none where the plant cuts hot wires itself (``cutoff`` [K], the
+    ``-v2`` ids): there every controller meets the plant's protection and brings none of its own."""
     spec = get_spec(name, env_id)
     kwargs = dict(spec.kwargs)
     if spec.tuned:
         kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
-    if spec.guard:
+    if spec.guard and cutoff is None:
         kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
     return kwargs
 

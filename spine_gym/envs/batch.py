@@ -17,6 +17,7 @@ run the same code and give the same numbers (tested bit for bit).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -188,6 +189,7 @@ class TableBatch:
         settings[ro.S_ENERGY_COEF] = cfg.energy_weight / cfg.energy_reference
         settings[ro.S_COST_WEIGHT] = cfg.cost_weight
         settings[ro.S_T_LIMIT] = cfg.temperature_limit
+        settings[ro.S_CUTOFF] = math.inf if cfg.thermal_cutoff is None else cfg.thermal_cutoff
         counts = np.zeros(ro.N_COUNTS, dtype=np.int64)
         counts[ro.C_PREVIEW] = cfg.preview_steps
         counts[ro.C_MAX_STEPS] = cfg.n_steps

@@ -26,6 +26,7 @@ from ..params import DYNAMICS_ONLY_FIELDS, ModelParams, SolverOptions, field_nam
 from ..physics import columns as L
 from ..uncertainty import ParameterUncertainty, apply_offsets
 from .drive import check_v_max
+from .ids import TEMPERATURE_LIMIT_K
 from .loads import LoadSchedule
 from .table import Entry
 
@@ -159,7 +160,8 @@ class BaseEnvConfig:
     domain_randomization: Any = False
     sensor_noise: Any = None
     sensor_delay: int = 0
-    temperature_limit: float = 423.0
+    temperature_limit: float = TEMPERATURE_LIMIT_K
+    thermal_cutoff: float | None = None
     error_scale: float = 10.0
     energy_weight: float = 0.5
     cost_weight: float = 0.0
@@ -215,6 +217,12 @@ class BaseEnvConfig:
             "temperature_limit",
             _real("temperature_limit", self.temperature_limit, params.T_E, TEMP_OBS_HIGH, lo_open=True),
         )
+        if self.thermal_cutoff is not None:
+            s(
+                self,
+                "thermal_cutoff",
+                _real("thermal_cutoff", self.thermal_cutoff, params.T_E, self.temperature_limit, lo_open=True),
+            )
         s(self, "error_scale", _real("error_scale", self.error_scale, 0.0, 1e6, lo_open=True))
         s(self, "energy_weight", _real("energy_weight", self.energy_weight, 0.0, 1e6))
         s(self, "cost_weight", _real("cost_weight", self.cost_weight, 0.0, 1e6))

@@ -64,6 +64,10 @@ class EnvFacts:
         "Episode length [s] (a vector env truncates earlier if ``max_episode_steps`` is smaller).",
     )
     temperature_limit = _setting("temperature_limit", 'Threshold of ``info["cost"]`` [K].')
+    thermal_cutoff = _setting(
+        "thermal_cutoff",
+        "The driver's thermal cut-off [K]: a wire at or above it gets 0 V for the step (None: none).",
+    )
 
     @property
     def observation_names(self) -> tuple[str, ...]:

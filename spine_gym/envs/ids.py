@@ -16,6 +16,13 @@ One family per spine (``SmaSpine``: the planar pair, ``SmaSpine3D``: one four-wi
   * ``<Family>Hard-v1`` — a payload, one to three tip pushes, the randomised plant
     (:func:`.config.default_randomization`), sensor noise and a one-period sensor delay.
 
+* ``-v2`` — ``-v1`` (each tier the same task) on a plant whose wire driver has a thermal cut-off:
+  a wire at or above ``thermal_cutoff`` = ``temperature_limit`` − :data:`CUTOFF_MARGIN_K` (418 K)
+  gets 0 V for that control period, whatever the controller asked for. The protection is part of
+  the plant, as a driver board's firmware would be, so every controller and every policy meets the
+  same one, in training and in evaluation; the controllers bring no guard of their own on it. The
+  ceiling stays 5 V (``docs/envelope.md`` gives the reasoning).
+
 Everything an id sets is a keyword argument of its class, passed by the registration
 (``gym.make(id)`` needs none; any of them can still be overridden). :data:`ENV_SPECS` is the one
 table of them; :func:`base_id` maps any id to its family's ``-v0`` id (controllers, tuned gains and
@@ -33,6 +40,8 @@ __all__ = [
     "FAMILIES",
     "TIERS",
     "BENCHMARK_IDS",
+    "CUTOFF_MARGIN_K",
+    "TEMPERATURE_LIMIT_K",
     "base_id",
     "family_of",
     "tier_of",
@@ -53,6 +62,13 @@ _TRACKS = {
 }
 _ERROR_SCALE_V0 = {"SmaSpine": 10.0, "SmaSpine3D": 10.0, "SmaSpineChain": 20.0}
 V1_REWARD_DIVISOR = 10.0  # -v1 reward = -v0 reward / 10
+TEMPERATURE_LIMIT_K = 423.0  # the envs' default temperature_limit (150 °C)
+CUTOFF_MARGIN_K = 5.0  # -v2: the driver cuts a wire at temperature_limit - margin
+
+
+def _v2(family: str) -> dict[str, Any]:
+    """The settings every ``-v2`` id of ``family`` shares: ``-v1``'s and the driver's cut-off."""
+    return {**_v1(family), "thermal_cutoff": TEMPERATURE_LIMIT_K - CUTOFF_MARGIN_K}
 
 
 def _v1(family: str) -> dict[str, Any]:
@@ -116,6 +132,9 @@ def _specs() -> dict[str, EnvSpec]:
         for tier in TIERS:
             name = fam if tier == "default" else f"{fam}{tier.capitalize()}"
             out[f"{name}-v1"] = EnvSpec(f"{name}-v1", fam, 1, tier, {**_v1(fam), **_tier(fam, tier)})
+        for tier in TIERS:
+            name = fam if tier == "default" else f"{fam}{tier.capitalize()}"
+            out[f"{name}-v2"] = EnvSpec(f"{name}-v2", fam, 2, tier, {**_v2(fam), **_tier(fam, tier)})
     return out
 
 

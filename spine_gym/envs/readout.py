@@ -32,7 +32,8 @@ from ..physics.planar.record import OUT_ANGLE, OUT_RES_L, OUT_RES_R
 from ..physics.planar.columns import X_QJL, X_QJR, X_TL, X_TR
 
 # scalar settings passed as one float array (Spec.settings)
-S_PERIOD, S_ERROR_SCALE, S_ENERGY_COEF, S_COST_WEIGHT, S_T_LIMIT, N_SETTINGS = range(6)
+S_PERIOD, S_ERROR_SCALE, S_ENERGY_COEF, S_COST_WEIGHT, S_T_LIMIT, S_CUTOFF, N_SETTINGS = range(7)
+# S_CUTOFF: the driver's thermal cut-off [K] (+inf: none), applied by step_kernels.cut_hot_wires
 
 
 # ====================================================================== the table-driven writer

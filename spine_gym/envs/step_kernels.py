@@ -47,6 +47,7 @@ from .drive import action_to_volts, clip_action
 
 __all__ = [
     "begin_step",
+    "cut_hot_wires",
     "PLANAR_PLANT",
     "PlanarPlant",
     "SPATIAL_PLANT",
@@ -100,6 +101,24 @@ def begin_step(rows, actions, clipped, volts, coef, k, forces, plan, loads, reso
     return True
 
 
+@jit
+def cut_hot_wires(rows, volts, probe, temperature_col, cutoff):
+    """The driver's thermal cut-off: a wire of ``rows`` whose temperature at the start of the step
+    (``probe[i, temperature_col + w]``, the last reading of the plant's true state) is at or above
+    ``cutoff`` [K] gets 0 V for this control period (``cutoff = +inf``: no cut-off, nothing changes).
+
+    It acts on what is applied, after the policy: every controller and every policy meets the same
+    plant. The commanded action is kept (it is the observation's previous action); the voltage,
+    the power and the energy of the step are those delivered."""
+    if cutoff == math.inf:
+        return
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        for w in range(volts.shape[1]):
+            if probe[i, temperature_col + w] >= cutoff:
+                volts[i, w] = 0.0
+
+
 def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     """One control period of the planar spines ``rows`` (int64, ascending); see the module docstring.
 
@@ -119,6 +138,7 @@ def _planar_step(rows, actions, drive, plant, step, mem, spec, out):
     if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
+    cut_hot_wires(rows, volts, probe, probe_cols[ro.PB_TEMP], sp.settings[ro.S_CUTOFF])
     scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each
     todo = counter()
     for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)
@@ -158,6 +178,7 @@ def _spatial_step(rows, actions, drive, plant, step, mem, spec, out):
     if not begin_step(rows, actions, st.actions, st.volts, coef, m.k, forces, plan, st.loads, resolve):
         return False
     volts, loads, status, probe, probe_cols = st.volts, st.loads, st.status, st.probe, sp.probe_cols
+    cut_hot_wires(rows, volts, probe, probe_cols[ro.PB_TEMP], sp.settings[ro.S_CUTOFF])
     scratch = np.empty((rows.shape[0], ro.row_scratch_size(sp, ro.Out(*out).row.shape[1])))  # a row each
     todo = counter()
     for _slot in numba.prange(rows.shape[0]):  # rows dealt out one at a time (physics._deal)

@@ -17,6 +17,7 @@ from spine_gym.envs import BENCHMARK_IDS, ENV_SPECS, base_id, family_of, tier_of
 from spine_gym.envs.ids import V1_REWARD_DIVISOR, markdown_table
 
 V1_IDS = [i for i, s in ENV_SPECS.items() if s.version == 1]
+V2_IDS = [i for i, s in ENV_SPECS.items() if s.version == 2]
 SHORT = {"episode_duration": 3.0}
 TASK_ENTRY = {"SmaSpine": "angle_deg", "SmaSpine3D": "tip_bending_deg", "SmaSpineChain": "tip_position_mm"}
 
@@ -26,10 +27,11 @@ def _actions(env, n, seed):
     return rng.uniform(-1.0, 1.0, (n, *env.action_space.shape)).astype(np.float32)
 
 
-def test_every_family_has_v0_v1_and_two_tiers():
+def test_every_family_has_v0_and_v1_v2_with_two_tiers():
     for fam in ("SmaSpine", "SmaSpine3D", "SmaSpineChain"):
         ids = {i for i in ENV_SPECS if family_of(i) == fam}
-        assert ids == {f"{fam}-v0", f"{fam}-v1", f"{fam}Easy-v1", f"{fam}Hard-v1"}
+        tiers = {f"{fam}{t}-v{v}" for t in ("", "Easy", "Hard") for v in (1, 2)}
+        assert ids == {f"{fam}-v0", *tiers}
         assert all(base_id(i) == f"{fam}-v0" for i in ids)
         assert all(i in gym.registry for i in ids)
     assert set(BENCHMARK_IDS) == {i for i in V1_IDS if tier_of(i) != "default"}
@@ -38,12 +40,19 @@ def test_every_family_has_v0_v1_and_two_tiers():
         base_id("SmaSpine-v7")
 
 
-@pytest.mark.parametrize("env_id", V1_IDS)
-def test_v1_ids_pass_the_checkers_with_warnings_as_errors(env_id):
+@pytest.mark.parametrize("env_id", V1_IDS + V2_IDS)
+def test_v1_and_v2_ids_pass_the_checkers_with_warnings_as_errors(env_id):
+    envs = []
+    for _ in range(2):
+        if ENV_SPECS[env_id].version == 1:
+            with pytest.warns(DeprecationWarning, match="out of date"):  # gymnasium: a -v2 exists
+                envs.append(gym.make(env_id, **SHORT).unwrapped)
+        else:
+            envs.append(gym.make(env_id, **SHORT).unwrapped)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        check_env(gym.make(env_id, **SHORT).unwrapped)
-        sb3_check_env(gym.make(env_id, **SHORT).unwrapped, warn=True)
+        check_env(envs[0])
+        sb3_check_env(envs[1], warn=True)
 
 
 @pytest.mark.parametrize("family", ["SmaSpine", "SmaSpine3D", "SmaSpineChain"])
@@ -78,8 +87,8 @@ def test_v1_is_v0_plus_measured_errors_and_a_tenth_of_the_reward(family):
         np.testing.assert_allclose(o1[perr], o1[preview] - o1[task], atol=1e-4)
 
 
-@pytest.mark.parametrize("env_id", V1_IDS)
-def test_make_and_make_vec_of_a_v1_id_do_not_warn(env_id):
+@pytest.mark.parametrize("env_id", V2_IDS)
+def test_make_and_make_vec_of_the_newest_ids_do_not_warn(env_id):
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         gym.make(env_id).close()
