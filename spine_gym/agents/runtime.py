@@ -64,9 +64,11 @@ __all__ = [
 ]
 
 
-# the planar registry's privileged MPC entries (the env's true state): energy_weighted_oracle builds them
+# the planar registry's privileged MPPI entries (the env's true state): energy_weighted_oracle builds them
 ORACLE_NAMES = tuple(
-    name for name, spec in REGISTRY.items() if spec.kwargs.get("mode") in PRIVILEGED_MODES
+    name
+    for name, spec in REGISTRY.items()
+    if spec.cls is MPPIController and spec.kwargs.get("mode") in PRIVILEGED_MODES
 )
 
 

@@ -9,6 +9,9 @@
 * :mod:`.mpc` — sampling model-predictive control (MPPI) on the env's own batched physics, with the
   true state (``oracle``, privileged; ``oracle_causal``, privileged state but only the current
   load and the observed target preview) or an estimated one (``estimated``).
+* :mod:`.mpc_long` — MPC over the wires' thermal time scale (15 s): move-blocked MPPI on a coarser
+  step of the env's physics, warm-started, with an energy term and a soft temperature bound, from
+  the observation (real time: ``benchmarks/bench_mpc_plan_time.py``).
 * :mod:`.mpc_spatial` — the same MPPI for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` (one voltage
   sequence per wire, the spatial core's batched rollouts).
 * :mod:`.estimator` — the phase-fraction estimators behind the ``estimated`` mode.
@@ -21,6 +24,7 @@
 from .base import BaseController, PIDGains, action_to_volts, volts_to_action
 from .estimator import DisturbanceConfig, PhaseEstimator, SpatialPhaseEstimator, austenite_from_resistance
 from .mpc import MODES, PRIVILEGED_MODES, MPPIConfig, MPPIController
+from .mpc_long import LongHorizonMPC, LongMPCConfig
 from .mpc_spatial import SpatialMPPIController
 from .planar import BangBangController, PIDController, PlanarController, StepVoltageController
 from .sliding_mode import SlidingModeController, SMCGains, SpatialSlidingModeController
@@ -31,6 +35,8 @@ __all__ = [
     "BangBangController",
     "BaseController",
     "DisturbanceConfig",
+    "LongHorizonMPC",
+    "LongMPCConfig",
     "MODES",
     "MPPIConfig",
     "MPPIController",

@@ -73,6 +73,8 @@ __all__ = [
     "PRIVILEGED_MODES",
     "FAILED_COST",
     "min_samples",
+    "mppi_weights",
+    "preview_targets",
 ]
 
 OBS_TARGET = planar_obs_index("target_deg")  # SmaSpine-v0's observation indices, from its table
@@ -216,6 +218,40 @@ def _whole(name: str, value: float, unit: float) -> int:
     if n < 1 or abs(n * unit - value) > 1e-9 * max(value, 1.0):
         raise ValueError(f"{name} must be a whole multiple of {unit:g} s, got {value!r}")
     return n
+
+
+def preview_targets(
+    target: np.ndarray,
+    preview: np.ndarray,
+    last_preview: np.ndarray | None,
+    preview_steps: int,
+    rate_limit: float,
+    steps: np.ndarray,
+    dt: float,
+) -> np.ndarray:
+    """(len(steps), d) targets ``steps`` control periods ahead, from the observation alone.
+
+    Linear from the current target to the preview (``preview_steps`` ahead), then continued
+    with the preview's own rate of change (its difference from ``last_preview``, the previous
+    period's, over ``dt``) if that is at most ``rate_limit`` (a ramp, a sine or a circle; a jump
+    of the preview is a step, which is then held; no previous preview: held).
+    """
+    p_steps = max(preview_steps, 1)
+    steps = np.asarray(steps, dtype=np.float64)[:, None]
+    rate = np.zeros_like(preview) if last_preview is None else (preview - last_preview) / dt
+    if np.linalg.norm(rate) > rate_limit:
+        rate = np.zeros_like(preview)
+    ahead = np.maximum(steps - p_steps, 0) * dt
+    return target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+
+
+def mppi_weights(cost: np.ndarray, temperature: float) -> np.ndarray:
+    """(N,) MPPI weights of the costs: ``exp(−(cost − min) / λ)`` normalised, with λ =
+    ``temperature`` × (mean − min) of the costs (scale-free)."""
+    best = cost.min()
+    lam = temperature * max(cost.mean() - best, 1e-9)
+    w = np.exp(-(cost - best) / lam)
+    return w / w.sum()
 
 
 class MPPIBase(BaseController):
@@ -380,12 +416,9 @@ class MPPIBase(BaseController):
     def _improve(self, problem) -> None:
         volts = self._sample()
         cost = self._score(volts, problem)
-        best = cost.min()
-        lam = self.settings.temperature * max(cost.mean() - best, 1e-9)
-        w = np.exp(-(cost - best) / lam)
-        w /= w.sum()
+        w = mppi_weights(cost, self.settings.temperature)
         self.plan = np.einsum("n,nhc->hc", w, volts)
-        self.last_cost = float(best)
+        self.last_cost = float(cost.min())
 
     def _cost(self, sq_err, energy, temp, status) -> np.ndarray:
         """(N,) costs from the squared tracking error (N, H), the rollouts' electrical energy (N,)
@@ -402,24 +435,14 @@ class MPPIBase(BaseController):
     def _preview_targets(
         self, target: np.ndarray, preview: np.ndarray, preview_steps: int, rate_limit: float
     ):
-        """(H, d) targets over the horizon from the observation alone.
-
-        Linear from the current target to the preview (``preview_steps`` ahead), then continued
-        with the preview's own rate of change (its difference over the last period) if that is
-        at most ``rate_limit`` (a ramp, a sine or a circle; a jump of the preview is a step,
-        which is then held).
-        """
-        h = self.horizon_steps
-        p_steps = max(preview_steps, 1)
-        steps = np.arange(1, h + 1)[:, None]
-        rate = (
-            np.zeros_like(preview) if self._last_preview is None else (preview - self._last_preview) / self.dt
-        )
+        """(H, d) targets over the horizon from the observation alone (:func:`preview_targets` at
+        control steps 1 … H)."""
+        out = preview_targets(
+            target, preview, self._last_preview, preview_steps, rate_limit,
+            np.arange(1, self.horizon_steps + 1), self.dt,
+        )  # fmt: skip
         self._last_preview = preview.copy()
-        if np.linalg.norm(rate) > rate_limit:
-            rate = np.zeros_like(preview)
-        ahead = np.maximum(steps - p_steps, 0) * self.dt
-        return target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
+        return out
 
     def _problem(self, obs):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -30,6 +30,7 @@ from ..envs import ENV_ID, base_id
 from ..envs import ENV_ID_3D as SPATIAL_ENV_ID
 from ..envs import ENV_ID_CHAIN as CHAIN_ENV_ID
 from .mpc import MPPIController
+from .mpc_long import LongHorizonMPC
 from .mpc_spatial import SpatialMPPIController
 from .planar import BangBangController, PIDController, StepVoltageController
 from .sliding_mode import SlidingModeController, SMCGains, SpatialSlidingModeController
@@ -186,6 +187,20 @@ REGISTRY: dict[str, ControllerSpec] = {
         in_default=False,
     ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
+    "mpc_long": ControllerSpec(
+        LongHorizonMPC,
+        "move-blocked MPPI over 15 s (the thermal time scale) with an energy term, from the observation",
+        kwargs={"mode": "estimated"},
+        plans_on_env=True,
+        in_default=False,
+    ),
+    "mpc_long_oracle_causal": ControllerSpec(
+        LongHorizonMPC,
+        "move-blocked MPPI over 15 s on the true state and plant (privileged, causal)",
+        kwargs={"mode": "oracle_causal"},
+        plans_on_env=True,
+        in_default=False,
+    ),
 }
 BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
 TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)

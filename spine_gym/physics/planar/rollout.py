@@ -29,7 +29,7 @@ from ..rollout_rows import HOLD, RECORD, record_source
 from .columns import X_HEAD, X_QJL, X_QJR, X_TL, X_TR
 from .integrate import advance
 
-__all__ = ["rollout_many", "rollout_many_serial"]
+__all__ = ["rollout_many", "rollout_many_serial", "rollout_graded"]
 
 
 @jit
@@ -97,3 +97,45 @@ def _rollout_many(state0, kp, ks, v_r, v_l, loads, resolve, dt, n_sub, work, ang
 
 rollout_many = pjit(_rollout_many)
 rollout_many_serial = jit(_rollout_many)
+
+
+@jit
+def rollout_graded(state0, kp, ks, v_r, v_l, loads, dts, work, angle, temp, joule, status):
+    """Roll ``B`` copies of ``state0`` over ``H`` steps of their own lengths ``dts`` (a move-blocked plan).
+
+    The same loop as :data:`rollout_many_serial` with one output step of ``dts[h]`` seconds per
+    recorded step h (the adaptive sub-steps of :func:`.integrate.advance` inside it), the loads of
+    step 0 re-solved at the start and then held: the long-horizon planner's predictor
+    (:mod:`spine_gym.controllers.mpc_long`), whose steps are voltage blocks of a second or so.
+
+    Args:
+        state0: (S,) start state (not modified).
+        kp, ks: constants and solver options.
+        v_r, v_l: (B, H) voltages held over step h [V].
+        loads: (N, 2) vertex forces held over the whole horizon [N].
+        dts: (H,) step lengths [s], each > 0.
+        work, angle, temp, joule, status: as :data:`rollout_many_serial`.
+    """
+    b = v_r.shape[0]
+    horizon = v_r.shape[1]
+    s = state0.shape[0]
+    n = (s - X_HEAD) // 2
+    for i in range(b):
+        st = work[i]
+        for q in range(s):
+            st[q] = state0[q]
+        status[i] = OK
+        for h in range(horizon):
+            if status[i] == OK:
+                code, _, _ = advance(st, kp, ks, v_r[i, h], v_l[i, h], loads, dts[h], h == 0)
+                if code != OK:
+                    status[i] = code
+            src = record_source(status[i], h)
+            if src == HOLD:
+                angle[i, h] = angle[i, h - 1]
+                temp[i, h, :] = temp[i, h - 1, :]
+                joule[i, h, :] = joule[i, h - 1, :]
+            elif src == RECORD:
+                _record_row(st, n, angle[i], temp[i], joule[i], h)
+            else:
+                _record_row(state0, n, angle[i], temp[i], joule[i], h)

@@ -1,0 +1,344 @@
+"""Long-horizon MPC of the planar spine: a plan over the wires' thermal time constant, in real time.
+
+The wires heat and cool with a time constant of about 17 s (MODEL.md §8): what a voltage does to
+the angle and to the wire temperature shows over tens of seconds, so a planner that looks 3 s
+ahead cannot weigh the energy it spends now against the heat it will have to shed later, nor see
+a wire drift towards the thermal cut-off. :class:`LongHorizonMPC` plans ``horizon`` seconds ahead
+(15 s by default) and stays real time by three choices:
+
+* **Move blocking.** The plan is piecewise constant over blocks of ``block`` seconds (1 s by
+  default) fixed in time: the block that holds the current control period, then
+  ``horizon / block`` whole blocks, one pair of voltages (right, left wire) each. Every control
+  period the first voltages are applied and the plan is improved again; when the current block
+  has run out the plan shifts by one block and its last block is repeated (the **warm start** is
+  the shifted previous plan, exactly, as the blocks do not move in time). The prediction then
+  covers between ``horizon`` and ``horizon + block`` seconds.
+* **A coarser predictor.** The rollouts are the env's own physics
+  (:func:`spine_gym.physics.planar.rollout.rollout_graded`: the same state, sub-model and adaptive
+  sub-steps) with one output step per block (the remainder of the current block, then whole
+  blocks) and the coupled scheme's error tolerance ``plan_tol_x`` (1e-3 by default, the env's
+  1e-4): on 15-s rollouts from four states of a validation episode it moved the predicted angle
+  by 0.3° RMS (1.5° at most) and the temperatures by 1 K at most, for less than half the
+  sub-steps of the env's settings (the quasi-static tube makes a long output step exact but for the
+  sub-steps' error).
+* **Sampling** (MPPI, :func:`spine_gym.controllers.mpc.mppi_weights`): ``n_samples`` block
+  sequences are drawn around the plan (Gaussian per block, ``noise_std``, clipped to the env's
+  envelope [0, ``v_max``]); the plan itself, all off and full drive of either wire are always
+  among them; the new plan is their average weighted by ``exp(−cost / λ)``.
+
+**Cost** of a rollout over its steps h of length Δt_h (the end time t_h of each)::
+
+    w_track Σ Δt_h (θ(t_h) − θ*(t_h))²  [deg² s]
+  + w_energy E                           [J]    (the electrical energy of the rollout)
+  + w_temp Σ Δt_h Σ_wires max(0, T − T_lim)²  [K² s]
+
+with T_lim = the plant's thermal cut-off (``-v2`` ids; else the env's temperature limit) minus
+``temp_margin``: a soft constraint that keeps the wires below the point where the driver would
+cut them. A rollout whose model step failed costs :data:`~spine_gym.controllers.mpc.FAILED_COST`.
+
+**State** (causal, ``mode="estimated"``, the default): only the observation, through
+:class:`~spine_gym.controllers.estimator.PhaseEstimator` (phase fractions from the resistances,
+ambient temperature and martensite resistivity identified at the first observation, the plant's
+austenite resistivity from the angle residual); the measured minus the estimated angle is an
+output disturbance held over the horizon (offset-free MPC); the targets over the horizon come from
+the observed target and its 1-s preview (:func:`spine_gym.controllers.mpc.preview_targets`). The
+``"oracle_causal"`` mode is **privileged**: it reads the env's true state and the episode's
+parameters (``env.snapshot()``), the current load held, the same observed targets — the upper
+bound of what this planner reaches with perfect state sensing.
+
+The plan time per control period is measured in ``benchmarks/bench_mpc_plan_time.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..envs.planar import PlanarConfig
+from ..envs.targets_planar import ANGLE_LIMIT
+from ..physics import columns as L
+from ..physics.planar import columns as PL
+from ..physics.planar.rollout import rollout_graded
+from .base import check_range
+from .estimator import DisturbanceConfig, PhaseEstimator
+from .mpc import (
+    FAILED_COST,
+    MAX_EXTRAPOLATED_RATE,
+    OBS_PREVIEW,
+    OBS_TARGET,
+    PLAN_FIELDS,
+    mppi_weights,
+    preview_targets,
+)
+from .planar import PlanarController
+
+__all__ = ["LONG_MODES", "LongMPCConfig", "LongHorizonMPC"]
+
+LONG_MODES = ("estimated", "oracle_causal")  # oracle_causal: privileged (the env's true state)
+
+
+@dataclass(frozen=True)
+class LongMPCConfig:
+    """Settings of :class:`LongHorizonMPC` (module docstring).
+
+    Attributes:
+        horizon: planned time after the current block [s], in [0.2, 60], a whole number of blocks.
+        block: length of a voltage block [s], in [0.1, 10], a whole number of control periods
+            (checked against the env's when the controller is built).
+        n_samples: sampled block sequences per control period, in [4, 10000].
+        noise_std: standard deviation of a block's perturbation [V], in (0, 10].
+        temperature: MPPI's λ relative to (mean − min) of the costs, in (0, 100].
+        w_track: weight of the squared tracking error [1/(deg² s)], >= 0.
+        w_energy: weight of the electrical energy [1/J], >= 0.
+        w_temp: weight of the squared excess over T_lim [1/(K² s)], >= 0.
+        temp_margin: T_lim = cut-off (or temperature limit) − margin [K], in [0, 100].
+        plan_tol_x: error tolerance of the rollouts' coupled sub-steps, in (0, 0.1].
+        iterations: MPPI updates per control period, in [1, 20].
+        disturbance: the estimator's disturbance filter, or None (nominal plant, no offset filter).
+        seed: seed of the perturbation generator.
+    """
+
+    horizon: float = 15.0
+    block: float = 1.0
+    n_samples: int = 32
+    noise_std: float = 0.5
+    temperature: float = 0.05
+    w_track: float = 1.0
+    w_energy: float = 0.05
+    w_temp: float = 10.0
+    temp_margin: float = 5.0
+    plan_tol_x: float = 1e-3
+    iterations: int = 1
+    disturbance: DisturbanceConfig | None = DisturbanceConfig()
+    seed: int = 0
+
+    def __post_init__(self):
+        check_range("horizon", self.horizon, 0.2, 60.0)
+        check_range("block", self.block, 0.1, 10.0)
+        if self.block > self.horizon:
+            raise ValueError(f"block must be in [0.1, horizon = {self.horizon:g}] s, got {self.block!r}")
+        n_blocks = self.horizon / self.block
+        if abs(n_blocks - round(n_blocks)) > 1e-9 * n_blocks:
+            raise ValueError(
+                f"horizon must be a whole number of blocks (block = {self.block:g} s), got {self.horizon!r}"
+            )
+        _count("n_samples", self.n_samples, 4, 10_000)
+        _count("iterations", self.iterations, 1, 20)
+        check_range("noise_std", self.noise_std, 0.0, 10.0, lo_open=True)
+        check_range("temperature", self.temperature, 0.0, 100.0, lo_open=True)
+        for name in ("w_track", "w_energy", "w_temp"):
+            check_range(name, getattr(self, name), 0.0, 1e9)
+        check_range("temp_margin", self.temp_margin, 0.0, 100.0)
+        check_range("plan_tol_x", self.plan_tol_x, 0.0, 0.1, lo_open=True)
+        if self.disturbance is not None and not isinstance(self.disturbance, DisturbanceConfig):
+            raise ValueError(
+                f"disturbance must be a DisturbanceConfig or None, got {type(self.disturbance).__name__}"
+            )
+
+    @property
+    def n_blocks(self) -> int:
+        """Whole blocks planned after the current one."""
+        return int(round(self.horizon / self.block))
+
+
+def _count(name: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
+
+
+class LongHorizonMPC(PlanarController):
+    """Move-blocked MPPI over the thermal time scale (module docstring).
+
+    Args:
+        config: the env's :class:`~spine_gym.envs.PlanarConfig` (``env.config``).
+        mode: ``"estimated"`` (causal: the observation only) or ``"oracle_causal"`` (privileged:
+            the env's true state; needs ``env``).
+        env: the env the privileged mode reads (``snapshot()``); also settable with :meth:`bind`.
+        settings: :class:`LongMPCConfig` (defaults if None).
+        **kwargs: the ``temperature_limit`` guard of :class:`~spine_gym.controllers.base.BaseController`
+            (``v_max`` and ``dt`` come from ``config``).
+    """
+
+    name = "mpc_long"
+
+    def __init__(
+        self, config: PlanarConfig, mode: str = "estimated", *, env=None, settings=None, **kwargs
+    ):
+        if not isinstance(config, PlanarConfig):
+            raise ValueError(f"config must be a PlanarConfig (env.config), got {type(config).__name__}")
+        if mode not in LONG_MODES:
+            raise ValueError(f"mode must be one of {LONG_MODES}, got {mode!r}")
+        s = LongMPCConfig() if settings is None else settings
+        if not isinstance(s, LongMPCConfig):
+            raise ValueError(f"settings must be a LongMPCConfig, got {type(s).__name__}")
+        for key in ("v_max", "dt"):
+            if key in kwargs:
+                raise ValueError(f"{key} comes from config; do not pass it to LongHorizonMPC")
+        block_steps = s.block / config.control_period
+        if abs(block_steps - round(block_steps)) > 1e-9 * block_steps:
+            raise ValueError(
+                f"block must be a whole number of control periods ({config.control_period:g} s), "
+                f"got {s.block!r}"
+            )
+        if s.n_samples < 4:  # pragma: no cover - LongMPCConfig checks it
+            raise ValueError(f"n_samples must be >= 4, got {s.n_samples}")
+        super().__init__(v_max=config.v_max, dt=config.control_period, **kwargs)
+        self.settings, self.mode, self.env_config = s, mode, config
+        self.name = "mpc_long" if mode == "estimated" else f"mpc_long_{mode}"
+        self.block_steps = int(round(block_steps))
+        p = config.params
+        self._side_volume = p.wire_volume * p.n_w
+        self._ks = config.solver.replace(scheme="coupled", tol_x=float(s.plan_tol_x)).to_kernel()
+        cutoff = getattr(config, "thermal_cutoff", None)
+        self._t_lim = (config.temperature_limit if cutoff is None else cutoff) - s.temp_margin
+        self.estimator = (
+            PhaseEstimator(config, disturbance=s.disturbance) if mode == "estimated" else None
+        )
+        self.env = None
+        if env is not None:
+            self.bind(env)
+        n, h = s.n_samples, s.n_blocks + 1
+        self._work = np.empty((n, PL.state_size(p.n_seg)))
+        self._angle = np.empty((n, h))
+        self._temp = np.empty((n, h, 2))
+        self._joule = np.empty((n, h, 2))
+        self._status = np.empty(n, dtype=np.int64)
+        self.reset()
+
+    # ------------------------------------------------------------------ episode and env
+    def bind(self, env) -> None:
+        """Plan for ``env`` (``spine_gym.agents.runtime.run_episode`` binds each episode's env);
+        ValueError if its configuration differs from the one this controller was built for."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if not isinstance(cfg, PlanarConfig) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
+        self.env = env
+
+    def reset(self) -> None:
+        """New episode: zero plan, fresh generator and estimator, block clock at 0."""
+        super().reset()
+        self.plan = np.zeros((self.settings.n_blocks + 1, 2))  # (current block + whole blocks, wires)
+        self.rng = np.random.default_rng(self.settings.seed)
+        self.step_in_block = 0
+        self.last_cost = math.nan
+        self._last_preview = None
+        if self.estimator is not None:
+            self.estimator.reset()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3 ``predict`` for one env (observation ``(d,)`` or ``(1, d)``); ``state`` is unused."""
+        obs, _ = self._check_obs(observation)
+        if obs.shape[0] != 1:
+            raise ValueError(
+                f"LongHorizonMPC plans for one env: observation batch must have 1 row, got {obs.shape[0]}"
+            )
+        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
+            self.reset()
+        action, _ = super().predict(observation, None, None, deterministic)
+        return action, None
+
+    # ------------------------------------------------------------------ one control period
+    def step_lengths(self) -> np.ndarray:
+        """(n_blocks + 1,) lengths [s] of the rollout steps now: the rest of the current block,
+        then whole blocks."""
+        rest = (self.block_steps - self.step_in_block) * self.dt
+        return np.concatenate([[rest], np.full(self.settings.n_blocks, self.settings.block)])
+
+    def _volts(self, obs, mem):
+        problem = self._problem(obs[0])
+        for _ in range(self.settings.iterations):
+            self._improve(problem)
+        volts = self.plan[0].copy()
+        self.step_in_block += 1
+        if self.step_in_block == self.block_steps:  # the current block is used up: shift
+            self.step_in_block = 0
+            self.plan = shifted(self.plan)
+        return volts[None, :]
+
+    def _problem(self, obs):
+        """Start state, constants, held loads, step lengths, targets [deg] at the steps' ends,
+        angle offset [deg] and the wires' volume of one side [m³]."""
+        dts = self.step_lengths()
+        steps = np.rint(np.cumsum(dts) / self.dt).astype(np.int64)  # control periods ahead
+        targets = np.clip(
+            preview_targets(
+                obs[OBS_TARGET : OBS_TARGET + 1], obs[OBS_PREVIEW : OBS_PREVIEW + 1], self._last_preview,
+                self.env_config.preview_steps, MAX_EXTRAPOLATED_RATE, steps, self.dt,
+            )[:, 0],
+            -ANGLE_LIMIT, ANGLE_LIMIT,
+        )  # fmt: skip
+        self._last_preview = obs[OBS_PREVIEW : OBS_PREVIEW + 1].copy()
+        if self.mode == "oracle_causal":
+            if self.env is None:
+                raise ValueError(
+                    "oracle_causal mode needs the env: LongHorizonMPC(..., env=env) or bind(env)"
+                )
+            snap = self.env.snapshot()
+            loads = np.zeros((self.env_config.params.n_seg, 2))
+            loads[0] = snap.arrays["forces"][min(snap.step_index, snap.arrays["forces"].shape[0] - 1)]
+            return snap.state, snap.kp, loads, dts, targets, 0.0, float(snap.arrays["wvol"][0])
+        est = self.estimator
+        state0 = est.update(obs)
+        return state0, est.kp, np.array(est.loads), dts, targets, est.angle_offset, self._side_volume
+
+    def sample(self) -> np.ndarray:
+        """(N, n_blocks + 1, 2) block voltages: the plan plus Gaussian noise per block, clipped to
+        [0, v_max]; row 0 the plan itself, row 1 all off, rows 2 and 3 full drive of the right
+        and of the left wire."""
+        s = self.settings
+        volts = self.plan[None] + self.rng.normal(0.0, s.noise_std, size=(s.n_samples, *self.plan.shape))
+        volts = np.clip(volts, 0.0, self.v_max)
+        volts[0] = self.plan
+        volts[1] = 0.0
+        volts[2] = [self.v_max, 0.0]
+        volts[3] = [0.0, self.v_max]
+        return volts
+
+    def _improve(self, problem) -> None:
+        volts = self.sample()
+        cost = self.score(volts, problem)
+        self.plan = np.einsum("n,nhc->hc", mppi_weights(cost, self.settings.temperature), volts)
+        self.last_cost = float(cost.min())
+
+    def score(self, volts: np.ndarray, problem) -> np.ndarray:
+        """(N,) costs of the block voltages ``volts`` (N, n_blocks + 1, 2) on ``problem``."""
+        state0, kp, loads, dts, targets, offset, side_volume = problem
+        rollout_graded(
+            state0, kp, self._ks,
+            np.ascontiguousarray(volts[:, :, 0]), np.ascontiguousarray(volts[:, :, 1]),
+            np.ascontiguousarray(loads), dts,
+            self._work, self._angle, self._temp, self._joule, self._status,
+        )  # fmt: skip
+        err = np.degrees(self._angle) + offset - targets[None, :]
+        q0 = np.array([state0[PL.X_QJR], state0[PL.X_QJL]])
+        energy = np.sum(self._joule[:, -1, :] - q0[None, :], axis=1) * side_volume
+        return self.cost(err * err, energy, self._temp, self._status, dts)
+
+    def cost(self, sq_err, energy, temp, status, dts) -> np.ndarray:
+        """(N,) costs from the squared tracking error (N, H) [deg²], the energy (N,) [J], the
+        temperatures (N, H, 2) [K], the statuses (N,) and the step lengths (H,) [s]."""
+        s = self.settings
+        over = np.maximum(temp - self._t_lim, 0.0)
+        c = (
+            s.w_track * (sq_err @ dts)
+            + s.w_energy * energy
+            + s.w_temp * (np.sum(over * over, axis=2) @ dts)
+        )
+        return np.where(status == L.OK, c, FAILED_COST)
+
+    def config(self) -> dict:
+        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
+
+
+def shifted(plan: np.ndarray) -> np.ndarray:
+    """The warm start of the next block: ``plan`` one block on, its last block repeated."""
+    return np.concatenate([plan[1:], plan[-1:]], axis=0)
