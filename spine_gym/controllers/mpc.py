@@ -245,11 +245,12 @@ def preview_targets(
     return target + np.minimum(steps / p_steps, 1.0) * (preview - target) + rate * ahead
 
 
-def mppi_weights(cost: np.ndarray, temperature: float) -> np.ndarray:
+def mppi_weights(cost: np.ndarray, temperature: float, *, robust: bool = False) -> np.ndarray:
     """(N,) MPPI weights of the costs: ``exp(−(cost − min) / λ)`` normalised, with λ =
-    ``temperature`` × (mean − min) of the costs (scale-free)."""
+    ``temperature`` × (mean − min) of the costs (scale-free), or × (median − min) if ``robust``
+    (a few samples far worse than the rest, such as full drive, then do not flatten the weights)."""
     best = cost.min()
-    lam = temperature * max(cost.mean() - best, 1e-9)
+    lam = temperature * max((np.median(cost) if robust else cost.mean()) - best, 1e-9)
     w = np.exp(-(cost - best) / lam)
     return w / w.sum()
 

@@ -47,6 +47,8 @@ def _ctrl(env, **settings):
         ({"w_energy": -1.0}, ("w_energy", "[0, 1e+09]")),
         ({"plan_tol_x": 0.5}, ("plan_tol_x", "(0, 0.1]")),
         ({"temp_margin": float("nan")}, ("temp_margin", "[0, 100]")),
+        ({"fine_steps": 101}, ("fine_steps", "[0, 100]")),
+        ({"extrapolate": -1.0}, ("extrapolate", "[0, 60]")),
     ],
 )
 def test_settings_out_of_range_raise_one_line_naming_parameter_and_range(kwargs, words):
@@ -88,21 +90,34 @@ def test_samples_plan_and_actions_stay_in_the_envelope():
         assert ctrl.plan.min() >= 0.0 and ctrl.plan.max() <= 4.0
         obs, *_ = env.step(action)
     # the extremes are among the samples: all off and full drive of either wire at v_max
-    volts = ctrl.sample()
-    assert np.array_equal(volts[0], ctrl.plan)
+    targets = np.linspace(-30.0, 30.0, ctrl.plan.shape[0])
+    reference = ctrl.feedforward(targets)
+    volts = ctrl.sample(reference)
+    assert volts.min() >= 0.0 and volts.max() <= 4.0
+    assert np.array_equal(volts[0], ctrl.plan) and np.array_equal(volts[4], reference)
     assert np.all(volts[1] == 0.0)
     assert np.all(volts[2] == [4.0, 0.0]) and np.all(volts[3] == [0.0, 4.0])
 
 
+def test_feedforward_drives_the_wire_that_bends_toward_the_target():
+    env = _env()
+    ctrl = _ctrl(env)
+    ff = ctrl.feedforward(np.array([-20.0, 0.0, 10.0, 20.0]))
+    assert ff[0, 0] == 0.0 and ff[0, 1] > 0.0  # negative target: the left wire
+    assert np.all(ff[1] == 0.0)
+    assert ff[2, 1] == 0.0 and 0.0 < ff[2, 0] < ff[3, 0] <= env.config.v_max
+    assert ff[0, 1] == pytest.approx(ff[3, 0])  # the model is mirror-symmetric
+
+
 def test_warm_start_is_the_previous_plan_shifted_by_one_block():
     env = _env()
-    ctrl = _ctrl(env)  # block 0.5 s = 5 control periods
+    ctrl = _ctrl(env, fine_steps=0)  # block 0.5 s = 5 control periods, one rollout step per block
     assert ctrl.block_steps == 5
     improved = []
     inner = ctrl._improve
 
-    def recording(problem):
-        inner(problem)
+    def recording(problem, reference=None):
+        inner(problem, reference)
         improved.append(ctrl.plan.copy())
 
     ctrl._improve = recording
@@ -121,6 +136,19 @@ def test_warm_start_is_the_previous_plan_shifted_by_one_block():
     np.testing.assert_allclose(ctrl.step_lengths()[1:], 0.5)
     ctrl.reset()
     assert ctrl.step_in_block == 0 and np.all(ctrl.plan == 0.0)
+
+
+def test_grid_scores_the_first_periods_one_by_one_then_once_per_block():
+    env = _env()
+    ctrl = _ctrl(env, fine_steps=3)  # blocks of 5 periods, 8 blocks after the current one
+    dts, blocks = ctrl.grid()
+    np.testing.assert_allclose(dts, [0.1, 0.1, 0.1, 0.2] + [0.5] * 8)
+    assert blocks.tolist() == [0, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8]
+    ctrl.step_in_block = 3  # two periods left in the current block
+    dts, blocks = ctrl.grid()
+    np.testing.assert_allclose(dts, [0.1, 0.1, 0.1, 0.4] + [0.5] * 7)
+    assert blocks.tolist() == [0, 0, 1, 1, 2, 3, 4, 5, 6, 7, 8]
+    np.testing.assert_allclose(dts.sum(), 0.2 + 4.0)
 
 
 # ---------------------------------------------------------------- cost
