@@ -2,7 +2,7 @@
 
 For one env id and one tuned registry entry (``pid``, ``smc``, ...) :func:`retune_one`
 
-1. tunes the entry on that id with :func:`spine_gym.agents.tune.tune` (seeded TPE, training
+1. tunes the entry on that id with :func:`spine_gym.agents.tuning.tune` (seeded TPE, training
    episodes ``TRAIN_SEED_BASE + i``) under a stated :class:`Budget`;
 2. scores the gains the id uses today (its family's, :func:`family_gains`) and the re-tuned ones on
    the same validation episodes (the env's own samplers, reset seeds
@@ -37,7 +37,7 @@ from .runtime import (
     make_env,
     run_episode,
 )
-from .tune import OBJECTIVES, TRAIN_SEED_BASE, episode_score, tune
+from .tuning import OBJECTIVES, TRAIN_SEED_BASE, episode_score, tune
 
 __all__ = [
     "Budget",
@@ -59,7 +59,7 @@ HEADER = (
 @dataclass(frozen=True)
 class Budget:
     """A tuning budget: ``trials`` Optuna TPE trials (sampler seed ``sampler_seed``), each scored on
-    the same ``episodes`` training episodes; ``objective`` (:data:`spine_gym.agents.tune.OBJECTIVES`);
+    the same ``episodes`` training episodes; ``objective`` (:data:`spine_gym.agents.tuning.OBJECTIVES`);
     ``validation_episodes`` episodes for the comparison."""
 
     trials: int

@@ -13,7 +13,7 @@ import yaml
 from spine_gym.agents import retune
 from spine_gym.agents.retune import Budget, adopt, write_id_gains
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, make_env, run_episode
-from spine_gym.agents.tune import TRAIN_SEED_BASE, episode_score, energy_exchange_rate
+from spine_gym.agents.tuning import TRAIN_SEED_BASE, episode_score, energy_exchange_rate
 from spine_gym.controllers import registry
 from spine_gym.controllers.registry import DEFAULT_TUNED, TUNED_DIR, load_tuned, tuned_file, tuned_record
 
