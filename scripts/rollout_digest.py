@@ -1,9 +1,9 @@
 """SHA-256 digests of seeded rollouts of every env id: run on two commits to show a change of the
 env layer changed no number (the 12 digests below must be equal before and
 after). ``--v1`` adds the 9 ``-v1`` ids (3 families x 3 tiers) with the settings their ids
-carry (no overrides): 27 more digests; ``--v2`` the 9 ``-v2`` ids likewise (27 more; their
-wires reach the driver's cut-off only under long hot drive, so these digests pin the ``-v1`` tasks
-on the ``-v2`` plant, and ``tests/envs/test_thermal_cutoff.py`` the cut-off itself).
+carry (no overrides): 27 more digests; ``--v2`` the 9 ``-v2`` ids likewise (27 more). Under these
+random actions a wire reaches the ``-v2`` driver's cut-off (418 K) only in the ``SmaSpineChainHard-v2``
+rollouts; ``tests/envs/test_thermal_cutoff.py`` checks the cut-off itself.
 
 For each ``-v0`` id: the single env (with resets), the vector env in ``NEXT_STEP`` and ``SAME_STEP`` mode
 (3 sub-envs, serial kernel) and the SB3 adapter, 200 seeded random steps with domain randomisation,
