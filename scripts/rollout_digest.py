@@ -1,7 +1,7 @@
 """SHA-256 digests of seeded rollouts of every env id: run on two commits to show a change of the
 env layer changed no number (the 12 digests below must be equal before and
 after). ``--v1`` adds the 9 ``-v1`` ids (3 families x 3 tiers) with the settings their ids
-carry (no overrides): 27 more digests; ``--v2`` the 9 ``-v2`` ids likewise (27 more). Under these
+carry (no overrides): 36 more digests; ``--v2`` the 9 ``-v2`` ids likewise (36 more). Under these
 random actions a wire reaches the ``-v2`` driver's cut-off (418 K) only in the ``SmaSpineChainHard-v2``
 rollouts; ``tests/envs/test_thermal_cutoff.py`` checks the cut-off itself.
 
