@@ -129,9 +129,10 @@ def action_section(env: gym.Env) -> list[str]:
         cutoff = "This id's wire driver has no thermal cut-off (`thermal_cutoff` off)."
     else:
         cutoff = (
-            f"The wire driver cuts a hot wire: a wire at or above `thermal_cutoff` = "
-            f"{cfg.thermal_cutoff:g} K at the start of a control period gets 0 V for that period, "
-            "whatever the action (the observation's previous action stays the commanded one)."
+            f"The wire driver cuts a hot wire: a wire whose true temperature (not the sensor's) is at "
+            f"or above `thermal_cutoff` = {cfg.thermal_cutoff:g} K at the start of a control period "
+            "gets 0 V for that period, whatever the action (the observation's previous action stays "
+            "the commanded one)."
         )
     return [
         "## Action space",
