@@ -70,7 +70,8 @@ def plot(runs: dict, path: Path) -> None:
     for ax, zoom in zip(axes, (False, True), strict=True):
         for k, (v, (t_cut, temp_cut, t_free, temp_free)) in enumerate(runs.items()):
             ax.plot(t_free, temp_free, color=f"C{k}", ls="--", lw=1.1)
-            ax.plot(t_cut, temp_cut, color=f"C{k}", lw=1.6, marker="." if zoom else None, ms=3, label=f"{v:g} V")
+            marker = "." if zoom else None
+            ax.plot(t_cut, temp_cut, color=f"C{k}", lw=1.6, marker=marker, ms=3, label=f"{v:g} V")
         ax.axhline(TEMPERATURE_LIMIT_K, color="k", ls=":", lw=1.0, label=f"limit {TEMPERATURE_LIMIT_K:g} K")
         ax.axhline(CUTOFF, color="0.4", ls="-.", lw=1.0, label=f"cut-off {CUTOFF:g} K")
         ax.set_xlabel("time [s]")
@@ -85,7 +86,8 @@ def plot(runs: dict, path: Path) -> None:
             ax.set_ylim(280, None)
             ax.set_title("solid: with the driver's cut-off; dashed: without", fontsize=9)
             ax.legend(title="drive voltage", fontsize=8, title_fontsize=8, loc="upper left")
-    fig.suptitle("One wire of the planar pair at a constant voltage from cold (SmaSpineEasy-v2 plant)", fontsize=10)
+    title = "One wire of the planar pair at a constant voltage from cold (SmaSpineEasy-v2 plant)"
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
@@ -97,7 +99,10 @@ def main(argv=None) -> None:
     parser.add_argument("--png", type=Path, default=PNG, help="where to write the figure")
     args = parser.parse_args(argv)
     e = electrics(5.0)
-    print(f"wire: R martensite {e.r_m:.3f} Ohm, austenite {e.r_a:.3f} Ohm; thermal time constant {e.tau_th:.1f} s")
+    print(
+        f"wire: R martensite {e.r_m:.3f} Ohm, austenite {e.r_a:.3f} Ohm; "
+        f"thermal time constant {e.tau_th:.1f} s"
+    )
     head, rows, runs = table()
     print("| " + " | ".join(head) + " |")
     print("|" + "|".join("--:" for _ in head) + "|")

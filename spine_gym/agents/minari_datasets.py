@@ -14,8 +14,8 @@ from the training and tuning seeds, the validation seeds and the evaluation suit
 Besides what Minari stores (the env spec with its keyword arguments, the spaces, the algorithm
 name, the evaluation env spec) the dataset's metadata holds ``spine_gym`` (:func:`load_metadata`):
 env id, tier, env kwargs, the actuator envelope (:func:`spine_gym.agents.runtime.envelope_of`: the
-voltage ceiling, the plant's thermal cut-off, who cuts a hot wire), controller name and settings, the spine_gym version and git commit, the
-seeds and each episode's RMSE and energy.
+voltage ceiling, the plant's thermal cut-off, who cuts a hot wire), controller name and settings,
+the spine_gym version and git commit, the seeds and each episode's RMSE and energy.
 
 Datasets go to Minari's data directory (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``) or
 ``--data-path``. :func:`plan` refuses an existing dataset id unless ``overwrite`` (it is replaced

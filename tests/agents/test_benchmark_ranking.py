@@ -150,7 +150,8 @@ def test_the_envelope_of_an_env_names_who_cuts_a_hot_wire():
     v1, v2 = make_env({}, env_id="SmaSpine-v1"), make_env({}, env_id="SmaSpine-v2")
     assert envelope_of(v1) == {"v_max_V": 5.0, "cutoff_K": None, "guard": "none"}
     assert envelope_of(v1, 418.0)["guard"] == "controller 418 K"
-    assert envelope_of(v2, 418.0) == envelope_of(v2) == {"v_max_V": 5.0, "cutoff_K": 418.0, "guard": "plant 418 K"}
+    plant = {"v_max_V": 5.0, "cutoff_K": 418.0, "guard": "plant 418 K"}
+    assert envelope_of(v2, 418.0) == envelope_of(v2) == plant
     assert envelope_of(make_env({"v_max": 6.0, "thermal_cutoff": 410.0}, env_id="SmaSpine-v2")) == {
         "v_max_V": 6.0,
         "cutoff_K": 410.0,
