@@ -114,3 +114,16 @@ def test_evaluate_reruns_the_baselines_at_a_models_own_ceiling():
     assert env_kwargs["pid"] == {} and env_kwargs["pid@6V"] == {"v_max": 6.0}
     assert np.allclose(controllers["pid@6V"].v_max, 6.0) and np.allclose(controllers["pid"].v_max, 5.0)
     assert [(e.method, e.v_max) for e in entries.values()] == [("pid", 5.0), ("eco", 6.0), ("pid", 6.0)]
+
+
+def test_selection_compares_a_model_with_the_pid_at_the_models_own_ceiling():
+    from spine_gym.agents.selection import reference
+
+    refs: dict = {}
+    short = {"episode_duration": 5.0}
+    five = reference(refs, short, None, 1, "SmaSpineEasy-v1")  # the env's own ceiling first
+    six = reference(refs, short, 6.0, 1, "SmaSpineEasy-v1")
+    assert list(refs) == [5.0, 6.0] and (five["model"], six["model"]) == ("pid", "pid@6V")
+    assert (five["v_max_V"], six["v_max_V"]) == (5.0, 6.0) and six["energy_J"] != five["energy_J"]
+    assert reference(refs, short, 6.0, 1, "SmaSpineEasy-v1") is six  # run once per ceiling
+    assert reference(refs, short, 5.0, 1, "SmaSpineEasy-v1") is five
