@@ -294,6 +294,8 @@ def steps_cell(steps: float | None) -> str:
 def _to_pid_interval(row: dict, key: str, cell: Callable) -> str:
     if row.get(f"{key}_iqm") is None:
         return DASH
+    if math.isinf(row[f"{key}_ci_low"]):  # no seed, nor any resample, got there
+        return NOT_REACHED
     return f"{cell(row[f'{key}_iqm'])} [{cell(row[f'{key}_ci_low'])}, {cell(row[f'{key}_ci_high'])}]"
 
 
