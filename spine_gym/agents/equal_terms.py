@@ -7,10 +7,10 @@ In each block and scenario group, as in Safety-Gymnasium, the methods at most
 :data:`~spine_gym.agents.metrics.TIME_OVER_LIMIT_CAP_S` per episode over the temperature limit (the
 mean over the group's scenarios, one episode each) are ranked by tracking RMSE, with the energy
 next to it, both also as multiples of the tuned PID's in the same block; the others are shown apart
-with their violation. Every row names its protection: the plant's thermal cut-off (``-v2`` ids), a
-temperature guard of the controller's own, or none.
+with their violation. Every row names who cuts a hot wire (the ``guard`` column of the evaluation's
+rows, :func:`spine_gym.agents.runtime.envelope_of`: the plant's cut-off on the ``-v2`` ids, the
+controller's own guard, or none).
 
-* :func:`protection` — the protection column from a cut-off and a guard temperature;
 * :func:`comparison_rows` — the rows from :func:`spine_gym.agents.evaluation.summarize`'s summary
   and each controller's :class:`Entry`;
 * :func:`format_comparison` — the rows as plain text (the constrained ranking first per block).
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 from .metrics import TIME_OVER_LIMIT_CAP_S
 
-__all__ = ["REFERENCE", "Entry", "protection", "envelope_suffix", "comparison_rows", "format_comparison"]
+__all__ = ["REFERENCE", "Entry", "envelope_suffix", "comparison_rows", "format_comparison"]
 
 #: the baseline the energy and RMSE multiples refer to (the tuned PID of the same envelope)
 REFERENCE = "pid"
@@ -32,30 +32,15 @@ RANKED, OVER_CAP, NOT_RECORDED = "ranked", "over the cap", "not recorded"
 
 @dataclass(frozen=True)
 class Entry:
-    """What the comparison needs to know of one evaluated controller.
+    """What the comparison needs to know of one evaluated controller besides its summary row.
 
     Attributes:
         method: its name in the table (a re-run baseline keeps its registry name, e.g. ``pid``).
         baseline: a registered controller (else a saved model).
-        v_max: [V] the voltage of action +1 it ran with.
-        protection: :func:`protection` of the env and controller it ran with.
     """
 
     method: str
     baseline: bool
-    v_max: float
-    protection: str
-
-
-def protection(cutoff_K: float | None, guard_K: float | None) -> str:
-    """The protection column: the plant's cut-off (``cutoff_K`` [K], the driver gives a wire at or
-    above it 0 V, whatever the controller asked for) wins over a controller's own guard
-    (``guard_K`` [K]); ``none`` without either."""
-    if cutoff_K is not None:
-        return f"plant cut-off {cutoff_K:g} K"
-    if guard_K is not None:
-        return f"controller guard {guard_K:g} K"
-    return "none"
 
 
 def envelope_suffix(v_max: float) -> str:
@@ -78,24 +63,27 @@ def _ratio(x: float, ref: dict | None, key: str) -> float:
 
 def comparison_rows(summary: list[dict], entries: dict[str, Entry], reference: str = REFERENCE) -> list[dict]:
     """One row per (envelope, scenario group, controller) of ``summary`` (rows with ``controller``,
-    ``group``, ``rmse_deg``, ``energy_J``, ``time_over_limit_s``): the metrics, the RMSE and energy
-    as multiples of ``reference``'s in the same envelope and group (NaN without it), the envelope
-    and the cap status. Ordered by envelope (the first controller's first), group, then status
-    (ranked by RMSE, those over the cap by their violation, the unrecorded ones), so a block's
-    constrained ranking comes first.
+    ``group``, ``rmse_deg``, ``energy_J``, ``time_over_limit_s`` and the envelope ``v_max_V``,
+    ``guard``): the metrics, the RMSE and energy as multiples of ``reference``'s in the same
+    envelope and group (NaN without it), the envelope and the cap status. Ordered by envelope (the
+    first row's first), group, then status (ranked by RMSE, those over the cap by their violation,
+    the unrecorded ones), so a block's constrained ranking comes first.
 
     Raises:
-        ValueError: a summary controller without an entry.
+        ValueError: a summary controller without an entry, or a row without its envelope.
     """
     missing = sorted({s["controller"] for s in summary} - set(entries))
     if missing:
-        raise ValueError(f"entries: no envelope for controller(s) {missing}")
-    blocks = list(dict.fromkeys(entries[s["controller"]].v_max for s in summary))
+        raise ValueError(f"entries: no entry for controller(s) {missing}")
+    bare = sorted({s["controller"] for s in summary if "v_max_V" not in s or "guard" not in s})
+    if bare:
+        raise ValueError(f"summary: no envelope (v_max_V, guard) in the rows of {bare}")
+    blocks = list(dict.fromkeys(float(s["v_max_V"]) for s in summary))
     groups = list(dict.fromkeys(s["group"] for s in summary))
     out = []
     for v_max in blocks:
         for group in groups:
-            sel = [s for s in summary if s["group"] == group and entries[s["controller"]].v_max == v_max]
+            sel = [s for s in summary if s["group"] == group and float(s["v_max_V"]) == v_max]
             ref = next((s for s in sel if entries[s["controller"]].baseline
                         and entries[s["controller"]].method == reference), None)  # fmt: skip
             rows = []
@@ -103,7 +91,7 @@ def comparison_rows(summary: list[dict], entries: dict[str, Entry], reference: s
                 e = entries[s["controller"]]
                 rows.append({
                     "v_max_V": v_max, "group": group, "method": e.method, "controller": s["controller"],
-                    "kind": "baseline" if e.baseline else "model", "protection": e.protection,
+                    "kind": "baseline" if e.baseline else "model", "guard": s["guard"],
                     "rmse_deg": s["rmse_deg"], "rmse_ratio": _ratio(s["rmse_deg"], ref, "rmse_deg"),
                     "energy_J": s["energy_J"], "energy_ratio": _ratio(s["energy_J"], ref, "energy_J"),
                     "time_over_limit_s": s["time_over_limit_s"], "status": _status(s),
@@ -130,17 +118,17 @@ def _num(x: float, spec: str) -> str:
 
 def _table(rows: list[dict], ranked: bool, unit: str) -> list[str]:
     head = (["rank"] if ranked else []) + [
-        "method", f"RMSE [{unit}]", "× PID", "energy [J]", "× PID", "T>limit [s/episode]", "protection",
+        "method", f"RMSE [{unit}]", "× PID", "energy [J]", "× PID", "T>limit [s/episode]", "guard",
     ]  # fmt: skip
     body = [
         ([str(r["rank"])] if ranked else [])
         + [r["method"], _num(r["rmse_deg"], "{:.2f}"), _num(r["rmse_ratio"], "{:.2f}")]
         + [_num(r["energy_J"], "{:.0f}"), _num(r["energy_ratio"], "{:.2f}")]
-        + [_num(r["time_over_limit_s"], "{:.1f}"), r["protection"]]
+        + [_num(r["time_over_limit_s"], "{:.1f}"), r["guard"]]
         for r in rows
     ]
     w = [max(len(h), *(len(b[i]) for b in body)) for i, h in enumerate(head)]
-    first = 1 if ranked else 0  # left-aligned: rank's neighbour (the method) and the protection
+    first = 1 if ranked else 0  # left-aligned: rank's neighbour (the method) and the guard
 
     def line(cells):
         return "    " + "  ".join(

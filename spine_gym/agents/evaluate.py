@@ -16,8 +16,8 @@ env, reset with the scenario's seed, target profile and load schedule
 The CLI prints first the equal-terms comparison (:mod:`spine_gym.agents.equal_terms`): per actuator
 envelope (voltage ceiling ``v_max``) and scenario group, the controllers at most 0.5 s per episode
 over the temperature limit ranked by RMSE, then the others apart with their violation, each with
-its energy, both as multiples of the tuned PID's in the same envelope, and its protection (the
-plant's cut-off of the ``-v2`` ids, a guard of its own, or none). A model that runs at another
+its energy, both as multiples of the tuned PID's in the same envelope, and who cuts a hot wire
+(``guard``: the plant's cut-off of the ``-v2`` ids, the controller's own guard, or none). A model that runs at another
 ceiling than the env's (its own ``v_max``) gets the baselines re-run at its ceiling (named
 ``pid@6V``, ...) and is compared only with them. Then one table per scenario group (mean over the
 group's scenarios) with tracking RMSE and max error [deg], settling time [s] (step scenarios),

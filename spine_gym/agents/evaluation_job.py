@@ -13,7 +13,6 @@ import torch
 
 from spine_gym import cli_conventions as cli
 from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec
 from spine_gym.envs import base_id, config_of
 
 from . import equal_terms
@@ -174,14 +173,9 @@ def plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     return scenarios, baselines, models
 
 
-def entry_of(env_id: str, name: str, env_kwargs: dict, baseline: str | None) -> equal_terms.Entry:
-    """The envelope of controller ``name`` run on ``env_id`` with ``env_kwargs``: its ceiling and
-    protection (the plant's cut-off, else the guard of a registered ``baseline`` that has one)."""
-    cfg = config_of(env_id, **env_kwargs)
-    guarded = baseline is not None and get_spec(baseline, env_id).guard and cfg.thermal_cutoff is None
-    guard = cfg.temperature_limit - GUARD_MARGIN_K if guarded else None
-    shield = equal_terms.protection(cfg.thermal_cutoff, guard)
-    return equal_terms.Entry(baseline or name, baseline is not None, float(cfg.v_max), shield)
+def _v_max(env_id: str, env_kwargs: dict) -> float:
+    """[V] The voltage of action +1 of an env of ``env_id`` made with ``env_kwargs``."""
+    return float(config_of(env_id, **env_kwargs).v_max)
 
 
 def _build_baselines(env_id: str, baselines: list[str], kwargs: dict, suffix: str = "") -> dict:
@@ -195,14 +189,15 @@ def _build_baselines(env_id: str, baselines: list[str], kwargs: dict, suffix: st
 def controllers_of(
     args, baselines: list[str], models: dict[str, Path]
 ) -> tuple[dict, dict, float, dict[str, equal_terms.Entry]]:
-    """(controllers, their env kwargs, the env's temperature limit [K], their envelopes).
+    """(controllers, their env kwargs, the env's temperature limit [K], their
+    :class:`~spine_gym.agents.equal_terms.Entry`).
 
     A model that runs at another voltage ceiling than the baselines' (its own ``v_max``) gets the
     baselines again at its ceiling, named with :func:`~spine_gym.agents.equal_terms.envelope_suffix`
     (``pid@6V``), so that it is compared with baselines in its own envelope."""
     controllers = _build_baselines(args.env, baselines, args.env_kwargs)
     env_kwargs = {b: dict(args.env_kwargs) for b in baselines}
-    entries = {b: entry_of(args.env, b, args.env_kwargs, b) for b in baselines}
+    entries = {b: equal_terms.Entry(b, True) for b in baselines}
     limit = float(config_of(args.env, **args.env_kwargs).temperature_limit)
     if models:
         torch.set_num_threads(1)
@@ -210,15 +205,15 @@ def controllers_of(
         pol = load_policy(path, name=name)
         controllers[name] = pol
         env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
-        entries[name] = entry_of(args.env, name, env_kwargs[name], None)
-    own = {entries[b].v_max for b in baselines}
-    for v_max in dict.fromkeys(entries[m].v_max for m in models):
-        if baselines and v_max not in own:
+        entries[name] = equal_terms.Entry(name, False)
+    own = _v_max(args.env, args.env_kwargs)
+    for v_max in dict.fromkeys(_v_max(args.env, env_kwargs[m]) for m in models):
+        if baselines and v_max != own:
             kw = {**args.env_kwargs, "v_max": v_max}
             suffix = equal_terms.envelope_suffix(v_max)
             controllers |= _build_baselines(args.env, baselines, kw, suffix)
             env_kwargs |= {f"{b}{suffix}": dict(kw) for b in baselines}
-            entries |= {f"{b}{suffix}": entry_of(args.env, b, kw, b) for b in baselines}
+            entries |= {f"{b}{suffix}": equal_terms.Entry(b, True) for b in baselines}
     return controllers, env_kwargs, limit, entries
 
 
@@ -249,7 +244,7 @@ def run(args, planned: tuple[list[Scenario], list[str], dict[str, Path]], t_star
     print()
     unit = ERROR_UNIT.get(base_id(args.env), "deg")
     comparison = equal_terms.comparison_rows(summary, entries)
-    default_v_max = float(config_of(args.env, **args.env_kwargs).v_max)
+    default_v_max = _v_max(args.env, args.env_kwargs)
     print(equal_terms.format_comparison(comparison, unit, default_v_max))
     print(format_tables(summary, use_rich=not args.plain, error_unit=unit))
     out = Path(args.out)
