@@ -115,7 +115,7 @@ BAD = {
     "design workers 0": (["design", "sweep", "--param", "a=6e-3,7e-3", "--workers", "0"], "-1 (all cores) or"),
     "tune controller": (["tune", "--controllers", "pdi"], "did you mean 'pid'?"),
     "tune env kwarg": (["tune", "--env-kwargs", "episode_duraton:3"], "did you mean 'episode_duration'?"),
-    "benchmark unknown env": (["benchmark", "--env", "SmaSpineHard-v2"], "did you mean 'SmaSpineHard-v1'?"),
+    "benchmark unknown env": (["benchmark", "--env", "SmaSpineHrd-v2"], "did you mean 'SmaSpineHard-v2'?"),
     "benchmark env kwarg": (["benchmark", "--quick", "--env-kwargs", "episode_duraton=3"], "did you mean"),
     "datasets unknown env": (["datasets", "--env", "SmaSpine-v9", "--controller", "pid", "--episodes", "1"], "did you mean"),
     "datasets env kwarg": (
