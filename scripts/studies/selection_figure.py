@@ -8,7 +8,8 @@ chosen model. Run it from the repository root.
 Example::
 
     python scripts/studies/selection_figure.py docs/studies/ppo_hard_v2/scores.csv \\
-        --chosen runs/hard_int2/ppo/SmaSpineHard-v2_1 --title SmaSpineHard-v2 --out docs/studies/ppo_hard_v2/selection.png
+        --chosen runs/hard_int2/ppo/SmaSpineHard-v2_1 --title SmaSpineHard-v2 \\
+        --out docs/studies/ppo_hard_v2/selection.png
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 
 
 def read_scores(path: Path) -> list[dict]:
-    """The rows of a selection CSV (``model``, ``rmse_ratio``, ``energy_ratio``, ... ; the PID's row included)."""
+    """The rows of a selection CSV (``model``, ``rmse_ratio``, ``energy_ratio``, ...; the PID's row too)."""
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
 
@@ -43,7 +44,8 @@ def draw(rows: list[dict], chosen: str, title: str, target: float, max_energy: f
     groups = sorted({group_of(r["model"]) for r in candidates})
     for g in groups:
         pts = [r for r in candidates if group_of(r["model"]) == g]
-        ax.plot([float(r["energy_ratio"]) for r in pts], [float(r["rmse_ratio"]) for r in pts], "o", label=g, alpha=0.8)
+        energy, rmse = [float(r["energy_ratio"]) for r in pts], [float(r["rmse_ratio"]) for r in pts]
+        ax.plot(energy, rmse, "o", label=g, alpha=0.8)
     best = next(r for r in candidates if r["model"] == chosen)
     ax.plot(float(best["energy_ratio"]), float(best["rmse_ratio"]), "k*", ms=16, label=f"chosen: {chosen}")
     ax.plot(1.0, 1.0, "ks", ms=8, label="tuned PID")
