@@ -6,7 +6,8 @@ Example (``spine-gym benchmark`` is the same command)::
     python -m spine_gym.agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
     python -m spine_gym.agents.benchmark --address HOST:6379         # one run per Ray task on a Ray cluster
 
-Every algorithm (PPO, SAC, TD3, TQC) trains on every env id with every seed, with the
+Every algorithm of ``--algos`` (default PPO, SAC, TD3, TQC; the JAX learners CrossQ and DroQ of the ``jax``
+extra when named) trains on every env id with every seed, with the
 hyperparameters of ``spine_gym/agents/hyperparams/{algo}.yml`` (the entry of the env id; its
 ``n_timesteps`` is the budget unless ``-n``/``--budget`` set one), built as
 :mod:`spine_gym.agents.train` builds a run (:func:`~spine_gym.agents.training.resolve_config`,
@@ -108,7 +109,7 @@ from .runtime import (
     validation_metrics,
 )
 from .training import resolve_config
-from .zoo_config import ALGOS
+from .zoo_config import ALGOS, JAX_ALGOS, SB3_ALGOS
 
 DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family
 REFERENCES = ("pid", "mpc_estimated", "mpc_oracle")
@@ -133,6 +134,8 @@ QUICK_HYPERPARAMS = {
     "sac": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "td3": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
+    "crossq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
+    "droq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
 }
 
 
@@ -237,7 +240,11 @@ spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
+    p.add_argument(
+        "--algos", nargs="+", choices=ALGOS, default=list(SB3_ALGOS),
+        help=f"algorithms (default: {' '.join(SB3_ALGOS)}; the JAX learners {' '.join(JAX_ALGOS)} "
+        "need the jax extra)",
+    )  # fmt: skip
     p.add_argument(
         "--envs",
         "--env",

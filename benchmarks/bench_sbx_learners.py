@@ -1,0 +1,105 @@
+"""Benchmark: the JAX learners (``sbx-rl``, the ``jax`` extra) in env steps to the PID's validation
+RMSE and in CPU time per 60 k env steps, on tuning seeds.
+
+Each algorithm of ``--algos`` trains on each env id of ``--envs`` with each tuning seed of ``--seeds``
+(default 100 and 101: not the benchmark's 0-4) for ``-n`` env steps, with its
+``spine_gym/agents/hyperparams/<algo>.yml`` entry, one thread (run through a 1-thread launcher; JAX
+on one thread, :mod:`spine_gym.agents.jax_algos`). The runs are the benchmark's own
+(:func:`spine_gym.agents.benchmark_run.run_one`: validation episodes every ``--eval-freq`` steps,
+training wall and CPU time without the validation), so the curves are the benchmark's curves.
+
+Per run: the env steps (and hardware time: steps x control period) of the first validation whose
+RMSE is at or below the tuned PID's on the same validation episodes, the energy ratio to the PID's
+at that evaluation, and the training CPU time scaled to 60 k env steps (the CPU of the first
+2 000-step warm-up, JAX's compilation included, is in it).
+
+Writes ``benchmarks/results/sbx_learners/``: ``runs/<env id>/<algo>/seed_<k>/curve.csv`` (every
+evaluation; ``done.json`` marks a finished run, which a second invocation skips), ``references/``
+(the PID's validation episodes), ``summary.csv`` / ``summary.md`` (one row per run), ``command.txt``.
+
+    /work/tools/heavy python benchmarks/bench_sbx_learners.py --algos crossq droq -n 40000
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shlex
+import sys
+from pathlib import Path
+
+from spine_gym.agents.benchmark import reference_scores
+from spine_gym.agents.benchmark_run import DONE, RunSpec, read_curve, run_one
+from spine_gym.agents.benchmark_stats import time_to_level
+from spine_gym.envs import config_of
+
+OUT = Path(__file__).parent / "results" / "sbx_learners"
+ENVS = ("SmaSpineEasy-v2", "SmaSpine3DEasy-v2")
+COLUMNS = (
+    "algo", "env_id", "seed", "steps", "cpu_s", "cpu_s_per_60k", "pid_rmse", "final_rmse",
+    "steps_to_pid", "hardware_min_to_pid", "energy_ratio_at_pid", "final_energy_ratio",
+)  # fmt: skip
+
+
+def run_row(spec: RunSpec, out: Path, pid: dict, control_period: float) -> dict:
+    """The summary row of the finished run ``spec`` against the PID's validation means ``pid``."""
+    record = json.loads((out / spec.folder / DONE).read_text())["record"]
+    curve = read_curve(out / spec.folder / "curve.csv")
+    steps, _ = time_to_level(curve["step"], curve["train_wall_s"], curve["rmse"], pid["rmse"])
+    at = None if steps is None else list(curve["step"]).index(steps)
+    return {
+        "algo": spec.algo,
+        "env_id": spec.env_id,
+        "seed": spec.seed,
+        "steps": record["steps"],
+        "cpu_s": round(record["cpu_s"], 1),
+        "cpu_s_per_60k": round(record["cpu_s"] * 60_000 / record["steps"], 1),
+        "pid_rmse": round(pid["rmse"], 3),
+        "final_rmse": round(float(curve["rmse"][-1]), 3),
+        "steps_to_pid": steps,
+        "hardware_min_to_pid": None if steps is None else round(steps * control_period / 60, 1),
+        "energy_ratio_at_pid": None if at is None else round(float(curve["energy_J"][at]) / pid["energy_J"], 3),
+        "final_energy_ratio": round(float(curve["energy_J"][-1]) / pid["energy_J"], 3),
+    }
+
+
+def write_summary(rows: list[dict], out: Path) -> None:
+    with open(out / "summary.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join("—" if r[c] is None else str(r[c]) for c in COLUMNS) + " |" for r in rows]
+    (out / "summary.md").write_text("\n".join(lines) + "\n")
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--algos", nargs="+", default=["crossq"])
+    p.add_argument("--envs", nargs="+", default=list(ENVS))
+    p.add_argument("--seeds", nargs="+", type=int, default=[100, 101])
+    p.add_argument("-n", "--n-timesteps", type=int, default=40_000)
+    p.add_argument("--eval-freq", type=int, default=4_000)
+    p.add_argument("--val-episodes", type=int, default=10)
+    p.add_argument("--out", type=Path, default=OUT)
+    args = p.parse_args(argv)
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "command.txt", "a") as f:
+        f.write("python " + shlex.join(["benchmarks/bench_sbx_learners.py", *sys.argv[1:]]) + "\n")
+    rows = []
+    for env_id in args.envs:
+        pid = reference_scores(env_id, ("pid",), {}, args.val_episodes, 1, out)["pid"]
+        period = float(config_of(env_id).control_period)
+        for algo in args.algos:
+            for seed in args.seeds:
+                spec = RunSpec(algo, env_id, seed, args.n_timesteps, -1, args.eval_freq, args.val_episodes)
+                run_one(spec, out)
+                rows.append(run_row(spec, out, pid, period))
+                write_summary(rows, out)
+                print(json.dumps(rows[-1]), flush=True)
+
+
+if __name__ == "__main__":
+    main()
