@@ -15,7 +15,8 @@ at that evaluation, and the training CPU time scaled to 60 k env steps (the CPU 
 
 Writes ``benchmarks/results/sbx_learners/``: ``runs/<env id>/<algo>/seed_<k>/curve.csv`` (every
 evaluation; ``done.json`` marks a finished run, which a second invocation skips), ``references/``
-(the PID's validation episodes), ``summary.csv`` / ``summary.md`` (one row per run), ``command.txt``.
+(the PID's validation episodes), ``summary.csv`` / ``summary.md`` (one row per run), ``evaluations.csv``
+(every evaluation of every run: the curves, kept in the repository where ``runs/`` is not), ``command.txt``.
 
     /work/tools/heavy python benchmarks/bench_sbx_learners.py --algos crossq droq -n 40000
 """
@@ -30,7 +31,7 @@ import sys
 from pathlib import Path
 
 from spine_gym.agents.benchmark import reference_scores
-from spine_gym.agents.benchmark_run import DONE, RunSpec, read_curve, run_one
+from spine_gym.agents.benchmark_run import CURVE_COLUMNS, DONE, RunSpec, read_curve, run_one
 from spine_gym.agents.benchmark_stats import time_to_level
 from spine_gym.envs import config_of
 
@@ -48,6 +49,7 @@ def run_row(spec: RunSpec, out: Path, pid: dict, control_period: float) -> dict:
     curve = read_curve(out / spec.folder / "curve.csv")
     steps, _ = time_to_level(curve["step"], curve["train_wall_s"], curve["rmse"], pid["rmse"])
     at = None if steps is None else list(curve["step"]).index(steps)
+    energy_at = None if at is None else float(curve["energy_J"][at] / pid["energy_J"])
     return {
         "algo": spec.algo,
         "env_id": spec.env_id,
@@ -59,12 +61,25 @@ def run_row(spec: RunSpec, out: Path, pid: dict, control_period: float) -> dict:
         "final_rmse": round(float(curve["rmse"][-1]), 3),
         "steps_to_pid": steps,
         "hardware_min_to_pid": None if steps is None else round(steps * control_period / 60, 1),
-        "energy_ratio_at_pid": None if at is None else round(float(curve["energy_J"][at]) / pid["energy_J"], 3),
+        "energy_ratio_at_pid": None if energy_at is None else round(energy_at, 3),
         "final_energy_ratio": round(float(curve["energy_J"][-1]) / pid["energy_J"], 3),
     }
 
 
-def write_summary(rows: list[dict], out: Path) -> None:
+def curve_rows(spec: RunSpec, out: Path) -> list[dict]:
+    """Every evaluation of the finished run ``spec``, as rows of ``evaluations.csv``."""
+    curve = read_curve(out / spec.folder / "curve.csv")
+    run = {"algo": spec.algo, "env_id": spec.env_id, "seed": spec.seed}
+    return [run | {k: float(curve[k][i]) for k in CURVE_COLUMNS} for i in range(len(curve["step"]))]
+
+
+def write_summary(rows: list[dict], evaluations: list[dict], out: Path) -> None:
+    """``summary.csv`` / ``summary.md`` (one row per run) and ``evaluations.csv`` (the runs' curves:
+    the run folders themselves are not kept in the repository)."""
+    with open(out / "evaluations.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["algo", "env_id", "seed", *CURVE_COLUMNS])
+        w.writeheader()
+        w.writerows(evaluations)
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS)
         w.writeheader()
@@ -88,7 +103,7 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "command.txt", "a") as f:
         f.write("python " + shlex.join(["benchmarks/bench_sbx_learners.py", *sys.argv[1:]]) + "\n")
-    rows = []
+    rows, evaluations = [], []
     for env_id in args.envs:
         pid = reference_scores(env_id, ("pid",), {}, args.val_episodes, 1, out)["pid"]
         period = float(config_of(env_id).control_period)
@@ -97,7 +112,8 @@ def main(argv: list[str] | None = None) -> None:
                 spec = RunSpec(algo, env_id, seed, args.n_timesteps, -1, args.eval_freq, args.val_episodes)
                 run_one(spec, out)
                 rows.append(run_row(spec, out, pid, period))
-                write_summary(rows, out)
+                evaluations += curve_rows(spec, out)
+                write_summary(rows, evaluations, out)
                 print(json.dumps(rows[-1]), flush=True)
 
 

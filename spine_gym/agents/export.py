@@ -21,7 +21,8 @@ The exported action is SB3's ``predict(deterministic=True)`` for a Box action sp
 ``VecNormalize.normalize_obs``: PPO's mean action clipped to the bounds, SAC's tanh-squashed mean
 and TD3's actor, rescaled to the bounds. The JAX learners of the ``jax`` extra (SBX's CrossQ and SAC,
 :mod:`spine_gym.agents.jax_algos`) export likewise: their actor's mean through tanh, CrossQ's batch
-renormalisation (affine at inference: running statistics) folded into the Dense layer after it. :mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
+renormalisation (affine at inference: running statistics) folded into the Dense layer after it.
+:mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
 alone; the formulas are in its docstring.
 
 Observation memories (:mod:`spine_gym.agents.observations`: the integral of the error, the
@@ -139,25 +140,25 @@ def actor_layers(model) -> tuple[str, list[list], str]:
     if type(model).__module__.split(".")[0] == "sbx":
         return _sbx_actor_layers(model)
     raise UnsupportedPolicyError(
-        f"exporting a {type(model).__name__} model is not supported: PPO, SAC, TD3 and SBX's CrossQ and SAC are"
+        f"exporting a {type(model).__name__} model is not supported: "
+        "PPO, SAC, TD3 and SBX's CrossQ and SAC are"
     )
 
 
 def _sbx_activation(fn) -> str:
-    import jax
-
-    names = {jax.nn.relu: "relu", jax.nn.tanh: "tanh"}
-    if fn not in names:
+    """``relu`` or ``tanh``: an SBX policy's activation, by name (a loaded model holds an unpickled copy
+    of JAX's function, not JAX's own object)."""
+    name = getattr(fn, "__name__", repr(fn))
+    if name not in ("relu", "tanh"):
         raise UnsupportedPolicyError(
-            f"exporting an SBX policy with activation {getattr(fn, '__name__', fn)!r} is not supported: "
-            "only relu and tanh"
+            f"exporting an SBX policy with activation {name!r} is not supported: only relu and tanh"
         )
-    return names[fn]
+    return name
 
 
 def _sbx_actor_layers(model) -> tuple[str, list[list], str]:
-    """``("sbx_<class>", layers, "squash")`` of an SBX ``CrossQ`` or ``SAC`` (DroQ is SBX's SAC): the Dense layers
-    of the actor up to its mean head, whose tanh is SBX's deterministic action. CrossQ's batch
+    """``("sbx_<class>", layers, "squash")`` of an SBX ``CrossQ`` or ``SAC`` (DroQ is SBX's SAC): the
+    Dense layers of the actor up to its mean head, whose tanh is SBX's deterministic action. CrossQ's batch
     renormalisation layers are affine at inference (running statistics: ``scale (x − mean) /
     √(var + ε) + bias``) and are folded into the Dense layer after each, in float64."""
     from sbx.common.policies import SquashedGaussianActor
@@ -193,7 +194,8 @@ SBX_RENORM_EPSILON = 1e-3
 
 def _renorm_affine(params, stats) -> tuple[np.ndarray, np.ndarray]:
     """``(a, c)`` of a ``BatchRenorm`` layer at inference: ``y = a x + c`` (float64)."""
-    a = np.asarray(params["scale"], np.float64) / np.sqrt(np.asarray(stats["var"], np.float64) + SBX_RENORM_EPSILON)
+    var = np.asarray(stats["var"], np.float64)
+    a = np.asarray(params["scale"], np.float64) / np.sqrt(var + SBX_RENORM_EPSILON)
     return a, np.asarray(params["bias"], np.float64) - np.asarray(stats["mean"], np.float64) * a
 
 

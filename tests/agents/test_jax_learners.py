@@ -27,6 +27,10 @@ from spine_gym.agents.training import hyperparameter_keys, resolve_config
 from spine_gym.agents.zoo_config import ENV_IDS, JAX_ALGOS, algo_class, load_hyperparams
 
 TOL = 1e-5
+# CrossQ's actor with random renormalisation statistics (scales up to ~4.5 per layer) carries
+# activations ~100 x larger into the 30 x mean head: float32 rounding of the folded layers, measured
+# 2e-5; a fold that dropped the epsilon or a layer would be off by > 1e-2
+TOL_RENORM = 5e-5
 CLIP_OBS = 3.0
 ENV = "SmaSpineEasy-v2"
 # a smoke run: 3-s episodes, tiny networks and batches, one gradient step per vector step
@@ -84,6 +88,19 @@ def test_train_save_load_evaluate_through_the_cli(algo, tmp_path):
     )  # fmt: skip
     rows = (out / "metrics.csv").read_text().splitlines()
     assert any(r.startswith(f"{algo},") for r in rows[1:]), proc.stdout[-2000:]
+
+
+@pytest.mark.slow
+def test_the_benchmark_runs_a_jax_learner(tmp_path):
+    out = tmp_path / "bench"
+    run_cli(
+        "-m", "spine_gym.agents.benchmark", "--quick", "--algos", "crossq", "--envs", ENV, "--out", str(out),
+        timeout=400,
+    )  # fmt: skip
+    done = json.loads((out / "runs" / ENV / "crossq" / "seed_0" / "done.json").read_text())
+    assert done["record"]["algo"] == "crossq" and done["record"]["steps"] >= 512
+    assert "crossq" in (out / "table.md").read_text()
+    assert load_policy(out / "runs" / ENV / "crossq" / "seed_0").meta["algo"] == "crossq"
 
 
 # --------------------------------------------------------------------------- export
@@ -176,7 +193,8 @@ def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
         ("C", _c_actions(bundle, obs, tmp_path)),
     ):
         diff = float(np.max(np.abs(got - ref)))
-        assert diff < TOL, (name, diff)
+        print(f"{case} {name}: max |action - model| {diff:.1e}")  # shown by pytest -s
+        assert diff < (TOL_RENORM if case == "crossq" else TOL), (name, diff)
 
 
 def test_a_simba_actor_is_refused(tmp_path):
