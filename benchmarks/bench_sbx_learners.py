@@ -33,6 +33,7 @@ from pathlib import Path
 from spine_gym.agents.benchmark import reference_scores
 from spine_gym.agents.benchmark_run import CURVE_COLUMNS, DONE, RunSpec, read_curve, run_one
 from spine_gym.agents.benchmark_stats import time_to_level
+from spine_gym.cli_conventions import KeyValues
 from spine_gym.envs import config_of
 
 OUT = Path(__file__).parent / "results" / "sbx_learners"
@@ -98,6 +99,10 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--eval-freq", type=int, default=4_000)
     p.add_argument("--val-episodes", type=int, default=10)
     p.add_argument("--out", type=Path, default=OUT)
+    p.add_argument(
+        "-params", "--hyperparams", nargs="+", action=KeyValues, default={}, metavar="KEY=VALUE",
+        help="overrides of the YAML entries (a variant: give it its own --out)",
+    )  # fmt: skip
     args = p.parse_args(argv)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -109,7 +114,10 @@ def main(argv: list[str] | None = None) -> None:
         period = float(config_of(env_id).control_period)
         for algo in args.algos:
             for seed in args.seeds:
-                spec = RunSpec(algo, env_id, seed, args.n_timesteps, -1, args.eval_freq, args.val_episodes)
+                spec = RunSpec(
+                    algo, env_id, seed, args.n_timesteps, -1, args.eval_freq, args.val_episodes,
+                    hyperparams=dict(args.hyperparams),
+                )  # fmt: skip
                 run_one(spec, out)
                 rows.append(run_row(spec, out, pid, period))
                 evaluations += curve_rows(spec, out)
