@@ -39,7 +39,7 @@ from spine_gym.envs import config_of
 OUT = Path(__file__).parent / "results" / "sbx_learners"
 ENVS = ("SmaSpineEasy-v2", "SmaSpine3DEasy-v2")
 COLUMNS = (
-    "algo", "env_id", "seed", "steps", "cpu_s", "cpu_s_per_60k", "pid_rmse", "final_rmse",
+    "algo", "env_id", "seed", "steps", "cpu_s", "cpu_s_per_60k", "pid_rmse", "best_rmse", "final_rmse",
     "steps_to_pid", "hardware_min_to_pid", "energy_ratio_at_pid", "final_energy_ratio",
 )  # fmt: skip
 
@@ -59,6 +59,7 @@ def run_row(spec: RunSpec, out: Path, pid: dict, control_period: float) -> dict:
         "cpu_s": round(record["cpu_s"], 1),
         "cpu_s_per_60k": round(record["cpu_s"] * 60_000 / record["steps"], 1),
         "pid_rmse": round(pid["rmse"], 3),
+        "best_rmse": round(float(min(curve["rmse"])), 3),
         "final_rmse": round(float(curve["rmse"][-1]), 3),
         "steps_to_pid": steps,
         "hardware_min_to_pid": None if steps is None else round(steps * control_period / 60, 1),
@@ -108,10 +109,8 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "command.txt", "a") as f:
         f.write("python " + shlex.join(["benchmarks/bench_sbx_learners.py", *sys.argv[1:]]) + "\n")
-    rows, evaluations = [], []
     for env_id in args.envs:
-        pid = reference_scores(env_id, ("pid",), {}, args.val_episodes, 1, out)["pid"]
-        period = float(config_of(env_id).control_period)
+        reference_scores(env_id, ("pid",), {}, args.val_episodes, 1, out)
         for algo in args.algos:
             for seed in args.seeds:
                 spec = RunSpec(
@@ -119,11 +118,24 @@ def main(argv: list[str] | None = None) -> None:
                     hyperparams=dict(args.hyperparams),
                 )  # fmt: skip
                 run_one(spec, out)
-                rows.append(run_row(spec, out, pid, period))
-                evaluations += curve_rows(spec, out)
-                write_summary(rows, evaluations, out)
-                print(json.dumps(rows[-1]), flush=True)
+                write_all_summaries(out)
 
+
+def write_all_summaries(out: Path) -> None:
+    """The summaries of every finished run under ``out`` (this and earlier invocations), printing the
+    newest run's row."""
+    rows, evaluations, newest = [], [], (0.0, None)
+    fields = set(RunSpec.__dataclass_fields__)
+    for done in sorted((out / "runs").glob(f"*/*/seed_*/{DONE}")):
+        settings = json.loads(done.read_text())["settings"]
+        spec = RunSpec(**{k: v for k, v in settings.items() if k in fields})
+        pid = json.loads((out / "references" / f"{spec.env_id}.json").read_text())["pid"]["means"]
+        rows.append(run_row(spec, out, pid, float(config_of(spec.env_id).control_period)))
+        evaluations += curve_rows(spec, out)
+        newest = max(newest, (done.stat().st_mtime, len(rows) - 1), key=lambda t: t[0])
+    write_summary(rows, evaluations, out)
+    if newest[1] is not None:
+        print(json.dumps(rows[newest[1]]), flush=True)
 
 if __name__ == "__main__":
     main()

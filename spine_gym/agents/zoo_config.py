@@ -22,6 +22,8 @@ import yaml
 from spine_gym.cli_conventions import KeyValues
 from spine_gym.envs import ENV_SPECS
 
+from .jax_algos import jax_algo_class
+
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
 ENV_ID = "SmaSpine-v0"  # the planar family's base id (its controller table, tuned file, shipped policies)
@@ -68,8 +70,6 @@ def algo_class(algo: str) -> type:
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
     if algo in JAX_ALGOS:
-        from .jax_algos import jax_algo_class
-
         return jax_algo_class(algo)
     if algo == "tqc":
         from sb3_contrib import TQC
