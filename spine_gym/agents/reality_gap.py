@@ -46,6 +46,7 @@ from .metrics import METRIC_COLUMNS
 from .runtime import controller_for, load_policy, validation_metrics
 from .scenarios import get_suite
 from .training import build_envs, build_model, resolve_config
+from .vec_env import make_vec_env
 from .zoo_config import algo_class
 
 __all__ = [
@@ -295,8 +296,6 @@ def finetune(
     writes the run folder ``out`` (``model.zip``, ``vecnormalize.pkl``, ``meta.json``)."""
     import torch
 
-    from .vec_env import make_vec_env
-
     _check_int("n_timesteps", n_timesteps, 1, STEP_BUDGET_LIMIT)
     torch.set_num_threads(1)
     pre = Path(pretrained)
@@ -365,44 +364,55 @@ def select_learner(
 # ------------------------------------------------------------------------------------------ scoring
 def score_rows(
     pretrained: str | Path,
-    finetuned: str | Path,
+    finetuned: list[str | Path],
     unc: ParameterUncertainty,
     shift: PlantShift,
     *,
     suite: str = "full",
     env_id: str | None = None,
-) -> list[dict]:
-    """Mean suite metrics per (row, scenario group) and over the whole suite (group ``all``):
-    ``pretrained@nominal``, ``pretrained@shifted``, ``finetuned@shifted``, ``pid@shifted``."""
+) -> tuple[list[dict], list[dict]]:
+    """Mean suite metrics per (row, scenario group) and over the whole suite (group ``all``) of
+    ``pretrained@nominal``, ``pretrained@shifted``, ``finetuned@shifted`` (the median over the
+    fine-tuned runs ``finetuned``, one per training seed) and ``pid@shifted``; and the same rows of
+    each fine-tuned run (``finetuned@shifted#<i>``). Returns (rows, per-run rows)."""
     env_id = env_id or json.loads((Path(pretrained) / "meta.json").read_text())["env_id"]
     nominal, shifted = nominal_env_kwargs(unc), plant_env_kwargs(shift.layout)
-    pre, fine = load_policy(pretrained), load_policy(finetuned)
+    pre = load_policy(pretrained)
     controllers = {
         "pretrained@nominal": (pre, nominal),
         "pretrained@shifted": (pre, shifted),
-        "finetuned@shifted": (fine, shifted),
+        **{f"finetuned@shifted#{i}": (load_policy(f), shifted) for i, f in enumerate(finetuned)},
         "pid@shifted": (controller_for("pid", env_id, shifted), shifted),
     }
     scenarios = get_suite(suite, env_id=env_id)
     rows, _ = evaluate(
         {n: c for n, (c, _) in controllers.items()}, scenarios, {n: kw for n, (_, kw) in controllers.items()}
     )
-    out = summarize(rows)
+    means = summarize(rows)
     for name in controllers:
         sel = [r for r in rows if r["controller"] == name]
-        out.append(
+        means.append(
             {"controller": name, "group": "all", "n_scenarios": len(sel)}
             | {c: float(np.mean([r[c] for r in sel])) for c in METRIC_COLUMNS}
         )
-    return out
+    runs = [m for m in means if m["controller"].startswith("finetuned@shifted#")]
+    out = [m for m in means if m not in runs]
+    for group in dict.fromkeys(m["group"] for m in runs):
+        sel = [m for m in runs if m["group"] == group]
+        median = {c: float(np.median([m[c] for m in sel])) for c in METRIC_COLUMNS}
+        row = {"controller": "finetuned@shifted", "group": group, "n_scenarios": sel[0]["n_scenarios"]}
+        out.append(row | median)
+    order = list(ROW_LABELS)
+    out.sort(key=lambda m: (m["group"] == "all", m["group"], order.index(m["controller"])))
+    return out, runs
 
 
-def recovered_fraction(scores: list[dict], group: str = "all") -> float:
-    """(RMSE pretrained@shifted − finetuned@shifted) / (pretrained@shifted − pretrained@nominal):
-    the share of the RMSE the shift cost that the fine-tuning won back (NaN if the shift cost none)."""
+def recovered_fraction(scores: list[dict], group: str = "all", finetuned: str = "finetuned@shifted") -> float:
+    """(RMSE pretrained@shifted − finetuned) / (pretrained@shifted − pretrained@nominal): the share
+    of the RMSE the shift cost that the fine-tuning won back (NaN if the shift cost none)."""
     r = {s["controller"]: s["rmse_deg"] for s in scores if s["group"] == group}
     cost = r["pretrained@shifted"] - r["pretrained@nominal"]
-    return float((r["pretrained@shifted"] - r["finetuned@shifted"]) / cost) if cost > 0 else math.nan
+    return float((r["pretrained@shifted"] - r[finetuned]) / cost) if cost > 0 else math.nan
 
 
 # -------------------------------------------------------------------------------------------- study
@@ -417,6 +427,8 @@ class StudyConfig:
         pretrain_steps: PPO steps of the pretraining (0: reuse ``pretrained``).
         pretrained: an existing pretrained run folder (with ``pretrain_steps`` 0).
         finetune_steps: the fine-tuning budget [env steps] (one spine: × the control period of hardware).
+        finetune_seeds: fine-tuning runs on the shifted plant (training seeds ``seed`` … ``seed + n − 1``;
+            the ``finetuned@shifted`` row is their median).
         k, shift_seed: the shift of the "real" plant in standard errors, and the seed of its signs.
         learners: candidate names of :data:`LEARNERS` (one: no selection).
         selection_episodes: validation episodes per tuning plant in the selection.
@@ -430,6 +442,7 @@ class StudyConfig:
     pretrain_steps: int = 300_000
     pretrained: str = ""
     finetune_steps: int = 6_000
+    finetune_seeds: int = 5
     k: float = 3.0
     shift_seed: int = 0
     learners: tuple[str, ...] = tuple(LEARNERS)
@@ -444,6 +457,7 @@ class StudyConfig:
             raise ValueError(f"env_id must be a four-wire module id, one of {ids}, got {self.env_id!r}")
         _check_int("pretrain_steps", self.pretrain_steps, 0, 10_000_000)
         _check_int("finetune_steps", self.finetune_steps, 1, STEP_BUDGET_LIMIT)
+        _check_int("finetune_seeds", self.finetune_seeds, 1, 100)
         _check_int("shift_seed", self.shift_seed, 0, 2**31 - 1)
         _check_int("seed", self.seed, 0, 2**31 - 1)
         _check_int("selection_episodes", self.selection_episodes, 1, 100)
@@ -497,25 +511,39 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
             n_timesteps=cfg.finetune_steps, n_episodes=cfg.selection_episodes,
         )  # fmt: skip
         _write_csv(out / "selection.csv", sel_rows)
-    say(f"fine-tuning with {chosen} on the shifted plant (seed {cfg.shift_seed}, {cfg.finetune_steps} steps)")
-    fine = finetune(
-        pre, shift.layout, out / "finetuned", learner=LEARNERS[chosen], n_timesteps=cfg.finetune_steps,
-        seed=cfg.seed, plant_file=str(plant_file),
-    )  # fmt: skip
+    seeds = range(cfg.seed, cfg.seed + cfg.finetune_seeds)
+    say(f"fine-tuning with {chosen} on the shifted plant (seed {cfg.shift_seed}, {cfg.finetune_steps} steps, "
+        f"training seeds {list(seeds)})")  # fmt: skip
+    fine = [
+        finetune(
+            pre, shift.layout, out / f"finetuned_{s}", learner=LEARNERS[chosen], n_timesteps=cfg.finetune_steps,
+            seed=s, plant_file=str(plant_file),
+        )  # fmt: skip
+        for s in seeds
+    ]
     say(f"scoring on the {cfg.suite} suite")
-    scores = score_rows(pre, fine, unc, shift, suite=cfg.suite, env_id=cfg.env_id)
+    scores, runs = score_rows(pre, fine, unc, shift, suite=cfg.suite, env_id=cfg.env_id)
     _write_csv(out / "scores.csv", scores)
+    for r in runs:
+        r["recovered_fraction"] = (
+            recovered_fraction(scores + runs, r["group"], r["controller"]) if r["group"] == "all" else ""
+        )
+    _write_csv(out / "finetune_seeds.csv", runs)
+    fractions = [r["recovered_fraction"] for r in runs if r["group"] == "all"]
     summary = {
         "recovered_fraction": recovered_fraction(scores),
+        "recovered_fraction_per_seed": fractions,
         "learner": chosen,
         "finetune_steps": cfg.finetune_steps,
+        "finetune_seeds": list(seeds),
         "hardware_minutes": cfg.finetune_steps * float(config_of(cfg.env_id).control_period) / 60.0,
         "pretrained": str(pre),
-        "finetuned": str(fine),
+        "finetuned": [str(f) for f in fine],
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "command.txt").write_text(cfg.command + "\n")
-    plot_scores(scores, out / "reality_gap.png", title=f"{cfg.env_id}: {cfg.k:g}-sigma shift, {cfg.finetune_steps} fine-tuning steps")
+    title = f"{cfg.env_id}: {cfg.k:g}-sigma shift, {cfg.finetune_steps} fine-tuning steps"
+    plot_scores(scores, out / "reality_gap.png", title=title, runs=runs)
     return summary
 
 
@@ -527,8 +555,9 @@ ROW_LABELS = {
 }
 
 
-def plot_scores(scores: list[dict], path: str | Path, title: str = "") -> Path:
-    """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row."""
+def plot_scores(scores: list[dict], path: str | Path, title: str = "", runs: list[dict] | None = None) -> Path:
+    """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row (the
+    fine-tuned bar: the median of the runs, each run a black dot)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -547,6 +576,11 @@ def plot_scores(scores: list[dict], path: str | Path, title: str = "") -> Path:
         ax.set_ylabel(ylabel)
         for i, v in enumerate(vals):
             ax.annotate(f"{v:.3g}", (i, v), ha="center", va="bottom", fontsize=8)
+        seeds = [r[key] for r in runs or [] if r["group"] == "all"]
+        if seeds and "finetuned@shifted" in [r["controller"] for r in rows]:
+            i = [r["controller"] for r in rows].index("finetuned@shifted")
+            ax.plot([i] * len(seeds), seeds, "k.", label="fine-tuning runs (seeds)")
+            ax.legend(fontsize=7, loc="lower right")
     fig.suptitle(title + " (means over the evaluation suite)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

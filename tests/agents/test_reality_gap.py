@@ -124,6 +124,7 @@ BAD = {
     "env": (["--env", "SmaSpine-v2"], "env_id must be a four-wire module id"),
     "k": (["--k", "-3"], "k (the shift in standard errors)"),
     "finetune steps": (["--finetune-steps", "0"], "finetune_steps must be an integer"),
+    "finetune seeds": (["--finetune-seeds", "0"], "finetune_seeds must be an integer"),
     "learner": (["--learners", "dqn"], "learners must be among"),
     "suite": (["--suite", "long"], "suite must be 'full' or 'quick'"),
     "pretrained": (["--pretrain-steps", "0"], "pretrained: give a pretrained run folder"),
@@ -160,11 +161,18 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     assert all(float(r["rmse_deg"]) > 0 and float(r["energy_J"]) > 0 for r in rows)
     with open(out / "selection.csv") as f:
         assert len(list(csv.DictReader(f))) == 2 * 2  # 2 learners x 2 tuning plants
-    meta = json.loads((out / "finetuned" / "meta.json").read_text())
+    with open(out / "finetune_seeds.csv") as f:
+        runs = list(csv.DictReader(f))
+    assert {r["controller"] for r in runs} == {"finetuned@shifted#0", "finetuned@shifted#1"}
+    for group in ("nominal", "disturbed", "all"):  # the fine-tuned row is the median of the runs
+        median = np.median([float(r["rmse_deg"]) for r in runs if r["group"] == group])
+        row = [r for r in rows if r["controller"] == "finetuned@shifted" and r["group"] == group]
+        assert float(row[0]["rmse_deg"]) == pytest.approx(median)
+    meta = json.loads((out / "finetuned_1" / "meta.json").read_text())
+    assert meta["seed"] == 1
     assert meta["finetune_timesteps"] >= 256 and meta["n_envs"] == 1
     assert meta["start_timesteps"] == json.loads((out / "pretrained" / "meta.json").read_text())["total_timesteps"]
     assert (out / "reality_gap.png").stat().st_size > 10_000
     assert (out / "command.txt").read_text().startswith("spine-gym finetune --preset")
-    # the fine-tuned run is a policy the other commands read: evaluate it again, fine-tune it again
     summary = json.loads((out / "summary.json").read_text())
     assert summary["finetune_steps"] == 256 and summary["hardware_minutes"] == pytest.approx(256 * 0.1 / 60)
