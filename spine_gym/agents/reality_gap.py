@@ -576,6 +576,8 @@ def plot_scores(scores: list[dict], path: str | Path, title: str = "", runs: lis
         ax.set_ylabel(ylabel)
         for i, v in enumerate(vals):
             ax.annotate(f"{v:.3g}", (i, v), ha="center", va="bottom", fontsize=8)
+        if max(vals) == 0.0:
+            ax.set_ylim(0.0, 1.0)  # e.g. no time over the limit at all: a readable empty axis
         seeds = [r[key] for r in runs or [] if r["group"] == "all"]
         if seeds and "finetuned@shifted" in [r["controller"] for r in rows]:
             i = [r["controller"] for r in rows].index("finetuned@shifted")
