@@ -10,6 +10,7 @@ shifted plant), ``selection.csv`` (the learners on the tuning shifts), ``reality
 from __future__ import annotations
 
 import argparse
+import math
 import shlex
 import sys
 
@@ -99,10 +100,15 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     except (ValueError, FileNotFoundError) as e:
         parser.error(first_line(e))
     summary = run_study(cfg, progress=args.progress)
+    frac = summary["recovered_fraction"]
+    outcome = (
+        "the shift cost the pretrained policy no RMSE on the suite"
+        if math.isnan(frac)
+        else f"recovered {frac:.0%} of the RMSE the shift cost (median over {cfg.finetune_seeds} runs)"
+    )
     print(
-        f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps ({summary['hardware_minutes']:.1f} min of "
-        f"hardware): recovered {summary['recovered_fraction']:.0%} of the RMSE the shift cost (median over "
-        f"{cfg.finetune_seeds} runs); wrote {args.out}/"
+        f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps ({summary['hardware_minutes']:.1f} min "
+        f"of hardware): {outcome}; wrote {args.out}/"
     )
     return 0
 

@@ -152,7 +152,7 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     out = tmp_path / "rg"
     argv = ["finetune", "--preset", str(PRESET), "--quick", "--learners", *list(LEARNERS)[:2], "-o", str(out)]
     assert cli.main([*argv, "--no-progress"]) == 0
-    assert "recovered" in capsys.readouterr().out
+    assert "fine-tuned on the shifted plant in 256 steps (0.4 min of hardware)" in capsys.readouterr().out
     with open(out / "scores.csv") as f:
         rows = list(csv.DictReader(f))
     expected = {"pretrained@nominal", "pretrained@shifted", "finetuned@shifted", "pid@shifted"}
