@@ -1,14 +1,16 @@
 """SHA-256 digests of seeded rollouts of every env id: run on two commits to show a change of the
 env layer changed no number (the 12 digests below must be equal before and
 after). ``--v1`` adds the 9 ``-v1`` ids (3 families x 3 tiers) with the settings their ids
-carry (no overrides): 27 more digests.
+carry (no overrides): 36 more digests; ``--v2`` the 9 ``-v2`` ids likewise (36 more). Under these
+random actions a wire reaches the ``-v2`` driver's cut-off (418 K) only in the ``SmaSpineChainHard-v2``
+rollouts; ``tests/envs/test_thermal_cutoff.py`` checks the cut-off itself.
 
 For each ``-v0`` id: the single env (with resets), the vector env in ``NEXT_STEP`` and ``SAME_STEP`` mode
 (3 sub-envs, serial kernel) and the SB3 adapter, 200 seeded random steps with domain randomisation,
 sensor noise on every channel, a 2-step sensor delay and tip forces; the digest covers every
 observation, reward, flag and info (keys and values, with dtypes)::
 
-    .venv/bin/python scripts/rollout_digest.py [--v1]
+    .venv/bin/python scripts/rollout_digest.py [--v1] [--v2]
 """
 
 from __future__ import annotations
@@ -85,8 +87,9 @@ def digests(env_id: str, steps: int = 200, n: int = 3, seed: int = 7, kw: dict =
 
 if __name__ == "__main__":
     runs = [(env_id, KW) for env_id in IDS]
-    if "--v1" in sys.argv[1:]:
-        runs += [(s.id, {}) for s in ENV_SPECS.values() if s.version == 1]
+    for version in (1, 2):
+        if f"--v{version}" in sys.argv[1:]:
+            runs += [(s.id, {}) for s in ENV_SPECS.values() if s.version == version]
     for env_id, kw in runs:
         for kind, digest in digests(env_id, kw=kw).items():
             print(f"{env_id:22s} {kind:9s} {digest}", flush=True)

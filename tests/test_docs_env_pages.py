@@ -104,3 +104,17 @@ def test_no_literal_rest_roles(pages, env_id):
 def test_myst_roles_converts_each_role():
     text = ":meth:`a.b`, :py:class:`~c.D` and :func:`.e`"
     assert env_pages.myst_roles(text) == "{meth}`a.b`, {class}`~c.D` and {func}`.e`"
+
+
+def test_v2_pages_show_the_drivers_cutoff(pages):
+    """A ``-v2`` page lists ``thermal_cutoff`` as a registered setting with its value in K and says
+    in its action section what the driver does; a ``-v1`` page shows the cut-off off."""
+    for env_id, spec in ENV_SPECS.items():
+        settings = dict(r[:2] for r in _table(_section(pages[env_id], "Task and plant settings")))
+        action = _section(pages[env_id], "Action space")
+        if spec.version == 2:
+            assert settings["**`thermal_cutoff`**"] == f"{spec.kwargs['thermal_cutoff']:g} K"
+            assert f"`thermal_cutoff` = {spec.kwargs['thermal_cutoff']:g} K" in action and "0 V" in action
+        else:
+            assert settings["`thermal_cutoff`"] == "off"
+            assert "no thermal cut-off" in action

@@ -42,6 +42,7 @@ _UNITS = {
     "payload_range": "kg",
     "sensor_delay": "control periods",
     "module_bend_limit": "deg",
+    "thermal_cutoff": "K",
 }
 _NOT_SETTINGS = {"params", "solver", "error_scale", "energy_weight", "cost_weight", "temperature_limit"}
 
@@ -124,13 +125,22 @@ def observation_section(env: gym.Env) -> list[str]:
 
 def action_section(env: gym.Env) -> list[str]:
     space, cfg = env.action_space, env.unwrapped.config
+    if cfg.thermal_cutoff is None:
+        cutoff = "This id's wire driver has no thermal cut-off (`thermal_cutoff` off)."
+    else:
+        cutoff = (
+            f"The wire driver cuts a hot wire: a wire whose true temperature (not the sensor's) is at "
+            f"or above `thermal_cutoff` = {cfg.thermal_cutoff:g} K at the start of a control period "
+            "gets 0 V for that period, whatever the action (the observation's previous action stays "
+            "the commanded one)."
+        )
     return [
         "## Action space",
         "",
         f"`{space}`: one entry per wire (group); volts = (clip(a, −1, 1) + 1) / 2 · `v_max`, with "
         f"`v_max` = {cfg.v_max:g} V here, held over the control period of {cfg.control_period:g} s "
         "(zero-order hold). Actions outside [−1, 1] are clipped; the applied volts are "
-        '`info["voltage"]`.',
+        f'`info["voltage"]`. {cutoff}',
         "",
     ]
 

@@ -5,8 +5,8 @@ Per env id, the methods whose time over the temperature limit per episode is at 
 the final validation value; a reference controller: the mean over its validation episodes) are
 ranked by their tracking RMSE IQM, with the energy next to it; the others are listed apart with
 their violation; a method whose time over the limit was not recorded is listed apart as such,
-never ranked. Each row carries its actuator envelope (the voltage of action +1, whether a
-temperature guard cuts the wires) and its budget (env steps × seeds of an algorithm, tuning
+never ranked. Each row carries its actuator envelope (the voltage of action +1, the plant's thermal
+cut-off and who cuts a hot wire: the plant, the controller or nothing) and its budget (env steps × seeds of an algorithm, tuning
 trials × episodes of a tuned controller).
 
 * :func:`cap_status`, :func:`constrained_split` — the constraint on summary rows
@@ -27,7 +27,7 @@ from spine_gym.envs import base_id
 
 from . import benchmark_stats as stats
 from .metrics import TIME_OVER_LIMIT_CAP_S
-from .runtime import make_env
+from .runtime import env_temperature_limit, envelope_of, make_env
 
 RANKED, OVER_CAP, NOT_RECORDED = "ranked", "over the cap", "not recorded"
 T_OVER = "time_over_limit_s"  # the constrained metric (a key of benchmark_stats.METRICS)
@@ -54,13 +54,17 @@ def constrained_split(summary: list[dict], env_id: str) -> dict[str, list[dict]]
 
 # --------------------------------------------------------------------------- envelope, budget
 def envelope(env_id: str, env_kwargs: dict, guard: bool) -> dict:
-    """The actuator envelope of a method on ``env_id`` with ``env_kwargs``: ``v_max_V`` (the voltage
-    of action +1) and ``guard`` (``on``: a wire observed at the temperature limit minus
-    :data:`~spine_gym.controllers.registry.GUARD_MARGIN_K` gets 0 V; ``off``: nothing cuts it)."""
+    """The actuator envelope of a method on ``env_id`` with ``env_kwargs``
+    (:func:`~spine_gym.agents.runtime.envelope_of`): ``v_max_V`` (the voltage of action +1),
+    ``cutoff_K`` (the plant's thermal cut-off, the ``-v2`` ids; ``None``: none) and ``guard``
+    (``"plant 418 K"``: the env's driver cuts every controller's wires; ``"controller 418 K"``: a
+    guarded registry controller (``guard``) cuts a wire observed at the temperature limit minus
+    :data:`~spine_gym.controllers.registry.GUARD_MARGIN_K`; ``"none"``: nothing cuts it)."""
     env = make_env(env_kwargs, env_id=env_id)
-    v_max = float(env.config.v_max)
+    own = env_temperature_limit(env) - GUARD_MARGIN_K if guard else None
+    out = envelope_of(env, own)
     env.close()
-    return {"v_max_V": v_max, "guard": f"on (limit − {GUARD_MARGIN_K:g} K)" if guard else "off"}
+    return out
 
 
 def tuning_budget(env_id: str, name: str) -> str:
@@ -77,9 +81,10 @@ def tuning_budget(env_id: str, name: str) -> str:
 
 
 def with_envelope(summary: list[dict], env_kwargs: dict[str, dict]) -> list[dict]:
-    """The summary rows with ``v_max_V``, ``guard`` and ``budget``: an algorithm is validated in the
-    env with ``env_kwargs[env_id]`` and no guard (its policy has none), a reference controller in
-    the same env with its registry entry's guard."""
+    """The summary rows with ``v_max_V``, ``cutoff_K``, ``guard`` and ``budget``: an algorithm is
+    validated in the env with ``env_kwargs[env_id]`` and no guard of its own (its policy has none), a
+    reference controller in the same env with its registry entry's guard, except where the plant
+    cuts hot wires itself (a ``thermal_cutoff``): there every method meets the plant's."""
     envelopes, out = {}, []
     for r in summary:
         rl = r["kind"] == "rl"

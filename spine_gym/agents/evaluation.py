@@ -26,7 +26,14 @@ from spine_gym.csv_numbers import csv_row
 from spine_gym.plotting import plot_episodes
 
 from .metrics import METRIC_COLUMNS, Trajectory, episode_metrics
-from .runtime import env_temperature_limit, make_env, run_episode
+from .runtime import (
+    ENVELOPE_COLUMNS,
+    controller_cutoff,
+    env_temperature_limit,
+    envelope_of,
+    make_env,
+    run_episode,
+)
 from .scenarios import Scenario
 from .zoo_config import CHAIN_ENV_ID, ENV_ID, POLICIES_DIR
 
@@ -65,8 +72,9 @@ def evaluate(
         progress: a progress bar over the scenarios and one line per controller.
 
     Returns:
-        ``(rows, trajectories)``: one metrics dict per (controller, scenario) and the
-        trajectories keyed by (controller, scenario name).
+        ``(rows, trajectories)``: one metrics dict per (controller, scenario), with the envelope it
+        ran in (:func:`~spine_gym.agents.runtime.envelope_of`: ``v_max_V``, ``cutoff_K``, ``guard``),
+        and the trajectories keyed by (controller, scenario name).
     """
     scenarios = list(scenarios)
     rows, trajs = [], {}
@@ -84,7 +92,8 @@ def evaluate(
             m = episode_metrics(
                 traj, temperature_limit=env_temperature_limit(env), dt=float(env.control_period)
             )
-            rows.append({"controller": name, "group": sc.group, "scenario": sc.name, "kind": sc.kind, **m})
+            fields = {"controller": name, "group": sc.group, "scenario": sc.name, "kind": sc.kind}
+            rows.append({**fields, **m, **envelope_of(env, controller_cutoff(ctrl))})
             trajs[(name, sc.name)] = traj
         for env in envs.values():
             env.close()
@@ -96,7 +105,8 @@ def evaluate(
 
 
 def summarize(rows: list[dict]) -> list[dict]:
-    """Mean of each metric per (controller, group), in first-seen order (NaN-aware for settling)."""
+    """Mean of each metric per (controller, group), in first-seen order (NaN-aware for settling),
+    with the group's envelope columns (those of its first row)."""
     keys = []
     for r in rows:
         k = (r["controller"], r["group"])
@@ -109,6 +119,7 @@ def summarize(rows: list[dict]) -> list[dict]:
         for col in METRIC_COLUMNS:
             vals = np.array([r[col] for r in sel], dtype=float)
             s[col] = float(np.nanmean(vals)) if np.any(np.isfinite(vals)) else float("nan")
+        s.update((c, sel[0][c]) for c in ENVELOPE_COLUMNS if c in sel[0])
         out.append(s)
     return out
 
@@ -154,12 +165,15 @@ def format_tables(summary: list[dict], use_rich: bool = True, error_unit: str = 
     tracking-error columns (``mm`` for the chain's tip position)."""
     groups = list(dict.fromkeys(s["group"] for s in summary))
     heads = ["controller"] + [h.replace("[deg]", f"[{error_unit}]") for h, _ in METRIC_COLUMNS.values()]
+    envelope = "guard" in summary[0]  # the envelope each row ran in: the voltage ceiling and the cut-off
+    heads += ["v_max [V]", "guard"] if envelope else []
     chunks = []
     for g in groups:
         sel = [s for s in summary if s["group"] == g]
         body = [
             [s["controller"]]
             + [("n/a" if math.isnan(s[c]) else f.format(s[c])) for c, (_, f) in METRIC_COLUMNS.items()]
+            + ([f"{s['v_max_V']:g}", s["guard"]] if envelope else [])
             for s in sel
         ]
         title = f"scenario group: {g} ({sel[0]['n_scenarios']} scenarios, mean per scenario)"

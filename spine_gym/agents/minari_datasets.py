@@ -13,8 +13,9 @@ from the training and tuning seeds, the validation seeds and the evaluation suit
 
 Besides what Minari stores (the env spec with its keyword arguments, the spaces, the algorithm
 name, the evaluation env spec) the dataset's metadata holds ``spine_gym`` (:func:`load_metadata`):
-env id, tier, env kwargs, controller name and settings, the spine_gym version and git commit, the
-seeds and each episode's RMSE and energy.
+env id, tier, env kwargs, the actuator envelope (:func:`spine_gym.agents.runtime.envelope_of`: the
+voltage ceiling, the plant's thermal cut-off, who cuts a hot wire), controller name and settings,
+the spine_gym version and git commit, the seeds and each episode's RMSE and energy.
 
 Datasets go to Minari's data directory (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``) or
 ``--data-path``. :func:`plan` refuses an existing dataset id unless ``overwrite`` (it is replaced
@@ -135,9 +136,10 @@ def _controller(controller: str, env_id: str, env_kwargs: dict):
             "description": spec.description,
             "kwargs": dict(spec.kwargs),
             "tuned": load_tuned(env_id=env_id)[controller] if spec.tuned else None,
-            "temperature_guard_margin_K": GUARD_MARGIN_K if spec.guard else None,
         }
-        return env, env_kwargs, runtime.build_controller(controller, env), settings
+        ctrl = runtime.build_controller(controller, env)  # no guard of its own where the plant cuts
+        settings["temperature_guard_margin_K"] = GUARD_MARGIN_K if runtime.controller_cutoff(ctrl) else None
+        return env, env_kwargs, ctrl, settings
     if not _is_path(controller):
         raise ValueError(
             f"controller must be one of {sorted(registry_for(env_id))} for {env_id} or a policy folder, "
@@ -204,6 +206,7 @@ def _metadata(p: DatasetPlan, rows: list[dict], command: str) -> dict:
         "env_id": p.env_id,
         "tier": tier_of(p.env_id),
         "env_kwargs": p.env_kwargs,
+        "envelope": runtime.envelope_of(p.env, runtime.controller_cutoff(p.policy)),
         "controller": p.controller,
         "controller_settings": p.settings,
         "spine_gym_version": spine_gym.__version__,

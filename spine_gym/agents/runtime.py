@@ -43,6 +43,10 @@ __all__ = [
     "env_id_of",
     "tracking_keys",
     "env_temperature_limit",
+    "env_thermal_cutoff",
+    "ENVELOPE_COLUMNS",
+    "envelope_of",
+    "controller_cutoff",
     "build_controller",
     "controller_for",
     "energy_weighted_oracle",
@@ -205,6 +209,34 @@ def env_thermal_cutoff(env) -> float | None:
         if hasattr(e, "thermal_cutoff"):
             return e.thermal_cutoff
     return None
+
+
+#: the keys of :func:`envelope_of`: the envelope columns of the evaluation and benchmark tables
+ENVELOPE_COLUMNS = ("v_max_V", "cutoff_K", "guard")
+
+
+def envelope_of(env, controller_cutoff: float | None = None) -> dict:
+    """The actuator envelope a controller meets on ``env``: ``v_max_V`` (the voltage of action +1),
+    ``cutoff_K`` (the plant's thermal cut-off, ``None`` if it has none) and ``guard``, who cuts a hot
+    wire and where: ``"plant 418 K"`` (the env's driver, the same for every controller),
+    ``"controller 418 K"`` (the controller's own guard at ``controller_cutoff`` [K], on its observed
+    temperature) or ``"none"``."""
+    cutoff = env_thermal_cutoff(env)
+    if cutoff is not None:
+        guard = f"plant {cutoff:g} K"
+    elif controller_cutoff is not None:
+        guard = f"controller {float(controller_cutoff):g} K"
+    else:
+        guard = "none"
+    v_max = float(getattr(env, "unwrapped", env).config.v_max)
+    return {"v_max_V": v_max, "cutoff_K": None if cutoff is None else float(cutoff), "guard": guard}
+
+
+def controller_cutoff(controller) -> float | None:
+    """The temperature [K] at which ``controller``'s own guard cuts a wire (a registry controller's
+    ``temperature_limit``), ``None`` if it has none (a learned policy, a controller without guard)."""
+    limit = getattr(controller, "temperature_limit", None)
+    return None if limit is None else float(limit)
 
 
 def build_controller(name: str, env, tuned: dict | None = None):

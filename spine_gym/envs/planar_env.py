@@ -166,6 +166,11 @@ class SmaSpineEnv(SpineEnv):
     * ``sensor_noise``: ``None`` (default) or ``{"angle": deg, "temperature": K, "resistance": Ohm}``
       standard deviations. ``sensor_delay``: whole control periods (default 0).
     * ``temperature_limit`` [K]: threshold of ``info["cost"]``. Default 423 (150 °C).
+    * ``thermal_cutoff`` [K]: ``None`` (default, no cut-off) or the wire driver's thermal cut-off
+      in (``T_E``, ``temperature_limit``]: a wire whose true temperature (not the sensor's) at the
+      start of a control period is at or above it gets 0 V for that period, whatever the action
+      (``info["voltage"]``, power and energy are those delivered; the observation's previous action
+      stays the commanded one). 418 K in every ``-v2`` id.
     * ``error_scale`` [deg] (10), ``energy_weight`` (0.5), ``cost_weight`` [1/K] (0): reward terms.
     * ``observe_errors``: append target − measured tracked quantity and target preview − measured
       tracked quantity to the observation (default ``False``; ``True`` in every ``-v1`` id).

@@ -124,8 +124,9 @@ class SmaSpine3DEnv(SpineEnv):
     ``v_max`` (0, 8] V, ``control_period``, ``physics_dt``, ``episode_duration``,
     ``target_preview``, ``tip_force_range`` (<= 20 N), ``tip_force_count``,
     ``tip_force_duration``, ``payload_range`` (<= 1 kg), ``domain_randomization``,
-    ``sensor_delay``, ``temperature_limit``, ``error_scale`` [deg], ``energy_weight``,
-    ``cost_weight``, ``observe_errors``, ``params``, ``solver``: as ``SmaSpine-v0``.
+    ``sensor_delay``, ``temperature_limit``, ``thermal_cutoff``, ``error_scale`` [deg],
+    ``energy_weight``, ``cost_weight``, ``observe_errors``, ``params``, ``solver``: as
+    ``SmaSpine-v0``.
     ``sensor_noise``: ``None`` or a dict with keys among "angle" [deg], "temperature" [K],
     "resistance" [Ohm]. Own arguments:
 

@@ -12,7 +12,7 @@ from spine_gym.agents import benchmark_ranking as ranking
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.metrics import TIME_OVER_LIMIT_CAP_S
 from spine_gym.controllers.registry import GUARD_MARGIN_K
-from spine_gym.agents.runtime import make_env
+from spine_gym.agents.runtime import build_controller, controller_cutoff, envelope_of, make_env
 
 ENV_ID = "SmaSpineEasy-v1"
 UNITS = {ENV_ID: "deg"}
@@ -119,15 +119,47 @@ def test_envelope_and_budget_columns_on_a_real_env_id(tmp_path):
     env = make_env({"v_max": 4.0}, env_id=ENV_ID)
     assert {r["v_max_V"] for r in rows} == {float(env.config.v_max)} == {4.0}
     by = {r["method"]: r for r in rows}
-    assert by["ppo"]["guard"] == by["sac"]["guard"] == "off"
-    assert by["pid"]["guard"] == f"on (limit − {GUARD_MARGIN_K:g} K)"
+    assert by["ppo"]["guard"] == by["sac"]["guard"] == "none"  # -v1: a policy has no guard
+    assert by["pid"]["guard"] == f"controller {423 - GUARD_MARGIN_K:g} K"  # its registry guard
+    assert {r["cutoff_K"] for r in rows} == {None}  # the -v1 plant cuts nothing
     assert by["ppo"]["budget"] == "1,000 steps × 3 seeds"
     assert by["pid"]["budget"].endswith("episodes (SmaSpine-v0)") and " trials × " in by["pid"]["budget"]
     md = ranking.report_markdown(rows, runs, UNITS)
     assert md.index("## Constrained ranking") < md.index("## Training cost") < md.index("### Runs")
-    assert "| 1 | pid (reference, 10 episodes) | 3.50 | 80 | 0.0 | 4 | on (limit − 5 K) |" in md
+    assert "| 1 | pid (reference, 10 episodes) | 3.50 | 80 | 0.0 | 4 | controller 418 K |" in md
     stats.plot_table(tmp_path / "table.png", rows, UNITS)
     assert (tmp_path / "table.png").stat().st_size > 0
+
+
+def test_on_a_v2_id_every_row_meets_the_plants_cutoff():
+    """-v2: the plant cuts hot wires at 418 K for every method; the registry's PID brings no guard of
+    its own there, so learned and classical rows carry the same protection."""
+    env_id = "SmaSpineEasy-v2"
+    runs = _runs("ppo", [4.0] * 3, [0.0] * 3, env_id=env_id)
+    refs = {env_id: {"pid": {"rmse": 3.5, "energy_J": 80.0, "time_over_limit_s": 0.0, "n_episodes": 10}}}
+    rows = ranking.with_envelope(_rows(runs, refs), {env_id: {}})
+    by = {r["method"]: r for r in rows}
+    assert by["ppo"]["guard"] == by["pid"]["guard"] == "plant 418 K"
+    assert by["ppo"]["cutoff_K"] == by["pid"]["cutoff_K"] == 418.0
+    assert by["ppo"]["v_max_V"] == by["pid"]["v_max_V"] == 5.0
+    md = ranking.constrained_markdown(rows, {env_id: "deg"})
+    assert md.count("| plant 418 K |") == 2 and "controller" not in md
+
+
+def test_the_envelope_of_an_env_names_who_cuts_a_hot_wire():
+    v1, v2 = make_env({}, env_id="SmaSpine-v1"), make_env({}, env_id="SmaSpine-v2")
+    assert envelope_of(v1) == {"v_max_V": 5.0, "cutoff_K": None, "guard": "none"}
+    assert envelope_of(v1, 418.0)["guard"] == "controller 418 K"
+    plant = {"v_max_V": 5.0, "cutoff_K": 418.0, "guard": "plant 418 K"}
+    assert envelope_of(v2, 418.0) == envelope_of(v2) == plant
+    assert envelope_of(make_env({"v_max": 6.0, "thermal_cutoff": 410.0}, env_id="SmaSpine-v2")) == {
+        "v_max_V": 6.0,
+        "cutoff_K": 410.0,
+        "guard": "plant 410 K",
+    }
+    assert controller_cutoff(build_controller("pid", v1)) == 418.0
+    assert controller_cutoff(build_controller("pid", v2)) is None
+    assert controller_cutoff(object()) is None  # a learned policy
 
 
 def test_the_figure_takes_a_row_without_time_over_the_limit(tmp_path):

@@ -14,7 +14,12 @@ from spine_gym.agents.minari_datasets import DATASET_SEED_BASE, dataset_id, load
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, build_controller, make_env
 
 ENV_KWARGS = {"episode_duration": 5.0}
-IDS = ("SmaSpine-v1", "SmaSpine3D-v1")
+IDS = ("SmaSpine-v1", "SmaSpine3D-v2")
+#: the envelope each dataset records: on -v1 the PID's own guard, on -v2 the plant's cut-off
+ENVELOPES = {
+    "SmaSpine-v1": {"v_max_V": 5.0, "cutoff_K": None, "guard": "controller 418 K"},
+    "SmaSpine3D-v2": {"v_max_V": 5.0, "cutoff_K": 418.0, "guard": "plant 418 K"},
+}
 ARGS = ["--controller", "pid", "--episodes", "2", "--env-kwargs", "episode_duration:5.0"]
 
 
@@ -76,6 +81,9 @@ def test_metadata(datasets, env_id):
     meta = load_metadata(ds)
     assert meta["env_id"] == env_id and meta["tier"] == "default" and meta["env_kwargs"] == ENV_KWARGS
     assert meta["controller"] == "pid" and meta["controller_settings"]["tuned"]["kp"] > 0
+    assert meta["envelope"] == ENVELOPES[env_id]
+    margin = meta["controller_settings"]["temperature_guard_margin_K"]
+    assert margin == (None if meta["envelope"]["cutoff_K"] else 5.0)  # no own guard on the plant's
     assert meta["seeds"] == [DATASET_SEED_BASE, DATASET_SEED_BASE + 1]
     assert DATASET_SEED_BASE + 1 < VALIDATION_SEED_BASE
     assert meta["spine_gym_version"] and "git_commit" in meta
