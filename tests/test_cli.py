@@ -124,7 +124,9 @@ BAD = {
     ),
     "export missing policy": (["export", "missing_policy"], "missing_policy does not exist"),
     "calibrate missing csv": (["calibrate", "missing.csv"], "missing.csv does not exist"),
-    "finetune missing preset": (["finetune", "--preset", "missing.json"], "--preset: missing.json does not exist"),
+    "finetune missing preset": (
+        ["finetune", "--preset", "missing.json"], "--preset: missing.json does not exist"
+    ),
     "design parameter": (["design", "sweep", "--param", "wire=1,2", "--no-progress"], "unknown design parameter"),
     "unknown command": (["trian"], "did you mean 'train'?"),
 }
@@ -393,7 +395,9 @@ SHRINK = (
     (r"--workers 2\b", "--workers 1"),
 )
 #: the commands in the order their examples run (train first: the others use its run folder)
-ORDER = ("train", "evaluate", "export", "datasets", "tune", "benchmark", "reproduce", "calibrate", "finetune", "design")
+ORDER = (
+    "train", "evaluate", "export", "datasets", "tune", "benchmark", "reproduce", "calibrate", "finetune", "design"
+)  # fmt: skip
 
 
 def help_examples(argv: list[str]) -> list[str]:

@@ -30,12 +30,19 @@ from .reality_gap import DEFAULT_ENV_ID, LEARNERS, StudyConfig, run_study
 PROG = module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym finetune --preset results/calibration/fit.json --quick -o results/rg_quick   # tiny budgets: a pipeline check
-spine-gym finetune --preset results/calibration/fit.json -o results/reality_gap
-spine-gym finetune --preset results/calibration/fit.json --pretrained results/reality_gap/pretrained --pretrain-steps 0 --k 2 -o results/rg_k2
+spine-gym finetune --preset results/calibration/fit.json --quick -o rg_quick   # tiny budgets
+spine-gym finetune --preset results/calibration/fit.json -o rg
+spine-gym finetune --preset results/calibration/fit.json --pretrained rg/pretrained --pretrain-steps 0 -o rg2
 """
 
-QUICK = {"pretrain_steps": 2048, "finetune_steps": 256, "finetune_seeds": 2, "selection_episodes": 1, "suite": "quick"}
+#: the budgets of ``--quick`` (a pipeline check in about a minute)
+QUICK = {
+    "pretrain_steps": 2048,
+    "finetune_steps": 256,
+    "finetune_seeds": 2,
+    "selection_episodes": 1,
+    "suite": "quick",
+}
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -48,21 +55,20 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         ),
         examples=EXAMPLES,
     )
-    p.add_argument("--preset", required=True, help="spatial fit preset (spine-gym calibrate --layout seed --params wires)")
+    add = p.add_argument
+    add("--preset", required=True, help="spatial fit preset (spine-gym calibrate ... --params wires)")
     add_env(p, default=DEFAULT_ENV_ID, help="a SmaSpine3D* env id (one four-wire module)")
-    p.add_argument("--pretrain-steps", type=int, default=300_000, help="PPO pretraining steps (0: --pretrained)")
-    p.add_argument("--pretrained", default="", help="an existing pretrained run folder (with --pretrain-steps 0)")
-    p.add_argument("--finetune-steps", type=int, default=6_000, help="fine-tuning budget [env steps] on one spine")
-    p.add_argument("--finetune-seeds", type=int, default=5, help="fine-tuning runs (training seeds); the row is their median")
-    p.add_argument("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
-    p.add_argument("--shift-seed", type=int, default=0, help="seed of the shift's signs (the 'real' plant)")
-    p.add_argument(
-        "--learners", nargs="+", default=list(LEARNERS), help="candidates (one: no selection): " + ", ".join(LEARNERS)
-    )
-    p.add_argument("--selection-episodes", type=int, default=5, help="validation episodes per tuning plant")
-    p.add_argument("--suite", default="full", help="evaluation suite: full or quick")
-    p.add_argument("--seed", type=int, default=0, help="training seed")
-    p.add_argument("--quick", action="store_true", help="tiny budgets and the quick suite (a pipeline check)")
+    add("--pretrain-steps", type=int, default=300_000, help="PPO pretraining steps (0: --pretrained)")
+    add("--pretrained", default="", help="an existing pretrained run folder (with --pretrain-steps 0)")
+    add("--finetune-steps", type=int, default=6_000, help="fine-tuning budget [env steps] on one spine")
+    add("--finetune-seeds", type=int, default=5, help="fine-tuning runs (seeds); the row: their median")
+    add("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
+    add("--shift-seed", type=int, default=0, help="seed of the shift's signs (the 'real' plant)")
+    add("--learners", nargs="+", default=list(LEARNERS), help="candidates (one: no selection)")
+    add("--selection-episodes", type=int, default=5, help="validation episodes per tuning plant")
+    add("--suite", default="full", help="evaluation suite: full or quick")
+    add("--seed", type=int, default=0, help="training seed (the first of the fine-tuning seeds)")
+    add("--quick", action="store_true", help="tiny budgets and the quick suite (a pipeline check)")
     add_out(p, default="results/reality_gap")
     add_progress(p)
     return p
@@ -81,7 +87,8 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         "suite": args.suite,
     }
     if args.quick:
-        settings = {**settings, **QUICK, "pretrain_steps": QUICK["pretrain_steps"] if args.pretrain_steps else 0}
+        pretrain_steps = QUICK["pretrain_steps"] if args.pretrain_steps else 0
+        settings = {**settings, **QUICK, "pretrain_steps": pretrain_steps}
     try:
         check_file(args.preset, "--preset")
         check_out_dir(args.out)
@@ -107,8 +114,8 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         else f"recovered {frac:.0%} of the RMSE the shift cost (median over {cfg.finetune_seeds} runs)"
     )
     print(
-        f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps ({summary['hardware_minutes']:.1f} min "
-        f"of hardware): {outcome}; wrote {args.out}/"
+        f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps "
+        f"({summary['hardware_minutes']:.1f} min of hardware): {outcome}; wrote {args.out}/"
     )
     return 0
 

@@ -234,7 +234,12 @@ def _write_run(folder: Path, model, env, meta: dict) -> Path:
 
 
 def pretrain(
-    preset: str | Path, out: str | Path, *, env_id: str = DEFAULT_ENV_ID, n_timesteps: int = 300_000, seed: int = 0
+    preset: str | Path,
+    out: str | Path,
+    *,
+    env_id: str = DEFAULT_ENV_ID,
+    n_timesteps: int = 300_000,
+    seed: int = 0,
 ) -> Path:
     """PPO (``hyperparams/ppo.yml``'s entry of ``env_id``) with domain randomisation from the fit
     ``preset`` for ``n_timesteps``; returns the run folder ``out``."""
@@ -349,13 +354,18 @@ def select_learner(
         plant = shift_plant(unc, k, s).layout
         before = _validation_rmse(Path(pretrained), plant, env_id, n_episodes)
         for name, learner in candidates.items():
-            run = finetune(
-                pretrained, plant, Path(out) / f"{name}_shift{s}", learner=learner, n_timesteps=n_timesteps, seed=s
-            )
+            folder = Path(out) / f"{name}_shift{s}"
+            run = finetune(pretrained, plant, folder, learner=learner, n_timesteps=n_timesteps, seed=s)
             after = _validation_rmse(run, plant, env_id, n_episodes)
             cpu = json.loads((run / "meta.json").read_text())["train_cpu_time_s"]
             rows.append(
-                {"learner": name, "shift_seed": s, "rmse_before": before, "rmse_after": after, "train_cpu_s": cpu}
+                {
+                    "learner": name,
+                    "shift_seed": s,
+                    "rmse_before": before,
+                    "rmse_after": after,
+                    "train_cpu_s": cpu,
+                }
             )
     means = {n: np.mean([r["rmse_after"] for r in rows if r["learner"] == n]) for n in candidates}
     return min(means, key=means.get), rows
@@ -462,7 +472,10 @@ class StudyConfig:
         _check_int("seed", self.seed, 0, 2**31 - 1)
         _check_int("selection_episodes", self.selection_episodes, 1, 100)
         if (self.pretrain_steps == 0) == (not self.pretrained):
-            raise ValueError("pretrained: give a pretrained run folder with pretrain_steps 0, or pretrain_steps > 0 without one")
+            raise ValueError(
+                "pretrained: give a pretrained run folder with pretrain_steps 0, "
+                "or pretrain_steps > 0 without one"
+            )
         if self.pretrained and not (Path(self.pretrained) / "model.zip").exists():
             raise ValueError(f"pretrained must be a run folder with model.zip, got {self.pretrained!r}")
         bad = [n for n in self.learners if n not in LEARNERS]
@@ -500,7 +513,10 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     _write_csv(out / "plant.csv", shift.rows())
     pre = Path(cfg.pretrained) if cfg.pretrained else out / "pretrained"
     if cfg.pretrain_steps:
-        say(f"pretraining PPO on {cfg.env_id} with domain randomisation from {cfg.preset} ({cfg.pretrain_steps} steps)")
+        say(
+            f"pretraining PPO on {cfg.env_id} with domain randomisation from {cfg.preset} "
+            f"({cfg.pretrain_steps} steps)"
+        )
         pretrain(cfg.preset, pre, env_id=cfg.env_id, n_timesteps=cfg.pretrain_steps, seed=cfg.seed)
     candidates = {n: LEARNERS[n] for n in cfg.learners}
     chosen, sel_rows = cfg.learners[0], []
@@ -516,8 +532,8 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
         f"training seeds {list(seeds)})")  # fmt: skip
     fine = [
         finetune(
-            pre, shift.layout, out / f"finetuned_{s}", learner=LEARNERS[chosen], n_timesteps=cfg.finetune_steps,
-            seed=s, plant_file=str(plant_file),
+            pre, shift.layout, out / f"finetuned_{s}", learner=LEARNERS[chosen],
+            n_timesteps=cfg.finetune_steps, seed=s, plant_file=str(plant_file),
         )  # fmt: skip
         for s in seeds
     ]
@@ -555,7 +571,9 @@ ROW_LABELS = {
 }
 
 
-def plot_scores(scores: list[dict], path: str | Path, title: str = "", runs: list[dict] | None = None) -> Path:
+def plot_scores(
+    scores: list[dict], path: str | Path, title: str = "", runs: list[dict] | None = None
+) -> Path:
     """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row (the
     fine-tuned bar: the median of the runs, each run a black dot)."""
     import matplotlib

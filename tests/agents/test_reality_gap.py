@@ -32,7 +32,7 @@ def unc():
 
 
 def _value(layout, direction_name: str) -> float:
-    """The layout's value of a fit parameter named after one field (``wire<j>.<v>`` or a ModelParams field)."""
+    """The layout's value of a fit parameter named after one field (``wire<j>.<v>`` or a params field)."""
     key = wire_key(direction_name)
     if key is None:
         return float(getattr(layout.params, direction_name))
@@ -171,7 +171,8 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     meta = json.loads((out / "finetuned_1" / "meta.json").read_text())
     assert meta["seed"] == 1
     assert meta["finetune_timesteps"] >= 256 and meta["n_envs"] == 1
-    assert meta["start_timesteps"] == json.loads((out / "pretrained" / "meta.json").read_text())["total_timesteps"]
+    pretrained = json.loads((out / "pretrained" / "meta.json").read_text())
+    assert meta["start_timesteps"] == pretrained["total_timesteps"]
     assert (out / "reality_gap.png").stat().st_size > 10_000
     assert (out / "command.txt").read_text().startswith("spine-gym finetune --preset")
     summary = json.loads((out / "summary.json").read_text())
