@@ -80,7 +80,7 @@ def test_train_help_shows_defaults_and_keeps_rl_zoo_aliases(capsys):
 
 # --------------------------------------------------------------------------- usage errors
 BAD = {
-    "train unknown env": (["train", "--algo", "ppo", "--env", "SmaSpine-v9"], "did you mean 'SmaSpine-v1'?"),
+    "train unknown env": (["train", "--algo", "ppo", "--env", "SmaSpine-v9"], "did you mean 'SmaSpine-v2'?"),
     "train env case": (["train", "--algo", "ppo", "--env", "smaspine3d-v1"], "did you mean 'SmaSpine3D-v1'?"),
     "train env kwarg name": (
         ["train", "--algo", "ppo", "--env-kwargs", "episode_duraton=3"], "did you mean 'episode_duration'?"
@@ -115,7 +115,7 @@ BAD = {
     "design workers 0": (["design", "sweep", "--param", "a=6e-3,7e-3", "--workers", "0"], "-1 (all cores) or"),
     "tune controller": (["tune", "--controllers", "pdi"], "did you mean 'pid'?"),
     "tune env kwarg": (["tune", "--env-kwargs", "episode_duraton:3"], "did you mean 'episode_duration'?"),
-    "benchmark unknown env": (["benchmark", "--env", "SmaSpineHard-v2"], "did you mean 'SmaSpineHard-v1'?"),
+    "benchmark unknown env": (["benchmark", "--env", "SmaSpineHrd-v2"], "did you mean 'SmaSpineHard-v2'?"),
     "benchmark env kwarg": (["benchmark", "--quick", "--env-kwargs", "episode_duraton=3"], "did you mean"),
     "datasets unknown env": (["datasets", "--env", "SmaSpine-v9", "--controller", "pid", "--episodes", "1"], "did you mean"),
     "datasets env kwarg": (
@@ -247,7 +247,7 @@ def test_key_values_take_both_separators_and_literals():
 
 
 def test_did_you_mean():
-    assert did_you_mean("SmaSpine-v9", ENV_IDS) == " (did you mean 'SmaSpine-v1'?)"
+    assert did_you_mean("SmaSpine-v9", ENV_IDS) == " (did you mean 'SmaSpine-v2'?)"
     assert did_you_mean("zzz", ENV_IDS) == ""
 
 
@@ -324,7 +324,7 @@ def test_evaluate_defaults_to_the_one_models_env():
     args = evaluate.build_parser().parse_args(["--models", f"mine={V0_POLICY}"])
     assert evaluate._env(args) == "SmaSpine-v0"
     args = evaluate.build_parser().parse_args([])
-    assert evaluate._env(args) == "SmaSpine-v1"
+    assert evaluate._env(args) == "SmaSpine-v2"
 
 
 def test_evaluate_replaces_an_earlier_runs_outputs_and_prints_no_gymnasium_warning(tmp_path, capsys):

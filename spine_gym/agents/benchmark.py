@@ -6,7 +6,8 @@ Example (``spine-gym benchmark`` is the same command)::
     python -m spine_gym.agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
     python -m spine_gym.agents.benchmark --address HOST:6379         # one run per Ray task on a Ray cluster
 
-Every algorithm (PPO, SAC, TD3, TQC) trains on every env id with every seed, with the
+Every algorithm (PPO, SAC, TD3, TQC) trains on every env id (default: the Easy and Hard tiers of
+``-v1``; ``--envs v2``: of ``-v2``, whose plant cuts a hot wire for every method alike) with every seed, with the
 hyperparameters of ``spine_gym/agents/hyperparams/{algo}.yml`` (the entry of the env id; its
 ``n_timesteps`` is the budget unless ``-n``/``--budget`` set one), built as
 :mod:`spine_gym.agents.train` builds a run (:func:`~spine_gym.agents.training.resolve_config`,
@@ -38,10 +39,14 @@ Output folder (``--out``, default ``results/benchmark``):
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
   CI over seeds per evaluation), ``curves_<env id>.png``;
 * ``table.csv`` (per algorithm x env id: IQM and 95 % stratified bootstrap CI over seeds of the
-  final validation metrics, from ``rliable``; the references' means; the envelope and budget),
-  ``runs.csv`` (per run: wall and CPU time, steps, steps and wall time to reach the PID's
-  validation RMSE), ``table.md`` (the constrained ranking first:
-  :mod:`spine_gym.agents.benchmark_ranking`), ``table.png``; ``command.txt`` (every invocation).
+  final validation metrics, from ``rliable``, and of the env steps to the PID's validation RMSE
+  with the hardware time they stand for (steps × the control period: what a real spine would
+  run); the references' means; the envelope and budget), ``runs.csv`` (per run: wall and CPU
+  time, steps, and the steps, wall and CPU time to the PID's validation RMSE with the energy and
+  time over the limit there: :func:`to_pid`), ``table.md`` (the constrained ranking first:
+  :mod:`spine_gym.agents.benchmark_ranking`), ``table.png``, ``profiles.png`` (rliable's
+  performance profiles over the env ids: accuracy relative to the PID, time over the limit);
+  ``command.txt`` (every invocation).
 
 ``--address`` farms the runs out to a Ray cluster (``local``: a Ray instance started here with
 ``--workers`` CPUs; ``auto`` or ``HOST:PORT``: a running cluster), one run per Ray task of one CPU.
@@ -85,7 +90,7 @@ from spine_gym.cli_conventions import (
 )
 from spine_gym.cli_conventions import env_id as env_id_type
 from spine_gym.controllers.registry import registry_for
-from spine_gym.envs import BENCHMARK_IDS, config_of
+from spine_gym.envs import BENCHMARK_IDS, ENV_SPECS, config_of
 
 from . import benchmark_ranking as ranking
 from . import benchmark_stats as stats
@@ -110,7 +115,12 @@ from .runtime import (
 from .training import resolve_config
 from .zoo_config import ALGOS
 
-DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family
+#: ``--envs v1`` / ``--envs v2``: the Easy and Hard tiers of every family in that version (``-v2``: the
+#: same tasks on a plant with the driver's thermal cut-off, the same protection for every method)
+TIER_IDS = {
+    f"v{v}": tuple(s.id for s in ENV_SPECS.values() if s.version == v and s.tier != "default") for v in (1, 2)
+}
+DEFAULT_ENV_IDS = BENCHMARK_IDS  # the Easy and Hard tiers of -v1 of every family (the shipped table's)
 REFERENCES = ("pid", "mpc_estimated", "mpc_oracle")
 SEEDS_PER_ALGO = {"ppo": 5}  # seeds of each algorithm by default; DEFAULT_SEEDS for the others
 DEFAULT_SEEDS = 3
@@ -163,6 +173,30 @@ def reference_scores(
 
 
 # --------------------------------------------------------------------------- report
+#: what :func:`to_pid` adds to a run's record
+TO_PID_KEYS = (
+    "steps_to_pid", "wall_to_pid_s", "cpu_to_pid_s", "energy_ratio_at_pid", "time_over_limit_at_pid_s",
+)  # fmt: skip
+
+
+def to_pid(curve: dict[str, np.ndarray], pid: dict) -> dict:
+    """A run's way to the PID's level (its validation RMSE ``pid["rmse"]``): the env steps, training
+    wall and CPU time of its first evaluation at or below it
+    (:func:`~spine_gym.agents.benchmark_stats.steps_to_level`), and its energy (× the PID's) and
+    time over the temperature limit there; None cells if it never got there."""
+    steps = stats.steps_to_level(curve["step"], curve["rmse"], pid["rmse"])
+    if steps is None:
+        return dict.fromkeys(TO_PID_KEYS)
+    i = int(np.flatnonzero(curve["step"] == steps)[0])
+    return {
+        "steps_to_pid": steps,
+        "wall_to_pid_s": float(curve["train_wall_s"][i]),
+        "cpu_to_pid_s": float(curve["train_cpu_s"][i]),
+        "energy_ratio_at_pid": float(curve["energy_J"][i] / pid["energy_J"]),
+        "time_over_limit_at_pid_s": float(curve["time_over_limit_s"][i]),
+    }
+
+
 def finished_runs(out: Path, specs: list[RunSpec], references: dict) -> tuple[list[dict], dict, list[dict]]:
     """The finished runs among ``specs``: their records with the steps and wall time to the PID's
     validation RMSE, their curves ``{env id: {algo: [curve, ...]}}`` and every evaluation as a row."""
@@ -173,9 +207,7 @@ def finished_runs(out: Path, specs: list[RunSpec], references: dict) -> tuple[li
             continue
         record = json.loads(done.read_text())["record"]
         curve = read_curve(out / spec.folder / "curve.csv")
-        pid = references[spec.env_id]["pid"]["rmse"]
-        steps, wall = stats.time_to_level(curve["step"], curve["train_wall_s"], curve["rmse"], pid)
-        runs.append({**record, "steps_to_pid": steps, "wall_to_pid_s": wall})
+        runs.append({**record, **to_pid(curve, references[spec.env_id]["pid"])})
         curves.setdefault(spec.env_id, {}).setdefault(spec.algo, []).append(curve)
         for i in range(len(curve["step"])):
             evaluations.append({"env_id": spec.env_id, "algo": spec.algo, "seed": spec.seed,
@@ -215,11 +247,15 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
             ]
         stats.plot_curves(out / f"curves_{env_id}.png", env_id, plotted, references[env_id], units[env_id])
     write_csv(out / "learning_curves.csv", curve_rows)
-    summary = stats.summary_rows(runs, {k: v for k, v in references.items() if k in curves}, reps=reps)
-    summary = ranking.with_envelope(summary, {s.env_id: s.env_kwargs for s in specs})
+    kwargs = {s.env_id: s.env_kwargs for s in specs}
+    periods = {e: float(config_of(e, **kwargs[e]).control_period) for e in curves}
+    refs = {k: v for k, v in references.items() if k in curves}
+    summary = stats.summary_rows(runs, refs, reps=reps, control_periods=periods)
+    summary = ranking.with_envelope(summary, kwargs)
     write_csv(out / "table.csv", summary)
     (out / "table.md").write_text(ranking.report_markdown(summary, runs, units))
     stats.plot_table(out / "table.png", summary, units)
+    stats.plot_profiles(out / "profiles.png", runs, refs, reps=reps)
     return summary
 
 
@@ -235,6 +271,16 @@ spine-gym benchmark --address HOST:6379          # one run per Ray task on a Ray
 """
 
 
+def env_ids_type(text: str) -> str:
+    """argparse ``type`` of ``--envs``: a registered spine env id or a key of :data:`TIER_IDS`."""
+    return text if text in TIER_IDS else env_id_type(text)
+
+
+def expand_env_ids(items: list[str]) -> list[str]:
+    """``--envs`` items with each :data:`TIER_IDS` key replaced by its ids, in order, once each."""
+    return list(dict.fromkeys(i for item in items for i in TIER_IDS.get(item, (item,))))
+
+
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
     p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
@@ -242,11 +288,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
         "--envs",
         "--env",
         nargs="+",
-        type=env_id_type,
-        choices=ENV_IDS,
+        type=env_ids_type,
         default=None,
         metavar="ID",
-        help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two); any of: {', '.join(ENV_IDS)}",
+        help=f"env ids (default: {' '.join(DEFAULT_ENV_IDS)}; --quick: the first two), or v1 / v2: the Easy "
+        f"and Hard tiers of that version (v2: {' '.join(TIER_IDS['v2'])}); any of: {', '.join(ENV_IDS)}",
     )
     p.add_argument(
         "--n-seeds",
@@ -383,7 +429,7 @@ def make_plan(args: argparse.Namespace) -> Plan:
     """Validate the arguments and list the runs; ValueError (one line) on anything invalid, before
     any file is written."""
     s = _settings(args)
-    env_ids = list(args.envs) if args.envs else list(DEFAULT_ENV_IDS[: 2 if args.quick else None])
+    env_ids = expand_env_ids(args.envs) if args.envs else list(DEFAULT_ENV_IDS[: 2 if args.quick else None])
     unknown = [e for e in env_ids if e not in gym.envs.registry]
     if unknown:
         raise ValueError(

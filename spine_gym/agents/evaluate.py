@@ -11,13 +11,22 @@ else on ``SmaSpine-v1``; a model trained on another env (by its ``meta.json``, e
 stored in its file) is a usage error before any work, as is an ``--out`` that cannot be written.
 Every controller (anything with SB3's ``predict``) runs every scenario of the suite in its own
 env, reset with the scenario's seed, target profile and load schedule
-(:mod:`spine_gym.agents.evaluation`, the library this command line runs). The CLI
-prints one table per scenario group (mean over the group's scenarios) with tracking RMSE and max
-error [deg], settling time [s] (step scenarios), electrical energy [J], peak wire temperature [K]
-and time over the temperature limit [s], and writes to ``--out``:
+(:mod:`spine_gym.agents.evaluation`, the library this command line runs).
+
+The CLI prints first the equal-terms comparison (:mod:`spine_gym.agents.equal_terms`): per actuator
+envelope (voltage ceiling ``v_max``) and scenario group, the controllers at most 0.5 s per episode
+over the temperature limit ranked by RMSE, then the others apart with their violation, each with
+its energy, both as multiples of the tuned PID's in the same envelope, and who cuts a hot wire
+(``guard``: the plant's cut-off of the ``-v2`` ids, the controller's own guard, or none). A model that runs at another
+ceiling than the env's (its own ``v_max``) gets the baselines re-run at its ceiling (named
+``pid@6V``, ...) and is compared only with them. Then one table per scenario group (mean over the
+group's scenarios) with tracking RMSE and max error [deg], settling time [s] (step scenarios),
+electrical energy [J], peak wire temperature [K] and time over the temperature limit [s]. It
+writes to ``--out``:
 
 * ``metrics.csv`` — one row per (controller, scenario); ``summary.csv`` — one row per
-  (controller, group);
+  (controller, group); ``equal_terms.csv`` — the equal-terms comparison, one row per (envelope,
+  group, controller);
 * ``trajectories/<controller>/<scenario>.csv`` — the step-by-step record;
 * ``plots/<controller>_<group>.png`` — angle and target, voltages and temperatures vs time for
   each scenario of the group;

@@ -13,8 +13,9 @@ import torch
 
 from spine_gym import cli_conventions as cli
 from spine_gym.controllers.registry import BASELINES, REGISTRY, baselines_for, registry_for
-from spine_gym.envs import base_id
+from spine_gym.envs import base_id, config_of
 
+from . import equal_terms
 from .evaluation import (
     ERROR_UNIT,
     evaluate,
@@ -30,7 +31,6 @@ from .evaluation import (
 from .policy_files import check_policy_env, policy_meta, trained_env_id
 from .runtime import (
     build_controller,
-    env_temperature_limit,
     evaluation_env_kwargs,
     load_policy,
     make_env,
@@ -173,27 +173,52 @@ def plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
     return scenarios, baselines, models
 
 
-def controllers_of(args, baselines: list[str], models: dict[str, Path]) -> tuple[dict, dict, float]:
-    """(controllers, their env kwargs, the env's temperature limit [K])."""
-    controllers: dict[str, object] = {}
-    env_kwargs: dict[str, dict] = {}
-    probe = make_env(args.env_kwargs, env_id=args.env)
-    limit = env_temperature_limit(probe)
-    for b in baselines:
-        controllers[b] = build_controller(b, probe)
-        env_kwargs[b] = dict(args.env_kwargs)
+def _v_max(env_id: str, env_kwargs: dict) -> float:
+    """[V] The voltage of action +1 of an env of ``env_id`` made with ``env_kwargs``."""
+    return float(config_of(env_id, **env_kwargs).v_max)
+
+
+def _build_baselines(env_id: str, baselines: list[str], kwargs: dict, suffix: str = "") -> dict:
+    probe = make_env(kwargs, env_id=env_id)
+    try:
+        return {f"{b}{suffix}": build_controller(b, probe) for b in baselines}
+    finally:
+        probe.close()
+
+
+def controllers_of(
+    args, baselines: list[str], models: dict[str, Path]
+) -> tuple[dict, dict, float, dict[str, equal_terms.Entry]]:
+    """(controllers, their env kwargs, the env's temperature limit [K], their
+    :class:`~spine_gym.agents.equal_terms.Entry`).
+
+    A model that runs at another voltage ceiling than the baselines' (its own ``v_max``) gets the
+    baselines again at its ceiling, named with :func:`~spine_gym.agents.equal_terms.envelope_suffix`
+    (``pid@6V``), so that it is compared with baselines in its own envelope."""
+    controllers = _build_baselines(args.env, baselines, args.env_kwargs)
+    env_kwargs = {b: dict(args.env_kwargs) for b in baselines}
+    entries = {b: equal_terms.Entry(b, True) for b in baselines}
+    limit = float(config_of(args.env, **args.env_kwargs).temperature_limit)
     if models:
         torch.set_num_threads(1)
     for name, path in models.items():
         pol = load_policy(path, name=name)
         controllers[name] = pol
         env_kwargs[name] = policy_env_kwargs(pol.env_kwargs, args.env_kwargs)
-    probe.close()
-    return controllers, env_kwargs, limit
+        entries[name] = equal_terms.Entry(name, False)
+    own = _v_max(args.env, args.env_kwargs)
+    for v_max in dict.fromkeys(_v_max(args.env, env_kwargs[m]) for m in models):
+        if baselines and v_max != own:
+            kw = {**args.env_kwargs, "v_max": v_max}
+            suffix = equal_terms.envelope_suffix(v_max)
+            controllers |= _build_baselines(args.env, baselines, kw, suffix)
+            env_kwargs |= {f"{b}{suffix}": dict(kw) for b in baselines}
+            entries |= {f"{b}{suffix}": equal_terms.Entry(b, True) for b in baselines}
+    return controllers, env_kwargs, limit, entries
 
 
 #: what an evaluation writes into --out (removed before a new one writes there)
-OUTPUTS = ("metrics.csv", "summary.csv", "relative.csv", "trajectories", "plots", "videos")
+OUTPUTS = ("metrics.csv", "summary.csv", "relative.csv", "equal_terms.csv", "trajectories", "plots", "videos")
 
 
 def remove_outputs(out: Path) -> None:
@@ -212,15 +237,19 @@ def run(args, planned: tuple[list[Scenario], list[str], dict[str, Path]], t_star
     write the outputs to ``args.out``; exit status 0. ``t_start``: when the command started."""
     t_start = time.perf_counter() if t_start is None else t_start
     scenarios, baselines, models = planned
-    controllers, env_kwargs, limit = controllers_of(args, baselines, models)
+    controllers, env_kwargs, limit, entries = controllers_of(args, baselines, models)
     print(f"evaluating {list(controllers)} on suite '{args.suite}' ({len(scenarios)} scenarios)", flush=True)
     rows, trajs = evaluate(controllers, scenarios, env_kwargs, progress=args.progress)
     summary = summarize(rows)
     print()
     unit = ERROR_UNIT.get(base_id(args.env), "deg")
+    comparison = equal_terms.comparison_rows(summary, entries)
+    default_v_max = _v_max(args.env, args.env_kwargs)
+    print(equal_terms.format_comparison(comparison, unit, default_v_max))
     print(format_tables(summary, use_rich=not args.plain, error_unit=unit))
     out = Path(args.out)
     remove_outputs(out)
+    write_csv(out / "equal_terms.csv", comparison)
     if args.relative_to:
         rel = relative_rows(summary, args.relative_to)
         print(format_relative(rel, args.relative_to))

@@ -9,9 +9,11 @@ Each model (run folder: its final ``model.zip``; with ``--best`` also its ``best
 runs ``--episodes`` episodes drawn by the env's own samplers (the training distribution: random
 targets, tip forces and payloads) with reset seeds ``VALIDATION_SEED_BASE + i`` — disjoint from
 the training seeds, the tuning seeds and the evaluation suite's seeds. The tuned PID runs the same
-episodes as the reference. Printed and written (``--out``, CSV): mean tracking RMSE [deg], mean
-energy [J] and mean time with a wire above the env's temperature limit [s] per episode, per model,
-and the ratio of RMSE and energy to the PID's.
+episodes as the reference, in each model's actuator envelope: a model that runs at another
+voltage ceiling (its own ``v_max``) is compared with the PID run at that ceiling, never with one
+held to another. Printed and written (``--out``, CSV): mean tracking RMSE [deg], mean energy [J]
+and mean time with a wire above the env's temperature limit [s] per episode, per model, its
+ceiling ``v_max_V``, and the ratio of RMSE and energy to the PID's at that ceiling.
 
 ``--env-kwargs key:value ...`` scores every model and the PID on that distribution instead of each
 model's own training one (e.g. the hard group's plants and loads); the PID runs it with the env's
@@ -30,6 +32,7 @@ import sys
 from pathlib import Path
 
 from spine_gym.cli_conventions import module_prog
+from spine_gym.envs import config_of
 
 from .evaluation import write_csv
 from .runtime import (
@@ -66,6 +69,22 @@ def score_row(name: str, controller, n_episodes: int, env_kwargs: dict, env_id: 
     return {"model": name, **mean}
 
 
+def reference(
+    refs: dict[float, dict], pid_kwargs: dict, v_max: float | None, n_episodes: int, env_id: str
+) -> dict:
+    """The tuned PID's :func:`score_row` at voltage ceiling ``v_max`` (None: that of ``pid_kwargs``),
+    from ``refs`` (keyed by the ceiling) or run and stored there."""
+    kw = dict(pid_kwargs) if v_max is None else {**pid_kwargs, "v_max": v_max}
+    v = float(config_of(env_id, **kw).v_max)
+    if v not in refs:
+        probe = make_env(kw, env_id=env_id)
+        pid = build_controller("pid", probe)
+        probe.close()
+        name = "pid" if not refs else f"pid@{v:g}V"
+        refs[v] = {**score_row(name, pid, n_episodes, kw, env_id), "v_max_V": v}
+    return refs[v]
+
+
 #: this command's name as ``python -m <module>``
 PROG = module_prog(__spec__.name)
 
@@ -93,29 +112,31 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(1)
     # the PID reference sees the env's default observation (preview), as in the evaluation suite
     pid_kwargs = {k: v for k, v in (args.env_kwargs or {}).items() if k not in OBSERVATION_KWARGS}
-    probe = make_env(pid_kwargs, env_id=args.env)
-    pid = build_controller("pid", probe)
-    ref = score_row("pid", pid, args.episodes, pid_kwargs, args.env)
-    probe.close()
-    rows = [{**ref, "rmse_ratio": 1.0, "energy_ratio": 1.0}]
+    refs: dict[float, dict] = {}  # the PID's row per voltage ceiling, run when a model needs it
+    reference(refs, pid_kwargs, None, args.episodes, args.env)
+    rows = []
     for run in map(Path, args.runs):
         targets = [run] + ([run / "best_model.zip"] if args.best and (run / "best_model.zip").exists() else [])
         for t in targets:
             pol = load_policy(t)
             kw = model_env_kwargs(getattr(pol, "env_kwargs", {}), args.env_kwargs)
-            row = score_row(str(t), pol, args.episodes, kw, args.env)
+            v_max = float(config_of(args.env, **kw).v_max)
+            ref = reference(refs, pid_kwargs, v_max, args.episodes, args.env)
+            row = {**score_row(str(t), pol, args.episodes, kw, args.env), "v_max_V": v_max}
             rmse_ratio, energy_ratio = row["rmse_deg"] / ref["rmse_deg"], row["energy_J"] / ref["energy_J"]
             rows.append({**row, "rmse_ratio": rmse_ratio, "energy_ratio": energy_ratio})
             print(
                 f"{str(t):<55s} RMSE {row['rmse_deg']:6.2f} ({rmse_ratio:5.2f} x PID)  "
                 f"energy {row['energy_J']:6.1f} J ({energy_ratio:5.2f} x PID)  "
-                f"T>limit {row['time_over_limit_s']:5.2f} s",
+                f"T>limit {row['time_over_limit_s']:5.2f} s  at {v_max:g} V",
                 flush=True,
             )
-    print(
-        f"{'pid':<55s} RMSE {ref['rmse_deg']:6.2f}  energy {ref['energy_J']:6.1f} J  "
-        f"T>limit {ref['time_over_limit_s']:5.2f} s"
-    )
+    for v_max, ref in refs.items():
+        print(
+            f"{'pid':<55s} RMSE {ref['rmse_deg']:6.2f}  energy {ref['energy_J']:6.1f} J  "
+            f"T>limit {ref['time_over_limit_s']:5.2f} s  at {v_max:g} V"
+        )
+    rows = [{**ref, "rmse_ratio": 1.0, "energy_ratio": 1.0} for ref in refs.values()] + rows
     if args.out:
         write_csv(Path(args.out), rows)
     return 0

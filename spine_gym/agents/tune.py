@@ -9,123 +9,48 @@ Example (``spine-gym tune`` is the same command)::
 An existing output file is refused unless ``--overwrite`` (which replaces the tuned controllers'
 entries and keeps the others).
 
-The objective is the mean tracking RMSE [deg; mm for the chain's tip position] over ``--episodes``
-episodes of the env (``--env``, default ``SmaSpine-v1``)
-drawn by the env's own samplers (random targets and loads) with reset seeds
-``TRAIN_SEED_BASE + i`` — the same distribution the RL agents train on, and disjoint from the
-evaluation suite's seeds (:data:`spine_gym.agents.scenarios.EVAL_SEED_BASE`). Optuna's TPE sampler is
-seeded, every trial sees the same episodes and the rollouts are deterministic, so the same
-command gives the same gains. Both controllers cut a wire whose temperature reaches the env's
-limit minus :data:`GUARD_MARGIN_K` (as in the evaluation).
+The objective (``--objective``, :data:`OBJECTIVES`) is a mean over ``--episodes`` episodes of the env
+(``--env``, default ``SmaSpine-v1``) drawn by the env's own samplers (random targets and loads)
+with reset seeds ``TRAIN_SEED_BASE + i`` — the same distribution the RL agents train on, and
+disjoint from the evaluation suite's seeds (:data:`spine_gym.agents.scenarios.EVAL_SEED_BASE`):
+
+* ``rmse`` — the tracking RMSE [deg; mm for the chain's tip position];
+* ``rmse_energy`` — the RMSE plus the energy term of the env's own reward in the same unit:
+  ``error_scale × energy_weight × mean(E_step / E_ref)`` (the exchange rate of tracking error
+  against energy the RL agents are trained with: 5° per unit of normalised step energy on the
+  ``-v1``/``-v2`` ids, 10 mm on the chain), so a gain set cannot win by burning energy.
+
+Optuna's TPE sampler is seeded, every trial sees the same episodes and the rollouts are
+deterministic, so the same command gives the same gains. The hand-set start point and the gains
+in use (:func:`load_tuned`) are tried first. On ids without a thermal cut-off in the plant the
+controllers cut a wire whose temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` (as
+in the evaluation); on the ``-v2`` ids the plant's cut-off is the only protection.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from spine_gym import cli_conventions as cli
-from spine_gym.controllers.registry import (
-    DEFAULT_TUNED_BY_ENV,
-    GUARD_MARGIN_K,
-    get_spec,
-    load_tuned,
-    tunable_for,
-    tuned_file,
-)
-from spine_gym.envs import base_id
+from spine_gym.controllers.registry import GUARD_MARGIN_K, load_tuned, tunable_for, tuned_file
 
-from .runtime import build_controller, run_episode
-from .runtime import make_env as default_make_env
-from .zoo_config import DEFAULT_ENV_ID, ENV_ID
+from .tuning import OBJECTIVES, TRAIN_SEED_BASE, energy_exchange_rate, episode_score, objective_value, tune
+from .zoo_config import DEFAULT_ENV_ID
 
-__all__ = ["tune", "objective_value", "load_tuned", "TRAIN_SEED_BASE", "GUARD_MARGIN_K"]
-
-TRAIN_SEED_BASE = 1_000  # reset seeds of the tuning episodes: TRAIN_SEED_BASE + i (i < 10_000)
-
-
-def objective_value(env, ctrl, seeds: list[int]) -> float:
-    """Mean RMSE [deg] of ``ctrl`` over the training episodes ``seeds``."""
-    rmse = []
-    for s in seeds:
-        tr = run_episode(env, ctrl, seed=s)
-        rmse.append(np.sqrt(np.mean(tr.error**2)))
-    return float(np.mean(rmse))
-
-
-def tune(
-    kind: str,
-    *,
-    n_trials: int = 60,
-    n_episodes: int = 8,
-    seed: int = 0,
-    env_kwargs: dict | None = None,
-    make_env=None,
-    verbose: bool = True,
-    env_id: str = ENV_ID,
-) -> dict:
-    """Tune one baseline (``"pid"`` or ``"bang_bang"``) with seeded TPE; returns the record.
-
-    Args:
-        kind: which controller.
-        n_trials: Optuna trials, >= 1.
-        n_episodes: training episodes per trial, in [1, 10000].
-        seed: sampler seed (the episodes are always ``TRAIN_SEED_BASE + i``).
-        env_kwargs: env kwargs (default: the env's defaults).
-        make_env: env factory ``(env_kwargs) -> env`` (default :func:`spine_gym.agents.runtime.make_env` of ``env_id``).
-        verbose: print progress.
-        env_id: the env whose registry entry is tuned (``SmaSpine-v0`` or a spatial id).
-
-    Returns:
-        ``{"params": best settings, "train_rmse_deg": value, "n_trials", "n_episodes", "seed", ...}``.
-    """
-    import optuna
-
-    if kind not in tunable_for(env_id):
-        raise ValueError(f"kind must be one of {sorted(tunable_for(env_id))}, got {kind!r}")
-    if not 1 <= n_episodes <= 10_000:
-        raise ValueError(f"n_episodes must be in [1, 10000], got {n_episodes}")
-    if n_trials < 1:
-        raise ValueError(f"n_trials must be >= 1, got {n_trials}")
-    env = make_env(env_kwargs or {}) if make_env else default_make_env(env_kwargs or {}, env_id=env_id)
-    spec = get_spec(kind, env_id)
-    v_max = float(env.v_max)
-    seeds = [TRAIN_SEED_BASE + i for i in range(n_episodes)]
-
-    def objective(trial):
-        # built as runtime.build_controller builds it for the evaluation (same guard, same env)
-        ctrl = build_controller(kind, env, tuned={kind: spec.search_space(trial, v_max)})
-        return objective_value(env, ctrl, seeds)
-
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed))
-    # the hand-set start point is always tried
-    study.enqueue_trial(DEFAULT_TUNED_BY_ENV[base_id(env_id)][kind])
-    t0 = time.perf_counter()
-    for i in range(n_trials):
-        study.optimize(objective, n_trials=1)
-        if verbose and (i % 10 == 9 or i == n_trials - 1):
-            print(
-                f"  {kind}: {i + 1}/{n_trials} trials, best train RMSE {study.best_value:.3f} deg", flush=True
-            )
-    env.close()
-    return {
-        "params": {k: round(float(v), 6) for k, v in study.best_params.items()},
-        "train_rmse_deg": round(float(study.best_value), 4),
-        "n_trials": n_trials,
-        "n_episodes": n_episodes,
-        "episode_seeds": f"{seeds[0]}..{seeds[-1]}",
-        "sampler_seed": seed,
-        "env_id": env_id,
-        "env_kwargs": dict(env_kwargs or {}),
-        "wall_time_s": round(time.perf_counter() - t0, 1),
-    }
-
+__all__ = [
+    "tune",
+    "objective_value",
+    "episode_score",
+    "energy_exchange_rate",
+    "OBJECTIVES",
+    "load_tuned",
+    "TRAIN_SEED_BASE",
+    "GUARD_MARGIN_K",
+]
 
 #: this command's name as ``python -m <module>`` (``spine-gym <command>`` passes its own ``prog``)
 PROG = cli.module_prog(__spec__.name)
@@ -147,6 +72,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p.add_argument("--trials", type=int, default=60, help="Optuna trials per controller")
     p.add_argument("--episodes", type=int, default=8, help="training episodes per trial")
     p.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
+    p.add_argument(
+        "--objective", choices=OBJECTIVES, default="rmse",
+        help="rmse, or rmse_energy: the RMSE plus the env reward's energy term in the same unit",
+    )  # fmt: skip
     cli.add_env_kwargs(p)
     cli.add_out(
         p, metavar="FILE",
@@ -192,11 +121,12 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     for kind in args.controllers:
         rec = tune(
             kind, n_trials=args.trials, n_episodes=args.episodes, seed=args.seed, env_id=args.env,
-            env_kwargs=args.env_kwargs, verbose=args.progress,
+            env_kwargs=args.env_kwargs, verbose=args.progress, objective=args.objective,
         )  # fmt: skip
         rec["command"] = command
         record[kind] = rec
-        print(f"{kind}: {rec['params']} (train RMSE {rec['train_rmse_deg']} deg)")
+        best = rec.get("train_rmse_deg", rec.get("train_score"))
+        print(f"{kind}: {rec['params']} (train {args.objective} {best})")
     header = (
         "# Tuned baseline settings, written by spine_gym/agents/tune.py (see its docstring); do not edit by hand.\n"
     )

@@ -25,10 +25,10 @@ from spine_gym.envs import ENV_SPECS
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
 ENV_ID = "SmaSpine-v0"  # the planar family's base id (its controller table, tuned file, shipped policies)
-DEFAULT_ENV_ID = "SmaSpine-v1"  # what train, evaluate and tune run on without --env: the current planar id
+DEFAULT_ENV_ID = "SmaSpine-v2"  # what train, evaluate and tune run on without --env: the newest planar id
 SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
 CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
-ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, -v1 and the -v1 tiers of the three families
+ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, and -v1/-v2 with their tiers, of the three families
 ALGOS = ("ppo", "sac", "td3", "tqc")  # tqc: sb3-contrib
 OFF_POLICY = ("sac", "td3", "tqc")  # the algorithms with a replay buffer
 

@@ -232,8 +232,12 @@ class PhaseEstimator:
         """Predict over the control period just taken (unless this is the first observation of the
         episode), correct with ``obs`` and return the estimated state (a view, do not modify)."""
         obs = np.asarray(obs, dtype=np.float64)
-        if obs.shape != (OBS_DIM,):
-            raise ValueError(f"obs must be one SmaSpine-v0 observation of shape (10,), got {obs.shape}")
+        if obs.ndim != 1 or obs.shape[0] < OBS_DIM:  # -v1/-v2 append their error entries to -v0's
+            raise ValueError(
+                f"obs must be one planar observation of shape (d,), d >= {OBS_DIM} (SmaSpine-v0's entries "
+                f"first), got {obs.shape}"
+            )
+        obs = obs[:OBS_DIM]
         if self._started:
             self._predict(obs)
         elif self.identify:

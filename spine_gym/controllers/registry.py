@@ -4,9 +4,12 @@
 choose controllers only through :data:`REGISTRY` (and :func:`spine_gym.agents.runtime.build_controller`, which builds an entry for an
 env). The tuned settings of the tuned entries live beside the controllers, in
 ``spine_gym/controllers/tuned/baselines.yml`` (planar ``SmaSpine-v0``) and
-``spine_gym/controllers/tuned/baselines_<env id>.yml`` (the spatial envs) (:func:`load_tuned`),
+``spine_gym/controllers/tuned/baselines_<env id>.yml`` (the spatial envs): the gains of a family,
 written by :mod:`spine_gym.agents.tune` from each entry's :attr:`ControllerSpec.search_space`
-(``spine_gym.agents.registry`` is the former module path, kept for one release).
+(``spine_gym.agents.registry`` is the former module path, kept for one release). An id may hold
+its own gains in ``spine_gym/controllers/tuned/<env id>.yml`` (:func:`id_tuned_file`, written by
+:mod:`spine_gym.agents.retune` only for a re-tune that beat the family's gains on validation
+episodes); :func:`load_tuned` reads an id's own entry where there is one and the family's otherwise.
 
 Each env id has its own table (:data:`REGISTRIES`, :func:`registry_for`): :data:`REGISTRY` for
 ``SmaSpine-v0``; ``SmaSpine3D-v0`` and ``SmaSpineChain-v0`` get the spatial baselines of
@@ -51,7 +54,9 @@ __all__ = [
     "tunable_for",
     "get_spec",
     "tuned_file",
+    "id_tuned_file",
     "load_tuned",
+    "tuned_record",
 ]
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
@@ -265,11 +270,35 @@ def tuned_file(env_id: str = ENV_ID) -> Path:
     return TUNED_FILE if env_id == ENV_ID else TUNED_DIR / f"baselines_{env_id}.yml"
 
 
+def id_tuned_file(env_id: str) -> Path:
+    """Where the gains of ``env_id`` alone live (an id's own re-tune, :mod:`spine_gym.agents.retune`);
+    ValueError for an unregistered id."""
+    base_id(env_id)  # ValueError naming the registered ids
+    return TUNED_DIR / f"{env_id}.yml"
+
+
+def _read(path: Path) -> dict:
+    return (yaml.safe_load(path.read_text()) or {}) if path.exists() else {}
+
+
+def tuned_record(env_id: str, name: str) -> dict | None:
+    """The stored record (``params``, tuning budget, validation scores...) the tuned settings of entry
+    ``name`` on ``env_id`` come from: the id's own file's entry, else the family file's, else None
+    (the entry runs on :data:`DEFAULT_TUNED_BY_ENV`)."""
+    for path in (id_tuned_file(env_id), tuned_file(env_id)):
+        entry = _read(path).get(name)
+        if entry:
+            return entry
+    return None
+
+
 def load_tuned(path: Path | None = None, env_id: str = ENV_ID) -> dict:
-    """Tuned settings ``{name: {...}}`` of the tuned entries of ``env_id`` (defaults if not tuned yet)."""
+    """Tuned settings ``{name: {...}}`` of the tuned entries of ``env_id``: per entry, the id's own
+    gains (:func:`id_tuned_file`) if it has them, else its family's (:func:`tuned_file`), else the
+    defaults (not tuned yet). ``path``: read that one file instead (entries it lacks: defaults)."""
     defaults = DEFAULT_TUNED_BY_ENV[base_id(env_id)]
-    path = Path(path) if path else tuned_file(env_id)
-    if not path.exists():
-        return {k: dict(v) for k, v in defaults.items()}
-    data = yaml.safe_load(path.read_text())
-    return {k: dict(data[k]["params"]) if k in data else dict(v) for k, v in defaults.items()}
+    layers = [Path(path)] if path else [tuned_file(env_id), id_tuned_file(env_id)]
+    out = {k: dict(v) for k, v in defaults.items()}
+    for data in map(_read, layers):  # later layers win
+        out.update((k, dict(data[k]["params"])) for k in defaults if k in data)
+    return out

@@ -4,6 +4,7 @@ values, time to the PID's level, resuming, bad arguments, and the --quick pipeli
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -82,6 +83,103 @@ def test_time_to_pid_level_on_a_synthetic_curve():
     assert stats.time_to_level(steps, wall, rmse, 50.0) == (0, 0.0)
 
 
+# --------------------------------------------------------------------------- steps to the PID's level
+STEPS = [0, 10_000, 20_000, 30_000, 40_000, 50_000]
+
+
+def test_steps_to_level_of_a_curve_that_reaches_it():
+    rmse = [12.0, 8.0, 5.0, 4.1, 3.9, 3.5]  # PID at 4.0
+    assert stats.steps_to_level(STEPS, rmse, 4.0) == 40_000
+    assert stats.steps_to_level(STEPS, rmse, 5.0) == 20_000  # at the level counts
+    assert stats.steps_to_level(STEPS, rmse, 20.0) == 0  # already there untrained
+
+
+def test_steps_to_level_of_a_curve_that_never_reaches_it():
+    rmse = [12.0, 8.0, 6.0, 5.0, 4.5, 4.01]
+    assert stats.steps_to_level(STEPS, rmse, 4.0) is None
+    assert stats.steps_to_level(STEPS, [math.nan] * 6, 4.0) is None  # a NaN evaluation is no hit
+
+
+def test_steps_to_level_of_a_noisy_curve_is_its_first_crossing():
+    rmse = [12.0, 3.9, 4.6, 4.2, 3.8, 4.3]  # dips below at 10 k, back above, below again at 40 k
+    assert stats.steps_to_level(STEPS, rmse, 4.0) == 10_000  # reaching the level, not staying there
+    assert stats.time_to_level(STEPS, [0, 1, 2, 3, 4, 5], rmse, 4.0) == (10_000, 1.0)
+
+
+def test_steps_to_level_refuses_bad_curves():
+    with pytest.raises(ValueError, match="one length"):
+        stats.steps_to_level([0, 1], [1.0], 1.0)
+    with pytest.raises(ValueError, match="steps must increase"):
+        stats.steps_to_level([0, 2, 1], [3.0, 2.0, 1.0], 1.0)
+    with pytest.raises(ValueError, match="level must be a finite"):
+        stats.steps_to_level([0, 1], [3.0, 2.0], math.nan)
+
+
+def test_the_iqm_over_seeds_counts_runs_that_never_reach_the_level():
+    reached = [20_000, 30_000, 40_000, 50_000, 60_000]
+    iqm, lo, hi = stats.censored_iqm_interval(reached, reps=500)
+    assert iqm == pytest.approx(40_000) and 20_000 <= lo <= iqm <= hi <= 60_000  # all reached: plain IQM
+    assert stats.censored_iqm_interval(reached, reps=500) == (iqm, lo, hi)  # reproducible
+    # one of five never: it is the first cut from the top, not dropped (dropping it would give 35 k)
+    iqm, lo, hi = stats.censored_iqm_interval([20_000, 30_000, 40_000, 50_000, None], reps=500)
+    assert iqm == pytest.approx(40_000) and hi == math.inf and math.isfinite(lo)
+    # two of five never: the middle half holds one, the IQM is "not reached", never a made-up number
+    assert stats.censored_iqm_interval([20_000, 30_000, 40_000, None, None], reps=500)[0] == math.inf
+    assert stats.censored_iqm_interval([None] * 3, reps=200) == (math.inf, math.inf, math.inf)
+    with pytest.raises(ValueError, match="values must be"):
+        stats.censored_iqm_interval([])
+    with pytest.raises(ValueError, match="values must be"):
+        stats.censored_iqm_interval([1.0, math.nan])
+
+
+def test_hardware_time_is_steps_times_the_control_period():
+    assert stats.hardware_time(30_000, 0.1) == pytest.approx(3000.0)  # 50 min of a real spine
+    assert stats.hardware_time(None, 0.1) is None and stats.hardware_time(math.inf, 0.1) == math.inf
+    assert stats.duration(3000.0) == "50.0 min" and stats.duration(math.inf) == stats.NOT_REACHED
+    assert stats.steps_cell(30_000) == "30 k" and stats.steps_cell(500) == "500"
+
+
+def test_a_runs_way_to_the_pid_reads_its_first_evaluation_at_the_level():
+    curve = {"step": np.array(STEPS, dtype=float), "rmse": np.array([9.0, 5.0, 3.9, 3.0, 4.5, 3.0]),
+             "train_wall_s": np.arange(6.0) * 10, "train_cpu_s": np.arange(6.0) * 8,
+             "energy_J": np.array([100.0, 200, 330, 300, 300, 300]),
+             "time_over_limit_s": np.array([0.0, 0, 0.7, 0, 0, 0])}  # fmt: skip
+    got = bm.to_pid(curve, {"rmse": 4.0, "energy_J": 300.0})
+    assert got == {"steps_to_pid": 20_000, "wall_to_pid_s": 20.0, "cpu_to_pid_s": 16.0,
+                   "energy_ratio_at_pid": pytest.approx(1.1), "time_over_limit_at_pid_s": 0.7}  # fmt: skip
+    assert bm.to_pid(curve, {"rmse": 1.0, "energy_J": 300.0}) == dict.fromkeys(bm.TO_PID_KEYS)
+
+
+def test_performance_profiles_on_synthetic_runs(tmp_path):
+    runs = [{"algo": a, "env_id": e, "seed": k, "final_rmse": r, "final_time_over_limit_s": t}
+            for a, r, t in (("good", 2.0, 0.0), ("bad", 8.0, 3.0))
+            for e in ("A", "B") for k in range(3)]  # fmt: skip
+    runs.append({"algo": "good", "env_id": "C", "seed": 0, "final_rmse": 1.0, "final_time_over_limit_s": 0.0})
+    refs = {e: {"pid": {"rmse": 4.0}} for e in ("A", "B", "C")}
+    accuracy, over, ids = stats.profile_scores(runs, refs)
+    assert ids == ["A", "B"]  # C: only one algorithm ran there
+    assert accuracy["good"].shape == (3, 2) and np.all(accuracy["good"] == 2.0)
+    assert np.all(accuracy["bad"] == 0.5)
+    prof, cis = stats.performance_profiles(accuracy, np.array([0.4, 1.0, 2.0]), reps=200)
+    assert prof["good"].tolist() == [1.0, 1.0, 0.0] and prof["bad"].tolist() == [1.0, 0.0, 0.0]
+    prof, _ = stats.performance_profiles(over, np.array([0.0, 0.5, 3.0]), reps=200, below=True)
+    assert prof["good"].tolist() == [1.0, 1.0, 1.0]
+    assert prof["bad"].tolist() == [0.0, 0.0, 1.0]  # at τ counts
+    assert stats.plot_profiles(tmp_path / "p.png", runs, refs, reps=200)
+    assert (tmp_path / "p.png").stat().st_size > 10_000
+    assert not stats.plot_profiles(tmp_path / "q.png", runs, {}, reps=200)
+    assert not (tmp_path / "q.png").exists()
+
+
+def test_envs_v2_is_the_easy_and_hard_tiers_of_v2_and_the_default_stays_v1():
+    assert bm.DEFAULT_ENV_IDS == bm.TIER_IDS["v1"] and all(i.endswith("-v1") for i in bm.DEFAULT_ENV_IDS)
+    assert bm.TIER_IDS["v2"] == tuple(i.replace("-v1", "-v2") for i in bm.TIER_IDS["v1"])
+    args = bm.build_parser().parse_args(["--envs", "v2", "SmaSpineEasy-v2", "SmaSpine-v1", "--algos", "ppo"])
+    plan = bm.make_plan(args)
+    assert plan.env_ids == [*bm.TIER_IDS["v2"], "SmaSpine-v1"]
+    assert {s.env_id for s in plan.specs} == set(plan.env_ids)
+
+
 def _synthetic_runs():
     runs = []
     for algo, base in (("ppo", 3.0), ("sac", 8.0)):
@@ -92,6 +190,7 @@ def _synthetic_runs():
                 "cpu_s": 50.0, "final_rmse": rmse, "final_energy_J": 100.0 + seed,
                 "final_time_over_limit_s": 0.0,
                 "steps_to_pid": 500 if rmse <= 5.0 else None, "wall_to_pid_s": 30.0 if rmse <= 5.0 else None,
+                "cpu_to_pid_s": 25.0 if rmse <= 5.0 else None,
             })  # fmt: skip
     return runs
 
@@ -112,9 +211,13 @@ def test_table_rows_and_markdown_from_synthetic_runs():
     pid = next(r for r in rows if r["method"] == "pid")
     assert pid["kind"] == "reference" and pid["rmse_iqm"] == 5.0 and pid["rmse_ci_low"] is None
     assert len({tuple(r) for r in rows}) == 1  # one set of columns for the CSV
+    # 3 of 5 seeds at 500 steps, 2 never: the middle half holds one that never did, so no number
+    assert ppo["steps_to_pid_iqm"] == math.inf and ppo["hardware_to_pid_s_iqm"] is None  # no control period
     md = stats.training_markdown(rows, runs, {"SmaSpine-v0": "deg"})
-    assert "| ppo | 5 | 1,000 | 62 s | 50 s | 3/5 |" in md and "| 0/5 |" in md
-    assert "| SmaSpine-v0 | sac | 0 | 1,000 | 60 s | 50 s | 8.00 deg | — | — |" in md
+    assert "| ppo | 5 | 1,000 | 3/5 | not reached [500, not reached] | — | " in md
+    assert "| sac | 5 | 1,000 | 0/5 | not reached | — | not reached | not reached |" in md
+    assert "| 50 s | 62 s |" in md  # CPU and wall of the budget (means)
+    assert "| SmaSpine-v0 | sac | 0 | 1,000 | 60 s | 50 s | 8.00 deg | — | — | — | — | — |" in md
 
 
 # --------------------------------------------------------------------------- hyperparameters
