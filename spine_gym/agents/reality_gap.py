@@ -8,8 +8,8 @@ The steps, each a function:
   move drawn from ``seed`` (:class:`PlantShift`; an unidentified parameter moves by ``k`` × the
   standard deviation of its uniform draw). :func:`write_plant` saves it as a preset file.
 * :func:`pretrain` — PPO on the env id with ``domain_randomization=<preset>`` (every episode a
-  plant drawn from the fit's covariance, per-wire values included), the entry of
-  ``hyperparams/ppo.yml``.
+  plant drawn from the fit's covariance, per-wire values included), the plain ``-v1`` entry of
+  ``hyperparams/ppo.yml`` (:func:`plain_entry`: no energy budget, no observation wrappers).
 * :func:`finetune` — the pretrained policy trained on the shifted plant for a step budget
   (:class:`Learner`: one spine, as on hardware, PPO with short rollouts; the policy, its value
   function and its observation statistics continue from the pretrained run).
@@ -43,7 +43,7 @@ from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
 from .evaluation import evaluate, summarize
 from .metrics import METRIC_COLUMNS
-from .runtime import controller_for, load_policy, validation_metrics
+from .runtime import controller_for, evaluation_env_kwargs, load_policy, validation_metrics
 from .scenarios import get_suite
 from .training import build_envs, build_model, resolve_config
 from .vec_env import make_vec_env
@@ -61,6 +61,7 @@ __all__ = [
     "plant_env_kwargs",
     "nominal_env_kwargs",
     "pretrain",
+    "plain_entry",
     "finetune",
     "finetune_model",
     "select_learner",
@@ -225,6 +226,13 @@ LEARNERS = {
 
 
 # ------------------------------------------------------------------------------------------ training
+def plain_entry(env_id: str) -> str:
+    """The ``ppo.yml`` entry the pretraining uses: the ``-v1`` one of the same task (``SmaSpine3DEasy-v2``
+    -> ``SmaSpine3DEasy-v1``; the ``-v2`` entries add an energy budget and an integral-of-error
+    observation, whose wrappers a fine-tuning on hardware would have to run too)."""
+    return env_id.replace("-v2", "-v1")
+
+
 def _write_run(folder: Path, model, env, meta: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     model.save(folder / "model.zip")
@@ -241,13 +249,15 @@ def pretrain(
     n_timesteps: int = 300_000,
     seed: int = 0,
 ) -> Path:
-    """PPO (``hyperparams/ppo.yml``'s entry of ``env_id``) with domain randomisation from the fit
-    ``preset`` for ``n_timesteps``; returns the run folder ``out``."""
+    """PPO (the plain entry of ``hyperparams/ppo.yml``, :func:`plain_entry`) on ``env_id`` with domain
+    randomisation from the fit ``preset`` for ``n_timesteps``; returns the run folder ``out``."""
     import torch
 
     torch.set_num_threads(1)
-    env_kwargs = {"domain_randomization": str(preset)}
-    cfg = resolve_config("ppo", env_id, n_timesteps=n_timesteps, env_kwargs=env_kwargs)
+    entry = plain_entry(env_id)
+    dr = {"domain_randomization": str(preset)}
+    cfg = resolve_config("ppo", entry, n_timesteps=n_timesteps, env_kwargs=dr)
+    cfg.env_id = env_id
     envs = build_envs(cfg, seed)
     model = build_model(cfg, envs.env, seed)
     t0, c0 = time.time(), time.process_time()
@@ -255,7 +265,8 @@ def pretrain(
     meta = {
         "algo": "ppo",
         "env_id": env_id,
-        "env_kwargs": env_kwargs,
+        "env_kwargs": cfg.env_kwargs,
+        "hyperparams_entry": entry,
         "seed": seed,
         "n_envs": cfg.n_envs,
         "n_timesteps": cfg.n_timesteps,
@@ -306,7 +317,8 @@ def finetune(
     pre = Path(pretrained)
     pre_meta = json.loads((pre / "meta.json").read_text())
     env_id = pre_meta["env_id"]
-    venv = make_vec_env(env_id, 1, seed=seed, env_kwargs=plant_env_kwargs(plant))
+    env_kwargs = {**evaluation_env_kwargs(pre_meta.get("env_kwargs", {})), **plant_env_kwargs(plant)}
+    venv = make_vec_env(env_id, 1, seed=seed, env_kwargs=env_kwargs)
     t0, c0 = time.time(), time.process_time()
     start = int(pre_meta["total_timesteps"])
     model, env = finetune_model(pre, venv, learner=learner, n_timesteps=n_timesteps, seed=seed)
