@@ -40,7 +40,7 @@ def test_simulate_pulls_in_no_torch_sb3_or_matplotlib():
     assert out.returncode == 0, out.stdout + out.stderr
 
 
-HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard")
+HEAVY = ("torch", "stable_baselines3", "optuna", "tensorboard", "jax", "sbx")
 
 
 AGENTS = ROOT / "spine_gym" / "agents"
@@ -198,9 +198,12 @@ def test_base_dependencies_leave_the_heavy_stack_to_extras():
     names = {re.split(r"[<>=\[ ;]", d, maxsplit=1)[0].lower() for d in meta["dependencies"]}
     assert names == {"numpy", "numba", "gymnasium", "matplotlib", "tqdm", "rich", "pyyaml"}
     extras = meta["optional-dependencies"]
-    assert {"rl", "design", "calibrate", "video", "rllib", "export", "datasets", "test", "docs", "all"} <= set(extras)
+    assert {"rl", "jax", "design", "calibrate", "video", "rllib", "export", "datasets", "test", "docs", "all"} <= set(
+        extras
+    )
     assert any(d.startswith("torch==") for d in extras["rl"])  # pinned: never an unpinned CUDA build
-    assert extras["all"] == ["spine_gym[rl,design,calibrate,video,export,datasets,test,docs]"]
+    assert any(d.startswith("sbx-rl") for d in extras["jax"]) and "spine_gym[rl]" in extras["jax"]
+    assert extras["all"] == ["spine_gym[rl,jax,design,calibrate,video,export,datasets,test,docs]"]
 
 
 def test_exported_policy_runner_and_c_writer_import_only_numpy_and_the_standard_library():

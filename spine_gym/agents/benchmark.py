@@ -6,8 +6,9 @@ Example (``spine-gym benchmark`` is the same command)::
     python -m spine_gym.agents.benchmark --quick --out /tmp/bench    # the smoke run of CI (under 2 min on 2 cores)
     python -m spine_gym.agents.benchmark --address HOST:6379         # one run per Ray task on a Ray cluster
 
-Every algorithm (PPO, SAC, TD3, TQC) trains on every env id (default: the Easy and Hard tiers of
-``-v1``; ``--envs v2``: of ``-v2``, whose plant cuts a hot wire for every method alike) with every seed, with the
+Every algorithm of ``--algos`` (default PPO, SAC, TD3, TQC; the JAX learners CrossQ and DroQ of the ``jax``
+extra when named) trains on every env id (default: the Easy and Hard tiers of ``-v1``; ``--envs v2``: of
+``-v2``, whose plant cuts a hot wire for every method alike) with every seed, with the
 hyperparameters of ``spine_gym/agents/hyperparams/{algo}.yml`` (the entry of the env id; its
 ``n_timesteps`` is the budget unless ``-n``/``--budget`` set one), built as
 :mod:`spine_gym.agents.train` builds a run (:func:`~spine_gym.agents.training.resolve_config`,
@@ -113,7 +114,7 @@ from .runtime import (
     validation_metrics,
 )
 from .training import resolve_config
-from .zoo_config import ALGOS
+from .zoo_config import ALGOS, JAX_ALGOS, SB3_ALGOS
 
 #: ``--envs v1`` / ``--envs v2``: the Easy and Hard tiers of every family in that version (``-v2``: the
 #: same tasks on a plant with the driver's thermal cut-off, the same protection for every method)
@@ -143,6 +144,8 @@ QUICK_HYPERPARAMS = {
     "sac": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "td3": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
+    "crossq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
+    "droq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
 }
 
 
@@ -283,7 +286,11 @@ def expand_env_ids(items: list[str]) -> list[str]:
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = Parser(prog=prog, description=__doc__.split("\n")[0], examples=EXAMPLES)
-    p.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="algorithms (default: all)")
+    p.add_argument(
+        "--algos", nargs="+", choices=ALGOS, default=list(SB3_ALGOS),
+        help=f"algorithms (default: {' '.join(SB3_ALGOS)}; the JAX learners {' '.join(JAX_ALGOS)} "
+        "need the jax extra)",
+    )  # fmt: skip
     p.add_argument(
         "--envs",
         "--env",

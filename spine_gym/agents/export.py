@@ -10,7 +10,7 @@ writes into ``exported/ppo/``:
   (out, in)), the ``VecNormalize`` statistics (``obs_mean``, ``obs_std`` = √(var + ε),
   ``clip_obs``) and the action bounds (``action_low``, ``action_high``);
 * ``policy.json`` — what they mean: algorithm, layer activations, output stage (``clip`` for PPO's
-  mean action, ``squash`` = tanh and rescaling for SAC and TD3), the names and units of the
+  mean action, ``squash`` = tanh and rescaling for SAC, TD3 and the JAX learners), the names and units of the
   network's inputs and of the actions, the env id and kwargs, the spine_gym version, and the
   specs of the observation memories (``features``);
 * ``policy.onnx`` — the same network, normalisation and output stage included (input ``obs``
@@ -19,7 +19,10 @@ writes into ``exported/ppo/``:
 
 The exported action is SB3's ``predict(deterministic=True)`` for a Box action space after
 ``VecNormalize.normalize_obs``: PPO's mean action clipped to the bounds, SAC's tanh-squashed mean
-and TD3's actor, rescaled to the bounds. :mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
+and TD3's actor, rescaled to the bounds. The JAX learners of the ``jax`` extra (SBX's CrossQ and SAC,
+:mod:`spine_gym.agents.jax_algos`) export likewise: their actor's mean through tanh, CrossQ's batch
+renormalisation (affine at inference: running statistics) folded into the Dense layer after it.
+:mod:`spine_gym.agents.numpy_policy` runs the bundle with NumPy
 alone; the formulas are in its docstring.
 
 Observation memories (:mod:`spine_gym.agents.observations`: the integral of the error, the
@@ -104,7 +107,8 @@ def _check_extractor(extractor) -> None:
 
 
 def actor_layers(model) -> tuple[str, list[list], str]:
-    """``(algo, layers, output)`` of the deterministic actor of an SB3 ``PPO``, ``SAC`` or ``TD3``.
+    """``(algo, layers, output)`` of the deterministic actor of an SB3 ``PPO``, ``SAC`` or ``TD3``, or of
+    an SBX (JAX) ``CrossQ`` or ``SAC`` (:func:`_sbx_actor_layers`).
 
     ``layers`` is ``[[W (out, in), b, activation], …]`` (float32) and ``output`` ``"clip"`` (PPO's
     mean action, clipped to the action bounds) or ``"squash"`` (tanh, then rescaled to them)."""
@@ -133,9 +137,66 @@ def actor_layers(model) -> tuple[str, list[list], str]:
             raise UnsupportedPolicyError("exporting a TD3 actor that does not end in Tanh is not supported")
         layers[-1][2] = "none"
         return type(model).__name__.lower(), layers, "squash"
+    if type(model).__module__.split(".")[0] == "sbx":
+        return _sbx_actor_layers(model)
     raise UnsupportedPolicyError(
-        f"exporting a {type(model).__name__} model is not supported: PPO, SAC and TD3 are"
+        f"exporting a {type(model).__name__} model is not supported: "
+        "PPO, SAC, TD3 and SBX's CrossQ and SAC are"
     )
+
+
+def _sbx_activation(fn) -> str:
+    """``relu`` or ``tanh``: an SBX policy's activation, by name (a loaded model holds an unpickled copy
+    of JAX's function, not JAX's own object)."""
+    name = getattr(fn, "__name__", repr(fn))
+    if name not in ("relu", "tanh"):
+        raise UnsupportedPolicyError(
+            f"exporting an SBX policy with activation {name!r} is not supported: only relu and tanh"
+        )
+    return name
+
+
+def _sbx_actor_layers(model) -> tuple[str, list[list], str]:
+    """``("sbx_<class>", layers, "squash")`` of an SBX ``CrossQ`` or ``SAC`` (DroQ is SBX's SAC): the
+    Dense layers of the actor up to its mean head, whose tanh is SBX's deterministic action. CrossQ's batch
+    renormalisation layers are affine at inference (running statistics: ``scale (x − mean) /
+    √(var + ε) + bias``) and are folded into the Dense layer after each, in float64."""
+    from sbx.common.policies import SquashedGaussianActor
+    from sbx.crossq.policies import Actor as CrossQActor
+
+    pol = model.policy
+    actor = pol.actor
+    if type(actor) not in (SquashedGaussianActor, CrossQActor):
+        raise UnsupportedPolicyError(
+            f"exporting an SBX {type(actor).__name__} is not supported: only the MLP actors of SAC and "
+            "CrossQ (not the Simba ones)"
+        )
+    params = pol.actor_state.params
+    params = params.get("params", params)  # SBX's SAC keeps Flax's "params" level, CrossQ not
+    act = _sbx_activation(pol.activation_fn)
+    norm = isinstance(actor, CrossQActor) and bool(actor.use_batch_norm)
+    stats = pol.actor_state.batch_stats if norm else None
+    n_hidden = len(actor.net_arch)
+    layers = []
+    for i in range(n_hidden + 1):  # the hidden layers, then the mean head (Dense_<n_hidden>)
+        kernel = np.asarray(params[f"Dense_{i}"]["kernel"], np.float64)  # (in, out)
+        bias = np.asarray(params[f"Dense_{i}"]["bias"], np.float64)
+        if norm:  # BatchRenorm_i normalises this layer's input: x -> a x + c
+            a, c = _renorm_affine(params[f"BatchRenorm_{i}"], stats[f"BatchRenorm_{i}"])
+            kernel, bias = kernel * a[:, None], bias + c @ kernel
+        layers.append([kernel.T.astype(np.float32), bias.astype(np.float32), act if i < n_hidden else "none"])
+    return "sbx_" + type(model).__name__.lower(), layers, "squash"  # sbx_crossq, sbx_sac (DroQ's too)
+
+
+#: the epsilon of SBX's ``BatchRenorm`` (its default; CrossQ does not set it)
+SBX_RENORM_EPSILON = 1e-3
+
+
+def _renorm_affine(params, stats) -> tuple[np.ndarray, np.ndarray]:
+    """``(a, c)`` of a ``BatchRenorm`` layer at inference: ``y = a x + c`` (float64)."""
+    var = np.asarray(stats["var"], np.float64)
+    a = np.asarray(params["scale"], np.float64) / np.sqrt(var + SBX_RENORM_EPSILON)
+    return a, np.asarray(params["bias"], np.float64) - np.asarray(stats["mean"], np.float64) * a
 
 
 # --------------------------------------------------------------------------- the bundle

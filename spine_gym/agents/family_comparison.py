@@ -3,7 +3,7 @@ main command, ``bash scripts/run.sh``).
 
 Example::
 
-    python -m spine_gym.agents.family_comparison        # SmaSpine-v1, SmaSpine3D-v1, SmaSpineChain-v1
+    python -m spine_gym.agents.family_comparison        # SmaSpineHard-v2, SmaSpine3D-v2, SmaSpineChain-v2
     python -m spine_gym.agents.family_comparison --suite quick -o /tmp/eval --no-plots
 
 For each env id it runs :mod:`spine_gym.agents.evaluate` once per actuator envelope of the id's
@@ -33,8 +33,9 @@ from .evaluation import shipped_policies
 from .runtime import evaluation_env_kwargs, make_env
 from .zoo_config import ENV_IDS
 
-#: the -v1 id of each family, in the order they are compared
-FAMILY_IDS = ("SmaSpine-v1", "SmaSpine3D-v1", "SmaSpineChain-v1")
+#: each family's -v2 id of its shipped -v2 policy (the plant's cut-off protects every controller alike),
+#: in the order they are compared
+FAMILY_IDS = ("SmaSpineHard-v2", "SmaSpine3D-v2", "SmaSpineChain-v2")
 #: env kwargs that set what the actuators may do: a policy and the baselines it is ranked against share them
 ENVELOPE_KWARGS = ("v_max",)
 #: evaluate's options each comparison sets itself

@@ -22,6 +22,8 @@ import yaml
 from spine_gym.cli_conventions import KeyValues
 from spine_gym.envs import ENV_SPECS
 
+from .jax_algos import jax_algo_class
+
 HYPERPARAMS_DIR = Path(__file__).parent / "hyperparams"
 POLICIES_DIR = Path(__file__).parent / "policies"
 ENV_ID = "SmaSpine-v0"  # the planar family's base id (its controller table, tuned file, shipped policies)
@@ -29,8 +31,11 @@ DEFAULT_ENV_ID = "SmaSpine-v2"  # what train, evaluate and tune run on without -
 SPATIAL_ENV_ID = "SmaSpine3D-v0"  # one four-wire module
 CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
 ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, and -v1/-v2 with their tiers, of the three families
-ALGOS = ("ppo", "sac", "td3", "tqc")  # tqc: sb3-contrib
-OFF_POLICY = ("sac", "td3", "tqc")  # the algorithms with a replay buffer
+SB3_ALGOS = ("ppo", "sac", "td3", "tqc")  # Stable-Baselines3 on torch (tqc: sb3-contrib)
+#: Stable-Baselines3's JAX edition (``sbx-rl``, the ``jax`` extra; :mod:`spine_gym.agents.jax_algos`)
+JAX_ALGOS = ("crossq", "droq")
+ALGOS = SB3_ALGOS + JAX_ALGOS
+OFF_POLICY = ("sac", "td3", "tqc", *JAX_ALGOS)  # the algorithms with a replay buffer
 
 # keys of a hyperparameter entry that are not constructor arguments of the algorithm
 SPECIAL_KEYS = (
@@ -57,13 +62,15 @@ SPECIAL_KEYS = (
 
 
 def algo_class(algo: str) -> type:
-    """The Stable-Baselines3 (``tqc``: sb3-contrib) class of ``algo``.
+    """The Stable-Baselines3 (``tqc``: sb3-contrib; :data:`JAX_ALGOS`: ``sbx``) class of ``algo``.
 
     Imported here rather than at module level: this module is also the hyperparameter parser of
-    tools that never build a model, and SB3 pulls in torch.
+    tools that never build a model, and SB3 pulls in torch (``sbx`` JAX).
     """
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {ALGOS}, got {algo!r}")
+    if algo in JAX_ALGOS:
+        return jax_algo_class(algo)
     if algo == "tqc":
         from sb3_contrib import TQC
 

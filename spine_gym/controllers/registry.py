@@ -188,7 +188,6 @@ REGISTRY: dict[str, ControllerSpec] = {
         SlidingModeController,
         "adaptive terminal sliding mode with a boundary layer",
         _smc_space,
-        in_default=False,
     ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
 }
@@ -217,7 +216,6 @@ def _spatial_registry(pid_space: Callable) -> dict[str, ControllerSpec]:
             SpatialSlidingModeController,
             "adaptive terminal sliding mode per module and bending axis",
             _smc_space,
-            in_default=False,
             from_env=True,
         ),
         **_mpc_specs(

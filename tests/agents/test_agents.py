@@ -354,7 +354,7 @@ def test_registry_is_the_one_place_controllers_are_chosen():
     from spine_gym.controllers import MPPIController
 
     env = ev.make_env()
-    assert set(registry.BASELINES) == {"step", "bang_bang", "pid"}
+    assert set(registry.BASELINES) == {"step", "bang_bang", "pid", "smc"}
     assert set(registry.TUNABLE) == {"bang_bang", "pid", "smc"}
     for name in registry.REGISTRY:
         ctrl = build_controller(name, env)
