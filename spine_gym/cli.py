@@ -12,6 +12,7 @@ runs as ``python -m <module>``::
     spine-gym reproduce  -> python -m spine_gym.experiments
     spine-gym export     -> python -m spine_gym.agents.export
     spine-gym datasets   -> python -m spine_gym.agents.datasets
+    spine-gym finetune   -> python -m spine_gym.agents.finetune
 
 The shared options (:mod:`spine_gym.cli_conventions`): ``-o/--out`` the output folder, ``--env`` a
 registered spine env id, ``--env-kwargs k=v`` (``k:v`` too), ``--progress/--no-progress``,
@@ -68,6 +69,11 @@ COMMANDS: dict[str, Command] = {
     "export": Command("spine_gym.agents.export", "export a policy as ONNX, NumPy and C", "-o (required)"),
     "datasets": Command(
         "spine_gym.agents.datasets", "record Minari datasets of a controller", "~/.minari/datasets/"
+    ),
+    "finetune": Command(
+        "spine_gym.agents.finetune",
+        "pretrain on a calibration's uncertainty, fine-tune on a shifted plant",
+        "results/reality_gap/",
     ),
 }
 

@@ -124,6 +124,9 @@ BAD = {
     ),
     "export missing policy": (["export", "missing_policy"], "missing_policy does not exist"),
     "calibrate missing csv": (["calibrate", "missing.csv"], "missing.csv does not exist"),
+    "finetune missing preset": (
+        ["finetune", "--preset", "missing.json"], "--preset: missing.json does not exist"
+    ),
     "design parameter": (["design", "sweep", "--param", "wire=1,2", "--no-progress"], "unknown design parameter"),
     "unknown command": (["trian"], "did you mean 'train'?"),
 }
@@ -388,10 +391,13 @@ SHRINK = (
     (r"^spine-gym reproduce\b(?!.*--quick)", "--quick --no-plots"),
     (r"^spine-gym calibrate\b", "--no-global --n-starts 1 --max-nfev 2 --no-progress"),
     (r"^spine-gym design optimize\b", "--n-trials 3"),
+    (r"^spine-gym finetune\b", "--quick"),
     (r"--workers 2\b", "--workers 1"),
 )
 #: the commands in the order their examples run (train first: the others use its run folder)
-ORDER = ("train", "evaluate", "export", "datasets", "tune", "benchmark", "reproduce", "calibrate", "design")
+ORDER = (
+    "train", "evaluate", "export", "datasets", "tune", "benchmark", "reproduce", "calibrate", "finetune", "design"
+)  # fmt: skip
 
 
 def help_examples(argv: list[str]) -> list[str]:

@@ -57,6 +57,7 @@ CLI_MODULES = (
     "spine_gym.agents.selection",
     "spine_gym.agents.export",
     "spine_gym.agents.datasets",
+    "spine_gym.agents.finetune",
     "spine_gym.agents.behaviour_cloning",
     "spine_gym.agents.rllib_ppo",
     "spine_gym.agents.family_comparison",
