@@ -78,8 +78,8 @@ COMMANDS: dict[str, Command] = {
 }
 
 EXAMPLES = f"""
-{PROG} train --algo ppo --env SmaSpine-v1 -n 20000 -o logs     # a first run (the YAML's budget without -n)
-{PROG} evaluate --suite quick --models mine=logs/ppo/SmaSpine-v1_1
+{PROG} train --algo ppo --env SmaSpine-v2 -n 20000 -o logs     # a first run (the YAML's budget without -n)
+{PROG} evaluate --suite quick --models mine=logs/ppo/SmaSpine-v2_1
 {PROG} reproduce --quick -o runs/repro
 {PROG} <command> --help             # the options of one command
 """

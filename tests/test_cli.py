@@ -364,9 +364,9 @@ def test_train_prints_a_progress_line_and_the_next_step(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     lines = proc.stdout.strip().splitlines()
     assert len(lines) <= 6 and lines[0].startswith("training: "), proc.stdout
-    run_folder = tmp_path / "logs" / "ppo" / "SmaSpine-v1_1"
-    assert lines[-1].startswith("saved logs/ppo/SmaSpine-v1_1/model.zip after ")
-    assert lines[-1].endswith("— next: spine-gym evaluate --models ppo=logs/ppo/SmaSpine-v1_1 --suite quick")
+    run_folder = tmp_path / "logs" / "ppo" / "SmaSpine-v2_1"
+    assert lines[-1].startswith("saved logs/ppo/SmaSpine-v2_1/model.zip after ")
+    assert lines[-1].endswith("— next: spine-gym evaluate --models ppo=logs/ppo/SmaSpine-v2_1 --suite quick")
     assert (run_folder / "model.zip").exists()
 
 

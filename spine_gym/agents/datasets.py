@@ -46,7 +46,7 @@ PROG = cli.module_prog(__spec__.name)
 EXAMPLES = """
 spine-gym datasets --env SmaSpine-v1 SmaSpine3D-v1 --controller pid --episodes 2
 spine-gym datasets --env SmaSpine-v1 --controller mpc_oracle --episodes 1 --env-kwargs episode_duration=2.0
-spine-gym datasets --env SmaSpine-v1 --controller logs/ppo/SmaSpine-v1_1 --episodes 2 -o runs/minari
+spine-gym datasets --env SmaSpine-v2 --controller logs/ppo/SmaSpine-v2_1 --episodes 2 -o runs/minari
 """
 
 

@@ -81,7 +81,7 @@ PROG = cli.module_prog(__spec__.name)
 EXAMPLES = """
 spine-gym evaluate --suite quick                     # shipped policies + step, bang-bang, PID
 spine-gym evaluate --env SmaSpine3D-v1 --suite quick --no-plots -o results/eval_3d
-spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v1_1
+spine-gym evaluate --suite quick --baselines pid --models mine=logs/ppo/SmaSpine-v2_1
 spine-gym evaluate --suite quick --baselines pid --models --env-kwargs sensor_delay=1 --no-progress
 """
 

@@ -106,7 +106,7 @@ def models_of(items: list[str] | None, env_id: str) -> dict[str, Path]:
     for item in items:
         name, sep, path = item.partition("=")
         if not sep and not Path(item).exists():
-            raise ValueError(f"--models takes NAME=PATH (e.g. mine=logs/ppo/SmaSpine-v1_1), got {item!r}")
+            raise ValueError(f"--models takes NAME=PATH (e.g. mine=logs/ppo/SmaSpine-v2_1), got {item!r}")
         if not sep:
             name, path = Path(item).stem if Path(item).suffix else Path(item).name, item
         cli.check_file(path, f"--models {name}")

@@ -411,8 +411,8 @@ class OneUlpUp:
 PROG = module_prog(__spec__.name)
 
 EXAMPLES = """
-spine-gym export logs/ppo/SmaSpine-v1_1 -o exported/ppo          # a run folder (or a shipped policy's)
-spine-gym export logs/ppo/SmaSpine-v1_1/model.zip -o exported/zip   # a model file
+spine-gym export logs/ppo/SmaSpine-v2_1 -o exported/ppo          # a run folder (or a shipped policy's)
+spine-gym export logs/ppo/SmaSpine-v2_1/model.zip -o exported/zip   # a model file
 """
 
 

@@ -135,7 +135,7 @@ EXAMPLES = """
 spine-gym train --algo ppo -n 4000 --seed 1 --n-envs 8 --save-freq 2000 -o logs --env-kwargs episode_duration=60.0
 spine-gym train --algo sac --env SmaSpine-v1 -n 2000 -params learning_starts=1000 batch_size=256
 spine-gym train --algo crossq --env SmaSpineEasy-v2 -n 30000  # a JAX learner (pip install 'spine_gym[jax]')
-spine-gym train --resume logs/ppo/SmaSpine-v1_1           # an interrupted run, from its newest checkpoint
+spine-gym train --resume logs/ppo/SmaSpine-v2_1           # an interrupted run, from its newest checkpoint
 python -m spine_gym.agents.train --algo ppo -n 2000 -f logs        # the same module, RL Zoo's -f
 """
 
