@@ -14,7 +14,8 @@ slower per episode).
     PYTHONPATH=$PWD python benchmarks/retune_classical.py --summary-only
 
 Each finished (id, controller) is a record ``records/<id>__<controller>.yml`` in ``--out`` (default
-``benchmarks/results/classical_tuning``), written as it finishes and skipped on a re-run;
+``benchmarks/results/classical_tuning``), written as it finishes and skipped on a re-run; the code tree
+keeps them as one ``records.tar.xz`` (unpacked at the start, re-packed after each record);
 ``summary.csv`` and ``summary.md`` are rebuilt from the records after each one.
 """
 
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
+import tarfile
 from pathlib import Path
 
 import yaml
@@ -95,9 +97,26 @@ def write_summary(out: Path, command: str) -> None:
     (out / "summary.md").write_text("\n".join(lines) + "\n")
 
 
+def unpack_records(out: Path) -> None:
+    """The records are kept in the code tree as one ``records.tar.xz``: unpack what is missing."""
+    archive = out / "records.tar.xz"
+    if archive.exists():
+        with tarfile.open(archive) as tar:
+            tar.extractall(out, members=[m for m in tar if m.isfile() and m.name.startswith("records/")
+                                         and not (out / m.name).exists()], filter="data")
+
+
+def pack_records(out: Path) -> None:
+    """Write ``records/*.yml`` into ``records.tar.xz`` (replacing it)."""
+    with tarfile.open(out / "records.tar.xz", "w:xz") as tar:
+        for f in sorted((out / "records").glob("*.yml")):
+            tar.add(f, arcname=f"records/{f.name}")
+
+
 def main(argv=None) -> int:
     args = parse(argv)
     (args.out / "records").mkdir(parents=True, exist_ok=True)
+    unpack_records(args.out)
     command = (
         f"PYTHONPATH=$PWD python benchmarks/retune_classical.py --envs {' '.join(args.envs)} "
         f"--controllers {' '.join(args.controllers)} --trials {args.trials} --episodes {args.episodes} "
@@ -124,6 +143,7 @@ def main(argv=None) -> int:
                     flush=True,
                 )
                 write_summary(args.out, command)
+                pack_records(args.out)
     write_summary(args.out, command)
     return 0
 
