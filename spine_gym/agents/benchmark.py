@@ -146,6 +146,7 @@ QUICK_HYPERPARAMS = {
     "tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "crossq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "droq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
+    "sbx_sac": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1},
 }
 
 

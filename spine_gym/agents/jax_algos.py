@@ -6,6 +6,8 @@
 * ``droq`` — ``sbx.SAC`` in its DroQ configuration (dropout and layer norm in the critics, many
   gradient steps per transition; Hiraoka et al., ICLR 2022); the configuration is the
   hyperparameter file's (``spine_gym/agents/hyperparams/droq.yml``), the class is SBX's SAC.
+* ``sbx_sac`` — ``sbx.SAC`` sized for a CPU core (small networks, several updates per jit-compiled
+  call; ``spine_gym/agents/hyperparams/sbx_sac.yml``).
 
 Their models save, load and predict as SB3's do (SBX keeps SB3's interfaces), so training,
 checkpoints, evaluation and the benchmark treat them like the torch algorithms;
@@ -23,11 +25,11 @@ import sys
 #: XLA's CPU backend on one thread (Eigen's thread pool off, one intra-op thread)
 ONE_THREAD_XLA_FLAGS = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 
-_CLASSES = {"crossq": "CrossQ", "droq": "SAC"}  # algo -> class of the sbx package
+_CLASSES = {"crossq": "CrossQ", "droq": "SAC", "sbx_sac": "SAC"}  # algo -> class of the sbx package
 
 
 def jax_algo_class(algo: str) -> type:
-    """The ``sbx`` class of ``algo`` (``crossq``: ``CrossQ``, ``droq``: ``SAC``); an ImportError naming
+    """The ``sbx`` class of ``algo`` (``crossq``: ``CrossQ``; ``droq``, ``sbx_sac``: ``SAC``); an ImportError naming
     the extra to install if ``sbx-rl`` is missing."""
     if algo not in _CLASSES:
         raise ValueError(f"algo must be one of {tuple(_CLASSES)}, got {algo!r}")

@@ -54,11 +54,14 @@ def test_every_id_has_an_entry_whose_keys_the_algorithm_takes(algo):
     assert algo_class(algo).__module__.startswith("sbx.")
 
 
-def test_crossq_and_droq_entries_are_what_their_names_say():
+def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
     crossq = resolve_config("crossq", ENV).hp
     assert crossq["policy_kwargs"]["net_arch"]["qf"] == [256, 256]  # the paper's 2048 is too slow on a CPU
     droq = resolve_config("droq", ENV).hp["policy_kwargs"]
     assert droq["dropout_rate"] > 0 and droq["layer_norm"] is True
+    sac = resolve_config("sbx_sac", ENV)  # small networks, 8 updates per call, update-to-data ratio 0.25
+    assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25
 
 
 # --------------------------------------------------------------------------- the CLI
