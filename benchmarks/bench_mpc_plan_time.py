@@ -14,7 +14,7 @@ limit [s] per episode and their means. The registry's tuned ``pid`` (and, with
 ``--controllers``, any other registry entry, e.g. ``mpc_estimated``, the 3-s MPPI) runs the same
 episodes in the same envelope (the ``-v2`` plant's cut-off, no controller guard).
 
-    /work/tools/heavy python benchmarks/bench_mpc_plan_time.py --episodes 5
+    OMP_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_mpc_plan_time.py --episodes 5
 
 ``--horizon``, ``--block``, ``--w-energy``, ``--n-samples`` change ``mpc_long``'s settings
 (:class:`spine_gym.controllers.LongMPCConfig`). Writes ``benchmarks/results/mpc_plan_time.json``

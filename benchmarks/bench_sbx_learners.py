@@ -18,7 +18,7 @@ evaluation; ``done.json`` marks a finished run, which a second invocation skips)
 (the PID's validation episodes), ``summary.csv`` / ``summary.md`` (one row per run), ``evaluations.csv``
 (every evaluation of every run: the curves, kept in the repository where ``runs/`` is not), ``command.txt``.
 
-    /work/tools/heavy python benchmarks/bench_sbx_learners.py --algos crossq droq -n 40000
+    OMP_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_sbx_learners.py --algos crossq droq -n 40000
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ entry, ``learning_starts`` 1000, the ``key=value`` overrides given), trains 2 00
 per gradient step. Run it through a 1-thread launcher (JAX on one thread:
 :mod:`spine_gym.agents.jax_algos`)::
 
-    /work/tools/heavy python benchmarks/bench_sbx_update_cost.py crossq SmaSpineEasy-v2 \\
+    OMP_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_sbx_update_cost.py crossq SmaSpineEasy-v2 \\
         'policy_kwargs=dict(net_arch=dict(pi=[256, 256], qf=[512, 512]))'
 
 What it measured is in ``benchmarks/results/sbx_learners/update_cost.txt``.
