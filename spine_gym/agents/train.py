@@ -1,5 +1,4 @@
-"""Train PPO, SAC, TD3, TQC, CrossQ, DroQ or SBX SAC (``sbx_sac``) on ``SmaSpine-v1`` or another spine env
-(``--env SmaSpine3D-v1``, ...).
+"""Train PPO, SAC, TD3, TQC, CrossQ, DroQ or SBX SAC on ``SmaSpine-v1`` or another spine env (``--env ...``).
 
 RL-Zoo-style CLI (``spine-gym train``; the conventions of :mod:`spine_gym.cli_conventions`).
 
