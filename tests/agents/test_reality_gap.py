@@ -125,6 +125,21 @@ def test_the_recovered_fraction_is_the_share_of_the_shift_cost_won_back():
     assert np.isnan(recovered_fraction(rows))
 
 
+def test_the_value_function_warm_up_freezes_exactly_the_actor():
+    from stable_baselines3 import PPO
+
+    from spine_gym.agents.reality_gap import _actor_parameters
+    from spine_gym.agents.runtime import make_env
+
+    env = make_env({}, env_id="SmaSpine3DEasy-v2")
+    policy = PPO("MlpPolicy", env, use_sde=True, device="cpu").policy
+    actor = {id(p) for p in _actor_parameters(policy)}
+    critic = {id(p) for p in [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]}
+    assert actor and critic and not actor & critic
+    assert actor | critic == {id(p) for p in policy.parameters()}  # nothing shared, nothing left out
+    env.close()
+
+
 def test_the_tuning_plants_are_other_shifts_and_the_fitted_plant_never_the_scored_one(unc):
     plants = tuning_plants(unc, 3.0)
     scored = shift_plant(unc, 3.0, 0).layout
