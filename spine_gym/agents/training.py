@@ -206,6 +206,7 @@ def _observation_wrappers(cfg: RunConfig, meta: dict) -> list:
             scale=special["residual_scale"],
             env_id=cfg.env_id,
             env_kwargs=cfg.env_kwargs,
+            thermal_cutoff=conf.thermal_cutoff,
         )
         meta["residual"] = spec
         wrappers.append(lambda venv: ResidualVecEnv(venv, spec))
