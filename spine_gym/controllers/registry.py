@@ -182,6 +182,25 @@ def _mpc_specs(cls: type, model: str, estimator: str, **how) -> dict[str, Contro
     }
 
 
+def _mpc_long_specs() -> dict[str, ControllerSpec]:
+    """The two long-horizon MPC entries (not run by default): the causal planner on the observation
+    and its privileged twin on the true state."""
+    modes = (
+        ("mpc_long", "estimated", "(the thermal time scale) with an energy term, from the observation"),
+        ("mpc_long_oracle_causal", "oracle_causal", "on the true state and plant (privileged, causal)"),
+    )
+    return {
+        name: ControllerSpec(
+            LongHorizonMPC,
+            f"move-blocked MPPI over 15 s {what}",
+            kwargs={"mode": mode},
+            plans_on_env=True,
+            in_default=False,
+        )
+        for name, mode, what in modes
+    }
+
+
 REGISTRY: dict[str, ControllerSpec] = {
     "step": ControllerSpec(
         StepVoltageController, "open-loop steady-state step voltage (the paper)", guard=False
@@ -194,20 +213,7 @@ REGISTRY: dict[str, ControllerSpec] = {
         _smc_space,
     ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
-    "mpc_long": ControllerSpec(
-        LongHorizonMPC,
-        "move-blocked MPPI over 15 s (the thermal time scale) with an energy term, from the observation",
-        kwargs={"mode": "estimated"},
-        plans_on_env=True,
-        in_default=False,
-    ),
-    "mpc_long_oracle_causal": ControllerSpec(
-        LongHorizonMPC,
-        "move-blocked MPPI over 15 s on the true state and plant (privileged, causal)",
-        kwargs={"mode": "oracle_causal"},
-        plans_on_env=True,
-        in_default=False,
-    ),
+    **_mpc_long_specs(),
 }
 BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
 TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)
