@@ -45,31 +45,18 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "support"))  # the observations the export tests compare on
+
+from export_parity import record_observations  # noqa: E402
 
 from spine_gym.agents.evaluation import evaluate  # noqa: E402
 from spine_gym.agents.export import OneUlpUp, export_policy  # noqa: E402
 from spine_gym.agents.export_c import compile_driver  # noqa: E402
 from spine_gym.agents.numpy_policy import load_bundle  # noqa: E402
-from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy, make_env  # noqa: E402
+from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy  # noqa: E402
 from spine_gym.agents.scenarios import get_suite  # noqa: E402
 
 C_CALLS = 200_000  # calls per timed pass of the C program
-
-
-def record_observations(n: int = 1000, seed: int = 0) -> np.ndarray:
-    env = make_env()
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    rows = []
-    while len(rows) < n:
-        a = rng.uniform(-1, 1, size=2).astype(np.float32)
-        for _ in range(10):
-            rows.append(obs)
-            obs, _, term, trunc, _ = env.step(a)
-            if term or trunc:
-                obs, _ = env.reset(seed=seed + len(rows))
-    env.close()
-    return np.asarray(rows[:n], dtype=np.float32)
 
 
 def timed(fn) -> tuple[float, float]:

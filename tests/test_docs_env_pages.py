@@ -118,3 +118,25 @@ def test_v2_pages_show_the_drivers_cutoff(pages):
         else:
             assert settings["`thermal_cutoff`"] == "off"
             assert "no thermal cut-off" in action
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_the_action_section_states_the_volts_the_env_applies(pages, env_id):
+    """Action +1 from a cold start: the volts ``info["voltage"]`` reports are those the page states
+    (a chain's shorter wires get the seed's voltage × their length / L0, half of ``v_max`` here)."""
+    env = _make(env_id)
+    env.reset(seed=0)
+    volts = np.ravel(env.step(np.ones(env.action_space.shape, np.float32))[4]["voltage"])
+    env.close()
+    action = _section(pages[env_id], "Action space")
+    assert np.allclose(volts, volts[0]) and f"action +1 puts {volts[0]:g} V on every wire" in action
+    v_max = env.unwrapped.config.v_max
+    assert ("· `v_max` · s" in action) == (not np.isclose(volts[0], v_max))
+
+
+def test_the_drive_formula_lists_unequal_wires():
+    from types import SimpleNamespace
+
+    cfg = SimpleNamespace(v_max=5.0, volt_coef=np.array([1.5, 1.5, 1.0, 1.0]))
+    text = env_pages.drive_formula(cfg, 4)
+    assert "s = (0.6, 0.6, 0.4, 0.4) here" in text and "puts (3, 3, 2, 2) V on the wires" in text

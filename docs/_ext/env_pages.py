@@ -137,12 +137,31 @@ def action_section(env: gym.Env) -> list[str]:
     return [
         "## Action space",
         "",
-        f"`{space}`: one entry per wire (group); volts = (clip(a, −1, 1) + 1) / 2 · `v_max`, with "
-        f"`v_max` = {cfg.v_max:g} V here, held over the control period of {cfg.control_period:g} s "
-        "(zero-order hold). Actions outside [−1, 1] are clipped; the applied volts are "
-        f'`info["voltage"]`. {cutoff}',
+        f"`{space}`: one entry per wire (group); {drive_formula(cfg, space.shape[0])}, held over the "
+        f"control period of {cfg.control_period:g} s (zero-order hold). Actions outside [−1, 1] are "
+        f'clipped; the applied volts are `info["voltage"]`. {cutoff}',
         "",
     ]
+
+
+def drive_formula(cfg, n_act: int) -> str:
+    """The volts an action puts on each wire, read from the coefficient the env's step applies
+    (``config.volt_coef``, :mod:`spine_gym.envs.drive`: volts = (clip(a, −1, 1) + 1) · coef, coef = ½
+    ``v_max`` × the wire's voltage scale, 1 but on a chain's shorter wires)."""
+    coef = np.broadcast_to(np.asarray(cfg.volt_coef, dtype=np.float64), (n_act,))
+    scale, top = 2.0 * coef / cfg.v_max, 2.0 * coef
+    if np.allclose(top, top[0]):
+        on = f"action +1 puts {top[0]:g} V on every wire"
+    else:
+        on = f"action +1 puts ({', '.join(f'{x:g}' for x in top)}) V on the wires, by action index"
+    if np.allclose(scale, 1.0):
+        return f"volts = (clip(a, −1, 1) + 1) / 2 · `v_max`, with `v_max` = {cfg.v_max:g} V here: {on}"
+    scales = f"{scale[0]:g}" if np.allclose(scale, scale[0]) else f"({', '.join(f'{x:g}' for x in scale)})"
+    return (
+        "volts = (clip(a, −1, 1) + 1) / 2 · `v_max` · s, with s = L0_k / L0 the wire's length (its "
+        "module's) over the seed's: a shorter wire heats like the seed's at a lower voltage (SPATIAL.md "
+        f"§6), so `v_max` = {cfg.v_max:g} V here is the seed-equivalent full drive; s = {scales} here: {on}"
+    )
 
 
 def reward_section(env: gym.Env) -> list[str]:

@@ -20,9 +20,7 @@ from __future__ import annotations
 
 import math
 
-import yaml
-
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, tuned_file
+from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, tuned_record
 from spine_gym.envs import base_id
 
 from . import benchmark_stats as stats
@@ -68,12 +66,13 @@ def envelope(env_id: str, env_kwargs: dict, guard: bool) -> dict:
 
 
 def tuning_budget(env_id: str, name: str) -> str:
-    """The tuning budget of the registered controller ``name`` on ``env_id`` as stored with its tuned
-    settings (``<trials> trials × <episodes> episodes (<tuning env id>)``), or why there is none."""
+    """The tuning budget of the registered controller ``name`` on ``env_id`` as stored with the tuned
+    settings it runs on (:func:`~spine_gym.controllers.registry.tuned_record`: the id's own re-tune
+    where it has one, else its family's), ``<trials> trials × <episodes> episodes (<tuning env id>)``,
+    or why there is none."""
     if not get_spec(name, env_id).tuned:
         return "not tuned"
-    path = tuned_file(env_id)
-    entry = (yaml.safe_load(path.read_text()) or {}).get(name) if path.exists() else None
+    entry = tuned_record(env_id, name)
     if not entry or "n_trials" not in entry:
         return "defaults (not tuned)"
     tuned_on = entry.get("env_id", base_id(env_id))

@@ -129,7 +129,8 @@ def env_of(args) -> str:
     return DEFAULT_ENV_ID
 
 
-#: the env settings that make the actuator envelope, the same for every controller of one comparison
+#: the env settings that make the actuator envelope (what the actuators may do), the same for every
+#: controller of one comparison: a policy and the baselines it is ranked against share them
 ENVELOPE_KWARGS = ("v_max",)
 
 

@@ -7,10 +7,11 @@ Example::
     python -m spine_gym.agents.family_comparison --suite quick -o /tmp/eval --no-plots
 
 For each env id it runs :mod:`spine_gym.agents.evaluate` once per actuator envelope of the id's
-shipped policies (:data:`ENVELOPE_KWARGS`: the voltage ceiling ``v_max``). Policies trained at the
-env's own ceiling are ranked with the baselines in ``<out>/<env id>/``; a policy trained at another
-ceiling gets its own table, in ``<out>/<env id>_v_max_<V>/``, in which the baselines run at that
-ceiling too (``--env-kwargs v_max=<V>``). So no policy is ranked against baselines that were given
+shipped policies (:data:`~spine_gym.agents.evaluation_job.ENVELOPE_KWARGS`: the voltage ceiling
+``v_max``). Policies trained at the env's own ceiling are ranked with the baselines in
+``<out>/<env id>/``; a policy trained at another ceiling gets its own table, in
+``<out>/<env id>_v_max_<V>/``, in which the baselines run at that ceiling too
+(``--env-kwargs v_max=<V>``). So no policy is ranked against baselines that were given
 less voltage. Every table carries the ratios to the tuned PID of the same run (``--relative-to pid``).
 Arguments other than ``--envs`` and ``-o/--out`` go to every evaluation (e.g. ``--suite quick``,
 ``--no-plots``, ``--plain``, ``--mpc``); all of them are checked before the first episode runs.
@@ -36,8 +37,6 @@ from .zoo_config import ENV_IDS
 #: each family's -v2 id of its shipped -v2 policy (the plant's cut-off protects every controller alike),
 #: in the order they are compared
 FAMILY_IDS = ("SmaSpineHard-v2", "SmaSpine3D-v2", "SmaSpineChain-v2")
-#: env kwargs that set what the actuators may do: a policy and the baselines it is ranked against share them
-ENVELOPE_KWARGS = ("v_max",)
 #: evaluate's options each comparison sets itself
 OWN_OPTIONS = ("--env", "--models", "--env-kwargs")
 #: what a run writes, in the order the closing summary names it
@@ -69,17 +68,17 @@ class Comparison:
 
 
 def policy_envelope(folder: Path, defaults: dict) -> dict:
-    """The :data:`ENVELOPE_KWARGS` a shipped policy runs with on the suite that differ from the env's
-    ``defaults`` (empty: it runs at the env's own envelope)."""
+    """The :data:`~spine_gym.agents.evaluation_job.ENVELOPE_KWARGS` a shipped policy runs with on the
+    suite that differ from the env's ``defaults`` (empty: it runs at the env's own envelope)."""
     kw = evaluation_env_kwargs(json.loads((folder / "meta.json").read_text()).get("env_kwargs", {}))
-    return {k: float(kw[k]) for k in ENVELOPE_KWARGS if k in kw and float(kw[k]) != float(defaults[k])}
+    return {k: float(kw[k]) for k in job.ENVELOPE_KWARGS if k in kw and float(kw[k]) != float(defaults[k])}
 
 
 def env_envelope(env_id: str) -> dict:
-    """The env's default values of :data:`ENVELOPE_KWARGS`."""
+    """The env's default values of :data:`~spine_gym.agents.evaluation_job.ENVELOPE_KWARGS`."""
     env = make_env({}, env_id=env_id)
     try:
-        return {k: float(getattr(env.unwrapped, k)) for k in ENVELOPE_KWARGS}
+        return {k: float(getattr(env.unwrapped, k)) for k in job.ENVELOPE_KWARGS}
     finally:
         env.close()
 

@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, load_tuned
+from spine_gym.controllers.registry import controller_kwargs, get_spec
 from spine_gym.envs import base_id, config_of
 
 from .zoo_config import ENV_ID
@@ -47,23 +47,29 @@ def base_spec(
     scale: float,
     env_id: str = ENV_ID,
     env_kwargs: dict | None = None,
+    thermal_cutoff: float | None = None,
 ) -> dict:
     """JSON-able description of the baseline (tuned settings included) and the residual scale.
 
-    For a spatial env (``env_id`` other than ``SmaSpine-v0``) the spec also holds the env id and
-    kwargs: its controller is built from that env's layout and observation table."""
+    The baseline's guard follows the registry's one rule
+    (:func:`spine_gym.controllers.registry.controller_kwargs`): below ``temperature_limit`` [K], none
+    (``None``) where the plant cuts hot wires itself at ``thermal_cutoff`` [K] (the ``-v2`` ids). For a
+    spatial env (``env_id`` other than ``SmaSpine-v0``) the spec also holds the env id and kwargs: its
+    controller is built from that env's layout and observation table."""
     if kind not in BASES:
         raise ValueError(f"residual base must be one of {BASES}, got {kind!r}")
     scale = float(scale)
     if not 0.0 < scale <= 2.0:
         raise ValueError(f"residual_scale must be in (0, 2], got {scale}")
+    params = controller_kwargs(kind, env_id, None, temperature_limit, thermal_cutoff)
+    guard = params.pop("temperature_limit", None)
     extra = {} if base_id(env_id) == ENV_ID else {"env_id": env_id, "env_kwargs": dict(env_kwargs or {})}
     return extra | {
         "kind": kind,
-        "params": load_tuned(env_id=env_id)[kind],
+        "params": params,
         "v_max": float(v_max),
         "dt": float(dt),
-        "temperature_limit": float(temperature_limit) - GUARD_MARGIN_K,  # as the evaluated baseline
+        "temperature_limit": guard,  # as the evaluated baseline
         "scale": scale,
     }
 

@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 import spine_gym  # noqa: F401 - registers the env
 from spine_gym.controllers import PRIVILEGED_MODES, MPPIConfig, MPPIController
-from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, get_spec, load_tuned
+from spine_gym.controllers.registry import GUARD_MARGIN_K, REGISTRY, controller_kwargs, get_spec, load_tuned
 from spine_gym.envs import config_of
 
 from .metrics import Trajectory, episode_metrics
@@ -249,7 +249,7 @@ def build_controller(name: str, env, tuned: dict | None = None):
     """
     env_id = env_id_of(env)
     spec = get_spec(name, env_id)
-    kwargs = _controller_kwargs(name, env_id, tuned, env_temperature_limit(env), env_thermal_cutoff(env))
+    kwargs = controller_kwargs(name, env_id, tuned, env_temperature_limit(env), env_thermal_cutoff(env))
     if spec.from_env:
         return spec.cls.from_env(env, **kwargs)
     if spec.plans_on_env:
@@ -270,25 +270,10 @@ def controller_for(
         probe.close()
         return ctrl
     cfg = config_of(env_id, **(env_kwargs or {}))
-    kwargs = _controller_kwargs(name, env_id, tuned, cfg.temperature_limit, cfg.thermal_cutoff)
+    kwargs = controller_kwargs(name, env_id, tuned, cfg.temperature_limit, cfg.thermal_cutoff)
     if spec.from_env:
         return spec.cls.from_config(cfg, **kwargs)
     return spec.cls(v_max=float(cfg.v_max), dt=float(cfg.control_period), **kwargs)
-
-
-def _controller_kwargs(
-    name: str, env_id: str, tuned: dict | None, temperature_limit: float, cutoff: float | None = None
-) -> dict:
-    """The constructor kwargs of registry entry ``name``: fixed, tuned, and the guard below the env's
-    ``temperature_limit`` [K] — none where the plant cuts hot wires itself (``cutoff`` [K], the
-    ``-v2`` ids): there every controller meets the plant's protection and brings none of its own."""
-    spec = get_spec(name, env_id)
-    kwargs = dict(spec.kwargs)
-    if spec.tuned:
-        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
-    if spec.guard and cutoff is None:
-        kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
-    return kwargs
 
 
 # --------------------------------------------------------------------------- saved policies

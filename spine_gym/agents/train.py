@@ -45,7 +45,9 @@ are seeded afresh, so the result is not the uninterrupted run's, but two resumes
 give the same weights (``tests/agents/test_train_resume.py``). Evaluations up to the checkpoint stay in
 ``evaluations.npz`` and ``best_model.zip`` is replaced only by a better one.
 ``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
-normalisation statistics and step counter, the multiplier from ``lagrangian_init``.
+normalisation statistics and step counter, the multiplier from ``lagrangian_init``, and the
+hyperparameters given with ``-params`` set on the loaded model (rollout length, batch size,
+learning rate...; not those that make its network, ``policy_kwargs`` and ``use_sde``: a usage error).
 
 The run is built by :mod:`spine_gym.agents.training` (shared with :mod:`spine_gym.agents.benchmark`):
 :func:`~spine_gym.agents.training.resolve_config` (the YAML entry with overrides),
@@ -116,12 +118,14 @@ from .checkpoints import (
     save_lagrangian,
 )
 from .training import (
+    FIXED_ON_LOAD,
     RunConfig,
     build_envs,
     build_model,
     checkpoint_vecnormalize,
     hyperparameter_keys,
     lagrangian_callbacks,
+    load_overrides,
     resolve_config,
     yaml_safe,
 )
@@ -294,6 +298,7 @@ def _checked_config(args, checkpoint: str) -> RunConfig:
     check_env_kwargs(args.env, cfg.env_kwargs)
     if args.trained_agent:
         check_policy_env(args.trained_agent, args.env, "-i/--trained-agent", cfg.env_kwargs)
+        load_overrides(cfg, args.hyperparams)  # what cannot change on the loaded model
     if checkpoint and cfg.special["normalize"] is not None:
         checkpoint_vecnormalize(Path(checkpoint))
     return cfg
@@ -422,9 +427,12 @@ def train(argv: list[str] | None = None, prog: str = PROG) -> Path:
     meta.update(envs.meta)
     env, eval_env, norm = envs.env, envs.eval_env, cfg.special["normalize"]
     tb = None if args.no_tensorboard else str(run / "tb")
+    # the loaded model takes the command line's hyperparameters; a resumed run's network ones are its own
+    given = [k for k in args.hyperparams if not (resume and k in FIXED_ON_LOAD)]
     model = build_model(
         cfg, env, args.seed, device=args.device, tensorboard_log=tb, verbose=args.verbose,
         trained_agent=ckpt, resume=resume is not None,
+        overrides=load_overrides(cfg, given) if ckpt else None,
     )  # fmt: skip
     if resume:
         start = int(meta.get("start_timesteps", 0))

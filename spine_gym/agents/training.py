@@ -8,8 +8,8 @@ these same pieces:
 * :func:`build_envs` — the native training env inside the entry's wrappers (residual baseline,
   observation features of :mod:`spine_gym.agents.observations`, Lagrangian energy budget,
   ``VecNormalize``), as :class:`TrainingEnvs`; :func:`energy_budget`, the budget in joules.
-* :func:`build_model` — the algorithm, new or from a checkpoint; :func:`action_noise`;
-  :func:`lagrangian_callbacks`, the dual-ascent callback of an energy-budget run.
+* :func:`build_model` — the algorithm, new or from a checkpoint (with :func:`load_overrides` applied);
+  :func:`action_noise`; :func:`lagrangian_callbacks`, the dual-ascent callback of an energy-budget run.
 * :func:`yaml_safe` — a hyperparameter entry as YAML writes it (schedules as ``lin_<x>``).
 """
 
@@ -206,6 +206,7 @@ def _observation_wrappers(cfg: RunConfig, meta: dict) -> list:
             scale=special["residual_scale"],
             env_id=cfg.env_id,
             env_kwargs=cfg.env_kwargs,
+            thermal_cutoff=conf.thermal_cutoff,
         )
         meta["residual"] = spec
         wrappers.append(lambda venv: ResidualVecEnv(venv, spec))
@@ -263,6 +264,25 @@ def action_noise(cfg: RunConfig, n_actions: int):
     raise ValueError(f"noise_type must be 'normal' or 'ornstein-uhlenbeck', got {kind!r}")
 
 
+#: hyperparameters a loaded model keeps from its checkpoint: they shape its network
+FIXED_ON_LOAD = ("policy_kwargs", "use_sde")
+
+
+def load_overrides(cfg: RunConfig, given, source: str = "-params/--hyperparams") -> dict:
+    """The hyperparameters ``given`` (their keys; e.g. those of the command line) as ``cfg`` resolved
+    them, to set on a model loaded from a checkpoint (SB3's ``load`` sets them before it builds its
+    rollout or replay buffer and its schedules); ValueError (one line, naming ``source``) for one of
+    :data:`FIXED_ON_LOAD`. The entry's other settings (energy budget, observation features...) shape
+    the env, which is built anew either way."""
+    fixed = sorted(set(given) & set(FIXED_ON_LOAD))
+    if fixed:
+        raise ValueError(
+            f"{source} {', '.join(fixed)} cannot change on a loaded model (its network is the "
+            "checkpoint's): drop them, or train a new model"
+        )
+    return {k: cfg.hp[k] for k in given if k in cfg.hp}
+
+
 def build_model(
     cfg: RunConfig,
     env,
@@ -273,10 +293,12 @@ def build_model(
     verbose: int = 0,
     trained_agent: str = "",
     resume: bool = False,
+    overrides: dict | None = None,
 ):
-    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent``).
-    ``resume``: the checkpoint's last observation belongs to the envs of the stopped process, so the
-    model resets ``env`` when it starts learning."""
+    """The algorithm of ``cfg`` on ``env`` (new, or loaded from the checkpoint ``trained_agent`` with
+    the hyperparameters ``overrides`` set on it, :func:`load_overrides`). ``resume``: the checkpoint's
+    last observation belongs to the envs of the stopped process, so the model resets ``env`` when it
+    starts learning."""
     algo_cls = algo_class(cfg.algo)
     if not trained_agent:
         noise = action_noise(cfg, int(np.prod(env.action_space.shape)))
@@ -292,8 +314,9 @@ def build_model(
             **extra,
         )
     model = algo_cls.load(
-        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose
-    )
+        trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose,
+        **(overrides or {}),
+    )  # fmt: skip
     if model.seed != seed:
         # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
         # Only re-seed when it differs: a second seeding after the network's construction changes

@@ -41,7 +41,10 @@ first voltages are applied; the plan shifted by one period warm-starts the next 
 
 The sampling, the weighting and the warm start are :class:`MPPIBase`, shared with
 :class:`~spine_gym.controllers.mpc_spatial.SpatialMPPIController` (the same planner, one voltage
-sequence per wire, for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``).
+sequence per wire, for ``SmaSpine3D-v0`` and ``SmaSpineChain-v0``). What every planner on the env's
+model does the same (one env, bound to it; a zero plan and a fresh generator each episode) is
+:class:`EnvPlanner`, and the update of the plan from its scored samples :func:`mppi_update`, both
+shared with :class:`~spine_gym.controllers.mpc_long.LongHorizonMPC` too.
 
 :class:`MPPIController` is a :class:`~spine_gym.controllers.planar.PlanarController`, so it has
 SB3's ``predict`` and runs in ``spine_gym.agents.evaluate`` like any baseline. It plans for one env
@@ -67,6 +70,7 @@ from .planar import PlanarController
 
 __all__ = [
     "MPPIConfig",
+    "EnvPlanner",
     "MPPIBase",
     "MPPIController",
     "MODES",
@@ -74,6 +78,10 @@ __all__ = [
     "FAILED_COST",
     "min_samples",
     "mppi_weights",
+    "mppi_update",
+    "rollout_buffers",
+    "rollout_energy",
+    "weighted_cost",
     "preview_targets",
 ]
 
@@ -255,7 +263,107 @@ def mppi_weights(cost: np.ndarray, temperature: float, *, robust: bool = False) 
     return w / w.sum()
 
 
-class MPPIBase(BaseController):
+def mppi_update(
+    volts: np.ndarray, cost: np.ndarray, temperature: float, *, robust: bool = False
+) -> tuple[np.ndarray, int]:
+    """One MPPI update from the sampled sequences ``volts`` (N, H, W) and their costs (N,): the new
+    plan (H, W), the samples' average weighted by :func:`mppi_weights` (``temperature``,
+    ``robust`` as there), and the index of the least-cost sample."""
+    w = mppi_weights(cost, temperature, robust=robust)
+    return np.einsum("n,nhc->hc", w, volts), int(np.argmin(cost))
+
+
+def rollout_buffers(n: int, h: int, n_seg: int) -> tuple[np.ndarray, ...]:
+    """The out arrays of ``n`` planar rollouts of ``h`` steps (``physics.planar.rollout``): state
+    scratch (n, S), angle (n, h), temperatures and Joule heats (n, h, 2), statuses (n,)."""
+    return (
+        np.empty((n, PL.state_size(n_seg))),
+        np.empty((n, h)),
+        np.empty((n, h, 2)),
+        np.empty((n, h, 2)),
+        np.empty(n, dtype=np.int64),
+    )
+
+
+def rollout_energy(joule_end: np.ndarray, state0: np.ndarray, side_volume: float) -> np.ndarray:
+    """(N,) electrical energy [J] of planar rollouts from ``state0`` whose accumulated Joule heats
+    per unit volume at their ends are ``joule_end`` (N, 2), ``side_volume`` [m³] the wires of one side."""
+    q0 = np.array([state0[PL.X_QJR], state0[PL.X_QJL]])
+    return np.sum(joule_end - q0[None, :], axis=1) * side_volume
+
+
+def weighted_cost(settings, track, energy, heat, status) -> np.ndarray:
+    """(N,) costs ``w_track · track + w_energy · energy + w_temp · heat`` (weights of ``settings``),
+    :data:`FAILED_COST` where the rollout's status is not OK."""
+    s = settings
+    cost = s.w_track * track + s.w_energy * energy + s.w_temp * heat
+    return np.where(status == L.OK, cost, FAILED_COST)
+
+
+class EnvPlanner(BaseController):
+    """What a sampling planner on the env's own model does the same on every spine: it plans for
+    one env, binds to it (the privileged modes read its state), and starts each episode with a zero
+    plan, a fresh generator (``settings.seed``) and a fresh estimator.
+
+    A subclass sets ``settings`` (with a ``seed``), ``mode``, ``plan_shape`` (the shape of its
+    plan), ``env_config`` (the env configuration it plans for) and ``estimator`` (or None) before
+    its first :meth:`reset`.
+    """
+
+    plan_fields: tuple = PLAN_FIELDS  # configuration fields an env to bind to must agree on
+
+    def bind(self, env) -> None:
+        """Plan on ``env`` (the privileged modes read its state each step; ``spine_gym.agents.runtime.run_episode``
+        binds each episode's env); ValueError if its configuration is of another type or differs
+        in a field of :attr:`plan_fields`."""
+        env = getattr(env, "unwrapped", env)
+        cfg = getattr(env, "config", None)
+        if type(cfg) is not type(self.env_config) or any(
+            getattr(cfg, f) != getattr(self.env_config, f) for f in self.plan_fields
+        ):
+            raise ValueError(
+                f"env.config differs from the config this controller was built for in {self.plan_fields}"
+            )
+        if not hasattr(env, "snapshot"):
+            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
+        self.env = env
+
+    def reset(self) -> None:
+        """New episode: zero plan, fresh generator and estimator."""
+        super().reset()
+        self.plan = np.zeros(self.plan_shape)
+        self.rng = np.random.default_rng(self.settings.seed)
+        self.last_cost = math.nan
+        self._last_preview = None
+        if self.estimator is not None:
+            self.estimator.reset()
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3 ``predict`` for one env (observation ``(d,)`` or ``(1, d)``); ``state`` is unused."""
+        obs, _ = self._check_obs(observation)
+        if obs.shape[0] != 1:
+            raise ValueError(
+                f"{type(self).__name__} plans for one env: observation batch must have 1 row, "
+                f"got {obs.shape[0]}"
+            )
+        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
+            self.reset()
+        action, _ = super().predict(observation, None, None, deterministic)
+        return action, None
+
+    def _oracle_env(self):
+        if self.env is None:
+            raise ValueError(
+                f"{self.mode} mode needs the env: {type(self).__name__}(..., {self.mode!r}, env=env) "
+                "or bind(env)"
+            )
+        return self.env
+
+    def config(self) -> dict:
+        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
+
+
+class MPPIBase(EnvPlanner):
     """What MPPI does the same on every spine: sampling, weighting, warm start (module docstring).
 
     A subclass builds the planning problem of one control step from the observation
@@ -274,7 +382,6 @@ class MPPIBase(BaseController):
     """
 
     name = "mpc"
-    plan_fields: tuple = PLAN_FIELDS  # configuration fields an env to bind to must agree on
 
     def __init__(
         self,
@@ -304,6 +411,7 @@ class MPPIBase(BaseController):
         self.name = f"mpc_{mode}"
         self.n_wires = int(n_wires)
         self.horizon_steps = _whole("horizon", s.horizon, control_period)
+        self.plan_shape = (self.horizon_steps, self.n_wires)
         self.plan_dt = physics_dt if s.plan_physics_dt is None else float(s.plan_physics_dt)
         self.plan_sub = _whole("control_period (with plan_physics_dt)", control_period, self.plan_dt)
         if s.plan_h_min is not None and s.plan_h_min > self.plan_dt:
@@ -321,46 +429,6 @@ class MPPIBase(BaseController):
         self.env_config = None  # the subclass's env configuration
         self.estimator = None  # the subclass's state estimator (estimated mode)
 
-    def bind(self, env) -> None:
-        """Plan on ``env`` (the privileged modes read its state each step; ``spine_gym.agents.runtime.run_episode``
-        binds each episode's env); ValueError if its configuration is of another type or differs
-        in a field of :attr:`plan_fields`."""
-        env = getattr(env, "unwrapped", env)
-        cfg = getattr(env, "config", None)
-        if type(cfg) is not type(self.env_config) or any(
-            getattr(cfg, f) != getattr(self.env_config, f) for f in self.plan_fields
-        ):
-            raise ValueError(
-                f"env.config differs from the config this controller was built for in {self.plan_fields}"
-            )
-        if not hasattr(env, "snapshot"):
-            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
-        self.env = env
-
-    def reset(self) -> None:
-        """New episode: zero plan, fresh generator and estimator."""
-        super().reset()
-        self.plan = np.zeros((self.horizon_steps, self.n_wires))
-        self.rng = np.random.default_rng(self.settings.seed)
-        self.last_cost = math.nan
-        self._last_preview = None
-        if self.estimator is not None:
-            self.estimator.reset()
-
-    # ------------------------------------------------------------------ predict
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        """SB3 ``predict`` for one env (observation ``(d,)`` or ``(1, d)``); ``state`` is unused."""
-        obs, _ = self._check_obs(observation)
-        if obs.shape[0] != 1:
-            raise ValueError(
-                f"{type(self).__name__} plans for one env: observation batch must have 1 row, "
-                f"got {obs.shape[0]}"
-            )
-        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
-            self.reset()
-        action, _ = super().predict(observation, None, None, deterministic)
-        return action, None
-
     def _volts(self, obs, mem):
         problem = self._problem(obs[0])
         for _ in range(self.settings.iterations):
@@ -368,14 +436,6 @@ class MPPIBase(BaseController):
         volts = self.plan[0].copy()
         self.plan[:-1] = self.plan[1:]  # warm start: shift, repeat the last
         return volts[None, :]
-
-    def _oracle_env(self):
-        if self.env is None:
-            raise ValueError(
-                f"{self.mode} mode needs the env: {type(self).__name__}(..., {self.mode!r}, env=env) "
-                "or bind(env)"
-            )
-        return self.env
 
     def _snapshot_loads(self, snap, n_seg: int) -> tuple[np.ndarray, np.ndarray]:
         """Loads (H, n_seg, dim) on the top disk and resolve flags (H,) over the horizon from an env
@@ -417,21 +477,15 @@ class MPPIBase(BaseController):
     def _improve(self, problem) -> None:
         volts = self._sample()
         cost = self._score(volts, problem)
-        w = mppi_weights(cost, self.settings.temperature)
-        self.plan = np.einsum("n,nhc->hc", w, volts)
-        self.last_cost = float(cost.min())
+        self.plan, best = mppi_update(volts, cost, self.settings.temperature)
+        self.last_cost = float(cost[best])
 
     def _cost(self, sq_err, energy, temp, status) -> np.ndarray:
         """(N,) costs from the squared tracking error (N, H), the rollouts' electrical energy (N,)
         [J], the temperatures (N, H, W) [K] and the statuses (N,)."""
-        s = self.settings
         over = np.maximum(temp - self._t_lim, 0.0)
-        cost = (
-            s.w_track * np.sum(sq_err, axis=1)
-            + s.w_energy * energy
-            + s.w_temp * np.sum(over * over, axis=(1, 2))
-        )
-        return np.where(status == L.OK, cost, FAILED_COST)
+        heat = np.sum(over * over, axis=(1, 2))
+        return weighted_cost(self.settings, np.sum(sq_err, axis=1), energy, heat, status)
 
     def _preview_targets(
         self, target: np.ndarray, preview: np.ndarray, preview_steps: int, rate_limit: float
@@ -450,10 +504,6 @@ class MPPIBase(BaseController):
 
     def _score(self, volts, problem) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
-
-    def config(self) -> dict:
-        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
-
 
 class MPPIController(PlanarController, MPPIBase):
     """MPPI on the env's physics (see the module docstring).
@@ -499,12 +549,8 @@ class MPPIController(PlanarController, MPPIBase):
         )
         if env is not None:
             self.bind(env)
-        n, h = s.n_samples, self.horizon_steps
-        self._work = np.empty((n, PL.state_size(p.n_seg)))
-        self._angle = np.empty((n, h))
-        self._temp = np.empty((n, h, 2))
-        self._joule = np.empty((n, h, 2))
-        self._status = np.empty(n, dtype=np.int64)
+        bufs = rollout_buffers(s.n_samples, self.horizon_steps, p.n_seg)
+        self._work, self._angle, self._temp, self._joule, self._status = bufs
         self.reset()
 
     # ------------------------------------------------------------------ the planning problem
@@ -555,6 +601,5 @@ class MPPIController(PlanarController, MPPIBase):
             self._status,
         )
         err = np.degrees(self._angle) + offset - targets[None, :]
-        q0 = np.array([state0[PL.X_QJR], state0[PL.X_QJL]])
-        energy = np.sum(self._joule[:, -1, :] - q0[None, :], axis=1) * side_volume
+        energy = rollout_energy(self._joule[:, -1, :], state0, side_volume)
         return self._cost(err * err, energy, self._temp, self._status)

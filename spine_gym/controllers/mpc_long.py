@@ -22,7 +22,7 @@ a wire drift towards the thermal cut-off. :class:`LongHorizonMPC` plans ``horizo
   by 0.3° RMS (1.5° at most) and the temperatures by 1 K at most, for less than half the
   sub-steps of the env's settings (the quasi-static tube makes a long output step exact but for the
   sub-steps' error).
-* **Sampling** (MPPI, :func:`spine_gym.controllers.mpc.mppi_weights`): ``n_samples`` block
+* **Sampling** (MPPI, :func:`spine_gym.controllers.mpc.mppi_update`): ``n_samples`` block
   sequences are drawn, half around the plan and half around the **steady-state feedforward**
   (each block the voltage whose steady state is that block's target, on the wire that bends
   toward it: :func:`~spine_gym.controllers.steady_state.steady_state_map`, the map the PID's
@@ -61,26 +61,25 @@ The plan time per control period is measured in ``benchmarks/bench_mpc_plan_time
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..envs.planar import PlanarConfig
 from ..envs.targets_planar import ANGLE_LIMIT
-from ..physics import columns as L
-from ..physics.planar import columns as PL
 from ..physics.planar.rollout import rollout_graded
 from .base import check_range
 from .estimator import DisturbanceConfig, PhaseEstimator
 from .mpc import (
-    FAILED_COST,
     MAX_EXTRAPOLATED_RATE,
     OBS_PREVIEW,
     OBS_TARGET,
-    PLAN_FIELDS,
-    mppi_weights,
+    EnvPlanner,
+    mppi_update,
     preview_targets,
+    rollout_buffers,
+    rollout_energy,
+    weighted_cost,
 )
 from .planar import PlanarController
 from .steady_state import steady_state_map
@@ -168,7 +167,7 @@ def _count(name: str, value, lo: int, hi: int) -> None:
         raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
 
 
-class LongHorizonMPC(PlanarController):
+class LongHorizonMPC(PlanarController, EnvPlanner):
     """Move-blocked MPPI over the thermal time scale (module docstring).
 
     Args:
@@ -220,53 +219,18 @@ class LongHorizonMPC(PlanarController):
         self.env = None
         if env is not None:
             self.bind(env)
-        n, h = s.n_samples, s.n_blocks + 1 + s.fine_steps  # the most rollout steps of grid()
-        self._work = np.empty((n, PL.state_size(p.n_seg)))
-        self._angle = np.empty((n, h))
-        self._temp = np.empty((n, h, 2))
-        self._joule = np.empty((n, h, 2))
-        self._status = np.empty(n, dtype=np.int64)
+        self.plan_shape = (s.n_blocks + 1, 2)  # (current block + whole blocks, wires)
+        h = s.n_blocks + 1 + s.fine_steps  # the most rollout steps of grid()
+        bufs = rollout_buffers(s.n_samples, h, p.n_seg)
+        self._work, self._angle, self._temp, self._joule, self._status = bufs
         self.reset()
 
-    # ------------------------------------------------------------------ episode and env
-    def bind(self, env) -> None:
-        """Plan for ``env`` (``spine_gym.agents.runtime.run_episode`` binds each episode's env);
-        ValueError if its configuration differs from the one this controller was built for."""
-        env = getattr(env, "unwrapped", env)
-        cfg = getattr(env, "config", None)
-        if not isinstance(cfg, PlanarConfig) or any(
-            getattr(cfg, f) != getattr(self.env_config, f) for f in PLAN_FIELDS
-        ):
-            raise ValueError(
-                f"env.config differs from the config this controller was built for in {PLAN_FIELDS}"
-            )
-        if not hasattr(env, "snapshot"):
-            raise ValueError(f"env must have snapshot() (a spine_gym env), got {type(env).__name__}")
-        self.env = env
-
+    # ------------------------------------------------------------------ episode
     def reset(self) -> None:
         """New episode: zero plan, fresh generator and estimator, block clock at 0."""
         super().reset()
-        self.plan = np.zeros((self.settings.n_blocks + 1, 2))  # (current block + whole blocks, wires)
         self.best = self.plan.copy()  # the best sampled sequence of the last update
-        self.rng = np.random.default_rng(self.settings.seed)
         self.step_in_block = 0
-        self.last_cost = math.nan
-        self._last_preview = None
-        if self.estimator is not None:
-            self.estimator.reset()
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        """SB3 ``predict`` for one env (observation ``(d,)`` or ``(1, d)``); ``state`` is unused."""
-        obs, _ = self._check_obs(observation)
-        if obs.shape[0] != 1:
-            raise ValueError(
-                f"LongHorizonMPC plans for one env: observation batch must have 1 row, got {obs.shape[0]}"
-            )
-        if episode_start is not None and bool(np.asarray(episode_start).reshape(-1)[0]):
-            self.reset()
-        action, _ = super().predict(observation, None, None, deterministic)
-        return action, None
 
     # ------------------------------------------------------------------ one control period
     def grid(self) -> tuple[np.ndarray, np.ndarray]:
@@ -316,11 +280,7 @@ class LongHorizonMPC(PlanarController):
         )  # fmt: skip
         self._last_preview = obs[OBS_PREVIEW : OBS_PREVIEW + 1].copy()
         if self.mode == "oracle_causal":
-            if self.env is None:
-                raise ValueError(
-                    "oracle_causal mode needs the env: LongHorizonMPC(..., env=env) or bind(env)"
-                )
-            snap = self.env.snapshot()
+            snap = self._oracle_env().snapshot()
             loads = np.zeros((self.env_config.params.n_seg, 2))
             loads[0] = snap.arrays["forces"][min(snap.step_index, snap.arrays["forces"].shape[0] - 1)]
             return snap.state, snap.kp, loads, (dts, blocks), targets, 0.0, float(snap.arrays["wvol"][0])
@@ -359,10 +319,9 @@ class LongHorizonMPC(PlanarController):
     def _improve(self, problem, reference=None) -> None:
         volts = self.sample(reference)
         cost = self.score(volts, problem)
-        w = mppi_weights(cost, self.settings.temperature, robust=True)
-        self.plan = np.einsum("n,nhc->hc", w, volts)
-        self.best = volts[np.argmin(cost)].copy()
-        self.last_cost = float(cost.min())
+        self.plan, best = mppi_update(volts, cost, self.settings.temperature, robust=True)
+        self.best = volts[best].copy()
+        self.last_cost = float(cost[best])
 
     def score(self, volts: np.ndarray, problem) -> np.ndarray:
         """(N,) costs of the block voltages ``volts`` (N, n_blocks + 1, 2) on ``problem``."""
@@ -376,24 +335,15 @@ class LongHorizonMPC(PlanarController):
         )  # fmt: skip
         angle, temp = self._angle[:, :h], self._temp[:, :h]
         err = np.degrees(angle) + offset - targets[None, :]
-        q0 = np.array([state0[PL.X_QJR], state0[PL.X_QJL]])
-        energy = np.sum(self._joule[:, h - 1, :] - q0[None, :], axis=1) * side_volume
+        energy = rollout_energy(self._joule[:, h - 1, :], state0, side_volume)
         return self.cost(err * err, energy, temp, self._status, dts)
 
     def cost(self, sq_err, energy, temp, status, dts) -> np.ndarray:
         """(N,) costs from the squared tracking error (N, H) [deg²], the energy (N,) [J], the
         temperatures (N, H, 2) [K], the statuses (N,) and the step lengths (H,) [s]."""
-        s = self.settings
         over = np.maximum(temp - self._t_lim, 0.0)
-        c = (
-            s.w_track * (sq_err @ dts)
-            + s.w_energy * energy
-            + s.w_temp * (np.sum(over * over, axis=2) @ dts)
-        )
-        return np.where(status == L.OK, c, FAILED_COST)
-
-    def config(self) -> dict:
-        return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
+        heat = np.sum(over * over, axis=2) @ dts
+        return weighted_cost(self.settings, sq_err @ dts, energy, heat, status)
 
 
 def shifted(plan: np.ndarray) -> np.ndarray:

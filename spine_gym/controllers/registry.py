@@ -17,7 +17,9 @@ Each env id has its own table (:data:`REGISTRIES`, :func:`registry_for`): :data:
 built from the env (``from_env``: its layout, observation table and per-wire voltages).
 
 Every entry except the open-loop step drive gets the temperature guard the tuning used: a wire
-whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` gets 0 V.
+whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` gets 0 V — except
+where the plant cuts hot wires itself (the ``thermal_cutoff`` env setting of the ``-v2`` ids): there no
+controller brings a guard of its own. :func:`controller_kwargs` is that one rule.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ __all__ = [
     "id_tuned_file",
     "load_tuned",
     "tuned_record",
+    "controller_kwargs",
 ]
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
@@ -179,6 +182,25 @@ def _mpc_specs(cls: type, model: str, estimator: str, **how) -> dict[str, Contro
     }
 
 
+def _mpc_long_specs() -> dict[str, ControllerSpec]:
+    """The two long-horizon MPC entries (not run by default): the causal planner on the observation
+    and its privileged twin on the true state."""
+    modes = (
+        ("mpc_long", "estimated", "(the thermal time scale) with an energy term, from the observation"),
+        ("mpc_long_oracle_causal", "oracle_causal", "on the true state and plant (privileged, causal)"),
+    )
+    return {
+        name: ControllerSpec(
+            LongHorizonMPC,
+            f"move-blocked MPPI over 15 s {what}",
+            kwargs={"mode": mode},
+            plans_on_env=True,
+            in_default=False,
+        )
+        for name, mode, what in modes
+    }
+
+
 REGISTRY: dict[str, ControllerSpec] = {
     "step": ControllerSpec(
         StepVoltageController, "open-loop steady-state step voltage (the paper)", guard=False
@@ -191,20 +213,7 @@ REGISTRY: dict[str, ControllerSpec] = {
         _smc_space,
     ),
     **_mpc_specs(MPPIController, "the env's physics", "phase-fraction estimator", plans_on_env=True),
-    "mpc_long": ControllerSpec(
-        LongHorizonMPC,
-        "move-blocked MPPI over 15 s (the thermal time scale) with an energy term, from the observation",
-        kwargs={"mode": "estimated"},
-        plans_on_env=True,
-        in_default=False,
-    ),
-    "mpc_long_oracle_causal": ControllerSpec(
-        LongHorizonMPC,
-        "move-blocked MPPI over 15 s on the true state and plant (privileged, causal)",
-        kwargs={"mode": "oracle_causal"},
-        plans_on_env=True,
-        in_default=False,
-    ),
+    **_mpc_long_specs(),
 }
 BASELINES = tuple(name for name, spec in REGISTRY.items() if spec.in_default)
 TUNABLE = tuple(name for name, spec in REGISTRY.items() if spec.tuned)
@@ -315,3 +324,19 @@ def load_tuned(path: Path | None = None, env_id: str = ENV_ID) -> dict:
     for data in map(_read, layers):  # later layers win
         out.update((k, dict(data[k]["params"])) for k in defaults if k in data)
     return out
+
+
+def controller_kwargs(
+    name: str, env_id: str, tuned: dict | None, temperature_limit: float, cutoff: float | None = None
+) -> dict:
+    """The constructor kwargs of entry ``name`` of ``env_id``'s registry: fixed, tuned (``tuned``
+    overrides :func:`load_tuned`, ``{name: {...}}``), and the guard below the env's
+    ``temperature_limit`` [K] — none where the plant cuts hot wires itself (``cutoff`` [K], the
+    ``-v2`` ids): there every controller meets the plant's protection and brings none of its own."""
+    spec = get_spec(name, env_id)
+    kwargs = dict(spec.kwargs)
+    if spec.tuned:
+        kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
+    if spec.guard and cutoff is None:
+        kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
+    return kwargs

@@ -57,7 +57,11 @@ class EnvFacts:
     _core: TableBatch
     _renderer: Any = None
 
-    v_max = _setting("v_max", "Voltage of action +1 [V].")
+    v_max = _setting(
+        "v_max",
+        "Voltage of action +1 [V] on a full-length wire (a chain module's shorter wires get it × their "
+        "length / L0: ``config.volt_coef``).",
+    )
     control_period = _setting("control_period", "Time per step [s].")
     episode_duration = _setting(
         "episode_duration",

@@ -55,6 +55,31 @@ def test_train_ppo_smoke_run_and_resume(tmp_path):
     assert pol.model.seed == 0  # the resume's --seed (default 0), not the checkpoint's 3
 
 
+def test_a_loaded_model_takes_the_given_hyperparameters(tmp_path, capsys):
+    """``-i``: the command line's hyperparameters are set on the loaded model (its rollout buffer is
+    built with the new length); those that make the network are a one-line error, checked first."""
+    from spine_gym.agents.train import _parse
+    from spine_gym.agents.training import build_envs, build_model, load_overrides, resolve_config
+
+    small = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
+    cfg = resolve_config("ppo", "SmaSpine-v0", n_envs=1, hyperparams=small)
+    envs = build_envs(cfg, 0)
+    build_model(cfg, envs.env, 0).save(tmp_path / "model.zip")
+    given = {"n_steps": 32, "batch_size": 32, "learning_rate": 1e-4}
+    cfg2 = resolve_config("ppo", "SmaSpine-v0", n_envs=1, hyperparams=small | given)
+    model = build_model(
+        cfg2, envs.env, 0, trained_agent=str(tmp_path / "model.zip"), overrides=load_overrides(cfg2, given)
+    )
+    assert (model.n_steps, model.batch_size, model.rollout_buffer.buffer_size) == (32, 32, 32)
+    assert model.lr_schedule(1.0) == pytest.approx(1e-4)
+    argv = ["--algo", "ppo", "--env", "SmaSpine-v0", "-i", str(tmp_path / "model.zip")]
+    argv += ["-f", str(tmp_path / "logs")]
+    with pytest.raises(SystemExit) as exit_:
+        _parse([*argv, "-params", "policy_kwargs:dict(net_arch=[8])", "n_steps:32"])
+    assert exit_.value.code == 2 and not (tmp_path / "logs").exists()
+    assert "-params/--hyperparams policy_kwargs cannot change on a loaded model" in capsys.readouterr().err
+
+
 def test_train_sac_smoke_run(tmp_path):
     run_cli(
         "-m", "spine_gym.agents.train", "--algo", "sac", "-n", "200", "--n-envs", "2", "-f", str(tmp_path),

@@ -166,3 +166,23 @@ def test_the_figure_takes_a_row_without_time_over_the_limit(tmp_path):
     rows = _rows(_runs("old", [1.0] * 3, [None] * 3) + _runs("new", [5.0] * 3, [0.0] * 3))
     stats.plot_table(tmp_path / "t.png", rows, UNITS)
     assert (tmp_path / "t.png").stat().st_size > 0
+
+
+def test_the_budget_of_an_id_with_its_own_gains_is_its_own(tmp_path, monkeypatch):
+    """An id's own re-tune (``tuned/<id>.yml``) is what it runs on, so its budget is the re-tune's;
+    an id without one shows its family's."""
+    import yaml
+
+    from spine_gym.controllers import registry
+
+    def record(trials: int, episodes: int, env_id: str) -> dict:
+        return {"pid": {"params": {"kp": 1.0}, "n_trials": trials, "n_episodes": episodes, "env_id": env_id}}
+
+    monkeypatch.setattr(registry, "TUNED_DIR", tmp_path)
+    monkeypatch.setattr(registry, "TUNED_FILE", tmp_path / "baselines.yml")
+    (tmp_path / "baselines.yml").write_text(yaml.safe_dump(record(80, 10, "SmaSpine-v1")))
+    (tmp_path / "SmaSpineHard-v2.yml").write_text(yaml.safe_dump(record(40, 6, "SmaSpineHard-v2")))
+    assert ranking.tuning_budget("SmaSpineHard-v2", "pid") == "40 trials × 6 episodes (SmaSpineHard-v2)"
+    assert ranking.tuning_budget("SmaSpine-v2", "pid") == "80 trials × 10 episodes (SmaSpine-v1)"
+    assert ranking.tuning_budget("SmaSpine-v2", "smc") == "defaults (not tuned)"
+    assert ranking.tuning_budget("SmaSpine-v2", "step") == "not tuned"

@@ -16,16 +16,15 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import onnxruntime as ort
 import pytest
 import torch
+from export_parity import CLIP_OBS, c_runner, onnx_runner, record_observations, save_model_run
 from repo import ROOT
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from spine_gym.agents.evaluation import evaluate
 from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
-from spine_gym.agents.export_c import compile_driver
 from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.observations import (
     HistoryObsVecEnv,
@@ -39,27 +38,9 @@ from spine_gym.agents.scenarios import get_suite
 
 POLICIES = ROOT / "spine_gym" / "agents" / "policies"
 TOL = 1e-5
-CLIP_OBS = 3.0
 ALGOS = {"ppo": PPO, "sac": SAC, "td3": TD3}
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
-
-
-def record_observations(n: int = 1000, seed: int = 0) -> np.ndarray:
-    """``n`` observations of ``SmaSpine-v0`` under random actions held for 10 steps."""
-    env = make_env()
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    rows = []
-    while len(rows) < n:
-        a = rng.uniform(-1, 1, size=2).astype(np.float32)
-        for _ in range(10):
-            rows.append(obs)
-            obs, _, term, trunc, _ = env.step(a)
-            if term or trunc:
-                obs, _ = env.reset(seed=seed + len(rows))
-    env.close()
-    return np.asarray(rows[:n], dtype=np.float32)
 
 
 @pytest.fixture(scope="module")
@@ -96,19 +77,7 @@ def save_run(folder: Path, algo: str, observations: np.ndarray, features=(), met
         algo, kw = "ppo", kw | {"use_sde": True, "sde_sample_freq": 16}
     model = ALGOS[algo]("MlpPolicy", venv, seed=seed, device="cpu", **kw)
     _scale_output_layer(model)
-    vn = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=CLIP_OBS)
-    x = np.concatenate(
-        [observations, np.zeros((len(observations), vn.observation_space.shape[0] - observations.shape[1]))],
-        1,
-    )
-    rng = np.random.default_rng(seed)
-    vn.obs_rms.mean = x.mean(0) + rng.normal(0.0, 1.0, x.shape[1]) * (x.std(0) + 1.0)
-    vn.obs_rms.var = (x.var(0) + 1.0) * rng.uniform(0.2, 2.0, x.shape[1])
-    folder.mkdir(parents=True)
-    model.save(folder / "model.zip")
-    vn.save(folder / "vecnormalize.pkl")
-    meta = {"algo": algo, "env_id": "SmaSpine-v0", "env_kwargs": {}} | (meta_extra or {})
-    (folder / "meta.json").write_text(json.dumps(meta))
+    save_model_run(folder, model, venv, observations, {"algo": algo} | (meta_extra or {}), seed=seed)
     return folder
 
 
@@ -142,18 +111,6 @@ def numpy_runner_without_torch(
     )
     subprocess.run([sys.executable, "-c", script], cwd=ROOT, check=True, capture_output=True, text=True)
     return np.load(tmp / "out.npy")
-
-
-def c_runner(bundle: Path, rows: np.ndarray, tmp: Path, mode: str = "act") -> np.ndarray:
-    exe = compile_driver(bundle, tmp / "c")
-    rows.astype(np.float32).tofile(tmp / "c" / "in.f32")
-    subprocess.run([str(exe), mode, str(tmp / "c" / "in.f32"), str(tmp / "c" / "out.f32")], check=True)
-    return np.fromfile(tmp / "c" / "out.f32", dtype=np.float32).reshape(len(rows), -1)
-
-
-def onnx_runner(bundle: Path, net_input: np.ndarray) -> np.ndarray:
-    sess = ort.InferenceSession(str(bundle / "policy.onnx"), providers=["CPUExecutionProvider"])
-    return sess.run(None, {"obs": net_input.astype(np.float32)})[0]
 
 
 @pytest.mark.parametrize("algo", ["ppo", "ppo_sde", "sac", "td3"])

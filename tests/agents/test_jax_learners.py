@@ -11,16 +11,14 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 
 import numpy as np
-import onnxruntime as ort
 import pytest
 from agent_cli import run_cli
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from export_parity import c_runner, onnx_runner, record_observations, save_model_run
+from stable_baselines3.common.vec_env import DummyVecEnv
 
 from spine_gym.agents.export import UnsupportedPolicyError, export_policy
-from spine_gym.agents.export_c import compile_driver
 from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.runtime import load_policy, make_env
 from spine_gym.agents.training import hyperparameter_keys, resolve_config
@@ -31,7 +29,6 @@ TOL = 1e-5
 # activations ~100 x larger into the 30 x mean head: float32 rounding of the folded layers, measured
 # 2e-5; a fold that dropped the epsilon or a layer would be off by > 1e-2
 TOL_RENORM = 5e-5
-CLIP_OBS = 3.0
 ENV = "SmaSpineEasy-v2"
 # a smoke run: 3-s episodes, tiny networks and batches, one gradient step per vector step
 SMOKE = [
@@ -107,22 +104,6 @@ def test_the_benchmark_runs_a_jax_learner(tmp_path):
 
 
 # --------------------------------------------------------------------------- export
-def _observations(n: int = 600, seed: int = 0) -> np.ndarray:
-    """``n`` observations of ``SmaSpine-v0`` under random actions held for 10 steps."""
-    env = make_env()
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    rows = []
-    while len(rows) < n:
-        a = rng.uniform(-1, 1, size=2).astype(np.float32)
-        for _ in range(10):
-            rows.append(obs)
-            obs, _, term, trunc, _ = env.step(a)
-            if term or trunc:
-                obs, _ = env.reset(seed=seed + len(rows))
-    return np.asarray(rows[:n], np.float32)
-
-
 def _randomised_actor(model, rng: np.random.Generator) -> None:
     """Random renormalisation statistics and affine parameters (CrossQ), a mean head 30 x larger."""
     import jax  # imported by SBX already (spine_gym.agents.jax_algos set its threads first)
@@ -149,22 +130,8 @@ def _save_run(folder, algo: str, obs: np.ndarray, policy_kwargs: dict, seed: int
     venv = DummyVecEnv([make_env])
     model = algo_class(algo)("MlpPolicy", venv, seed=seed, buffer_size=1000, policy_kwargs=policy_kwargs)
     _randomised_actor(model, np.random.default_rng(seed))
-    vn = VecNormalize(venv, norm_obs=True, norm_reward=False, clip_obs=CLIP_OBS)
-    rng = np.random.default_rng(seed + 1)
-    vn.obs_rms.mean = obs.mean(0) + rng.normal(0.0, 1.0, obs.shape[1]) * (obs.std(0) + 1.0)
-    vn.obs_rms.var = (obs.var(0) + 1.0) * rng.uniform(0.2, 2.0, obs.shape[1])
-    folder.mkdir(parents=True)
-    model.save(folder / "model.zip")
-    vn.save(folder / "vecnormalize.pkl")
-    (folder / "meta.json").write_text(json.dumps({"algo": algo, "env_id": "SmaSpine-v0", "env_kwargs": {}}))
+    vn = save_model_run(folder, model, venv, obs, {"algo": algo}, seed=seed + 1)
     return model, vn.normalize_obs(obs)
-
-
-def _c_actions(bundle, rows: np.ndarray, tmp) -> np.ndarray:
-    exe = compile_driver(bundle, tmp / "c")
-    rows.astype(np.float32).tofile(tmp / "c" / "in.f32")
-    subprocess.run([str(exe), "act", str(tmp / "c" / "in.f32"), str(tmp / "c" / "out.f32")], check=True)
-    return np.fromfile(tmp / "c" / "out.f32", dtype=np.float32).reshape(len(rows), -1)
 
 
 EXPORT_CASES = {
@@ -178,7 +145,7 @@ EXPORT_CASES = {
 @pytest.mark.parametrize("case", sorted(EXPORT_CASES))
 def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
     algo, policy_kwargs = EXPORT_CASES[case]
-    obs = _observations()
+    obs = record_observations(600)
     model, normalized = _save_run(tmp_path / "run", algo, obs, policy_kwargs)
     ref, _ = model.predict(normalized, deterministic=True)  # the model's deterministic action
     policy = load_policy(tmp_path / "run")
@@ -189,11 +156,10 @@ def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
     spec = json.loads((bundle / "policy.json").read_text())
     assert spec["algo"] == {"crossq": "sbx_crossq", "droq": "sbx_sac"}[algo]
     assert spec["network"]["sizes"] == [10, 64, 48, 2] and spec["network"]["output"] == "squash"
-    sess = ort.InferenceSession(str(bundle / "policy.onnx"), providers=["CPUExecutionProvider"])
     for name, got in (
-        ("onnxruntime", sess.run(None, {"obs": obs})[0]),
+        ("onnxruntime", onnx_runner(bundle, obs)),
         ("numpy", load_bundle(bundle).act(obs)),
-        ("C", _c_actions(bundle, obs, tmp_path)),
+        ("C", c_runner(bundle, obs, tmp_path)),
     ):
         diff = float(np.max(np.abs(got - ref)))
         print(f"{case} {name}: max |action - model| {diff:.1e}")  # shown by pytest -s
@@ -203,7 +169,7 @@ def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
 def test_a_simba_actor_is_refused(tmp_path):
     from sbx.common.policies import SimbaSquashedGaussianActor
 
-    obs = _observations(50)
+    obs = record_observations(50)
     model, _ = _save_run(tmp_path / "run", "droq", obs, {"net_arch": [16]})
     model.policy.actor = SimbaSquashedGaussianActor(net_arch=[16], action_dim=2)
     policy = load_policy(tmp_path / "run")
