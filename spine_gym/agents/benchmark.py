@@ -34,8 +34,8 @@ Output folder (``--out``, default ``results/benchmark``):
   :func:`spine_gym.agents.runtime.load_policy`), ``done.json`` (the run's settings and result; a run that
   has it is skipped on the next invocation, one without it starts over);
 * ``records.tar.xz`` (a study's folder only) — its runs' records (``curve.csv``, ``meta.json``,
-  ``done.json``) as one archive (:mod:`spine_gym.agents.benchmark_records`), unpacked into
-  ``runs/`` on start wherever a run folder is missing, so the study resumes from it;
+  ``done.json``) and ``references/`` as one archive (:mod:`spine_gym.agents.benchmark_records`),
+  unpacked on start wherever a run folder or reference file is missing, so the study resumes from it;
 * ``references/<env id>.json`` — the reference controllers' validation episodes;
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
   CI over seeds per evaluation), ``curves_<env id>.png``;
