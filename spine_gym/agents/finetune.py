@@ -2,15 +2,17 @@
 plant by what the calibration leaves uncertain, fine-tune on it and score before/after.
 
 The library is :mod:`spine_gym.agents.reality_gap`; this is its command line. Writes into ``-o``:
-``scores.csv`` (the suite's means per row and group), ``plant.csv`` and ``real_plant.json`` (the
-shifted plant), ``selection.csv`` (the learners on the tuning shifts), ``reality_gap.png``,
-``summary.json``, ``command.txt`` and the run folders ``pretrained/`` and ``finetuned/``.
+``scores.csv`` (the suite's means per row and group), ``finetune_seeds.csv`` (each fine-tuning run's
+rows), ``scenarios.csv`` (every controller's metrics per scenario), ``plant.csv`` and
+``real_plant.json`` (the shifted plant), ``selection.csv`` (the learners on the tuning shifts),
+``reality_gap.png``, ``summary.json`` (the recovered fraction, the control arm, their bootstrap
+intervals), ``command.txt`` and the run folders ``pretrained/``, ``finetuned_<seed>/`` and
+``control_<seed>/`` (the same fine-tuning on the fitted plant).
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import shlex
 import sys
 
@@ -25,7 +27,7 @@ from spine_gym.cli_conventions import (
     module_prog,
 )
 
-from .reality_gap import DEFAULT_ENV_ID, LEARNERS, StudyConfig, run_study
+from .reality_gap import DEFAULT_ENV_ID, DEFAULT_LEARNER, LEARNERS, StudyConfig, run_study
 
 PROG = module_prog(__spec__.name)
 
@@ -61,11 +63,13 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add("--pretrain-steps", type=int, default=300_000, help="PPO pretraining steps (0: --pretrained)")
     add("--pretrained", default="", help="an existing pretrained run folder (with --pretrain-steps 0)")
     add("--finetune-steps", type=int, default=6_000, help="fine-tuning budget [env steps] on one spine")
-    add("--finetune-seeds", type=int, default=5, help="fine-tuning runs (seeds); the row: their median")
+    add("--finetune-seeds", type=int, default=8, help="fine-tuning runs (seeds) per arm; a row: their median")
     add("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
     add("--shift-seed", type=int, default=0, help="seed of the shift's signs (the 'real' plant)")
-    add("--learners", nargs="+", default=list(LEARNERS), help="candidates (one: no selection)")
-    add("--selection-episodes", type=int, default=5, help="validation episodes per tuning plant")
+    learners = ", ".join(LEARNERS)
+    add("--learners", nargs="+", default=[DEFAULT_LEARNER],
+        help=f"fine-tuning settings among {learners} (several: chosen on tuning plants)")  # fmt: skip
+    add("--selection-episodes", type=int, default=10, help="validation episodes per tuning plant")
     add("--suite", default="full", help="evaluation suite: full or quick")
     add("--seed", type=int, default=0, help="training seed (the first of the fine-tuning seeds)")
     add("--quick", action="store_true", help="tiny budgets and the quick suite (a pipeline check)")
@@ -107,17 +111,33 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
     except (ValueError, FileNotFoundError) as e:
         parser.error(first_line(e))
     summary = run_study(cfg, progress=args.progress)
-    frac = summary["recovered_fraction"]
-    outcome = (
-        "the shift cost the pretrained policy no RMSE on the suite"
-        if math.isnan(frac)
-        else f"recovered {frac:.0%} of the RMSE the shift cost (median over {cfg.finetune_seeds} runs)"
-    )
     print(
         f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps "
-        f"({summary['hardware_minutes']:.1f} min of hardware): {outcome}; wrote {args.out}/"
+        f"({summary['hardware_minutes']:.1f} min of hardware): {outcome_line(summary)}; wrote {args.out}/"
     )
     return 0
+
+
+def outcome_line(summary: dict) -> str:
+    """The shift's cost, the recovered fraction and the control arm, each with its 95 % interval."""
+    lo, hi = summary["shift_cost_deg_ci95"]
+    cost = (
+        f"the shift cost {summary['shift_cost_deg']:.2f} deg of suite RMSE "
+        f"(95 % CI over scenarios {lo:.2f} to {hi:.2f})"
+    )
+    c_lo, c_hi = summary["control_gain_deg_ci95"]
+    control = (
+        f"the same fine-tuning on the unshifted plant moved it by {-summary['control_gain_deg']:+.2f} deg "
+        f"(95 % CI over runs {-c_hi:+.2f} to {-c_lo:+.2f})"
+    )
+    if summary["shift_cost_deg"] <= 0:
+        return f"{cost}: nothing to recover; {control}"
+    f_lo, f_hi = summary["recovered_fraction_ci95"]
+    won = (
+        f"the fine-tuning won back {summary['recovered_fraction']:.0%} of it "
+        f"(median of {summary['n_runs']} runs, 95 % CI over runs {f_lo:.0%} to {f_hi:.0%})"
+    )
+    return f"{cost}; {won}; {control}"
 
 
 if __name__ == "__main__":

@@ -55,6 +55,7 @@ __all__ = [
     "PlantShift",
     "Learner",
     "LEARNERS",
+    "DEFAULT_LEARNER",
     "StudyConfig",
     "shift_plant",
     "write_plant",
@@ -64,7 +65,9 @@ __all__ = [
     "plain_entry",
     "finetune",
     "finetune_model",
+    "tuning_plants",
     "select_learner",
+    "paired_gains",
     "score_rows",
     "recovered_fraction",
     "run_study",
@@ -75,6 +78,12 @@ DEFAULT_ENV_ID = "SmaSpine3DEasy-v2"  # a four-wire module: the per-wire values 
 STEP_BUDGET_LIMIT = 1_000_000  # [env steps] the largest fine-tuning budget the command accepts
 SCORE_COLUMNS = ("rmse_deg", "energy_J", "time_over_limit_s", "max_error_deg", "peak_temperature_K")
 TUNING_SHIFT_SEEDS = (101, 102)  # the learner is chosen on these plants; the evaluated plant has its own seed
+TUNING_TRAIN_SEEDS = (100, 101)  # fine-tuning seeds of the selection; the scored runs use 0, 1, ...
+
+
+def _check_int(name: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
 
 
 # ---------------------------------------------------------------------------------------- the plant
@@ -192,7 +201,10 @@ def nominal_env_kwargs(unc: ParameterUncertainty) -> dict:
 # -------------------------------------------------------------------------------------- the learners
 @dataclass(frozen=True)
 class Learner:
-    """How the pretrained PPO continues on one spine: rollout length, minibatch, epochs, step size.
+    """How the pretrained PPO continues on one spine: rollout length, minibatch, epochs, step size,
+    clip range, and the value-function warm-up (the first ``vf_warmup_steps`` steps update the value
+    function only, the policy frozen: the pretrained value function re-fits to this spine's returns
+    before its advantages move the policy).
 
     One sub-env (a real spine is one), so every update waits for ``n_steps`` control periods."""
 
@@ -201,6 +213,8 @@ class Learner:
     batch_size: int = 64
     n_epochs: int = 10
     learning_rate: float = 1e-4
+    clip_range: float = 0.2
+    vf_warmup_steps: int = 0
 
     def __post_init__(self):
         for key, lo in (("n_steps", 8), ("batch_size", 8), ("n_epochs", 1)):
@@ -212,17 +226,31 @@ class Learner:
         lr = self.learning_rate
         if not (isinstance(lr, int | float) and 0.0 < lr <= 1e-2):
             raise ValueError(f"learning_rate must be in (0, 0.01], got {lr!r}")
+        clip = self.clip_range
+        if not (isinstance(clip, int | float) and 0.0 < clip <= 1.0):
+            raise ValueError(f"clip_range must be in (0, 1], got {clip!r}")
+        _check_int("vf_warmup_steps", self.vf_warmup_steps, 0, STEP_BUDGET_LIMIT)
 
     def overrides(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if k != "name"}
+        """The PPO settings (``algo.load`` keyword arguments)."""
+        return {k: v for k, v in asdict(self).items() if k not in ("name", "vf_warmup_steps")}
 
 
-#: the candidates :func:`select_learner` compares (PPO on one spine)
+#: the candidates :func:`select_learner` compares (PPO on one spine): the step sizes of the pretraining
+#: scale (256-step rollouts, minibatch 64, 10 epochs: 960 gradient steps in 6 000 env steps),
+#: and gentler ones (512- or 1 024-step rollouts, 5 epochs, clip range 0.1, a smaller step size or a
+#: value-function warm-up)
 LEARNERS = {
-    "ppo_256_lr1e-4": Learner("ppo_256_lr1e-4", 256, 64, 10, 1e-4),
     "ppo_256_lr3e-4": Learner("ppo_256_lr3e-4", 256, 64, 10, 3e-4),
-    "ppo_128_lr1e-4": Learner("ppo_128_lr1e-4", 128, 64, 5, 1e-4),
+    "ppo_256_lr1e-4": Learner("ppo_256_lr1e-4", 256, 64, 10, 1e-4),
+    "ppo_512_lr1e-4_c0.1": Learner("ppo_512_lr1e-4_c0.1", 512, 128, 5, 1e-4, 0.1),
+    "ppo_512_lr3e-5_c0.1": Learner("ppo_512_lr3e-5_c0.1", 512, 128, 5, 3e-5, 0.1),
+    "ppo_512_lr1e-4_c0.1_vf1024": Learner("ppo_512_lr1e-4_c0.1_vf1024", 512, 128, 5, 1e-4, 0.1, 1024),
+    "ppo_1024_lr1e-4_c0.1": Learner("ppo_1024_lr1e-4_c0.1", 1024, 256, 5, 1e-4, 0.1),
 }
+#: the learner of the command (chosen by :func:`select_learner` among :data:`LEARNERS` on the tuning
+#: plants and seeds; the reality-gap study's ``selection.csv``)
+DEFAULT_LEARNER = "ppo_512_lr1e-4_c0.1"
 
 
 # ------------------------------------------------------------------------------------------ training
@@ -292,10 +320,30 @@ def finetune_model(pretrained: str | Path, venv, *, learner: Learner, n_timestep
     pre = Path(pretrained)
     env = VecNormalize.load(str(pre / "vecnormalize.pkl"), venv)
     env.training = True
+    if learner.vf_warmup_steps >= n_timesteps:
+        raise ValueError(
+            f"n_timesteps must exceed the learner's vf_warmup_steps ({learner.vf_warmup_steps}), "
+            f"got {n_timesteps}"
+        )
     model = algo_class("ppo").load(pre / "model.zip", env=env, device="cpu", **learner.overrides())
     model.set_random_seed(seed)
-    model.learn(total_timesteps=n_timesteps, reset_num_timesteps=False)
+    warmup = learner.vf_warmup_steps
+    if warmup:
+        actor = _actor_parameters(model.policy)
+        for p in actor:
+            p.requires_grad_(False)
+        model.learn(total_timesteps=warmup, reset_num_timesteps=False)
+        for p in actor:
+            p.requires_grad_(True)
+    model.learn(total_timesteps=n_timesteps - warmup, reset_num_timesteps=False)
     return model, env
+
+
+def _actor_parameters(policy) -> list:
+    """The parameters of an actor-critic policy that only the action distribution uses (the policy
+    network, the action head, the log standard deviation); the value network shares none of them."""
+    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    return [*params, policy.log_std]
 
 
 def finetune(
@@ -347,63 +395,79 @@ def _validation_rmse(policy_dir: Path, plant: SpineLayout, env_id: str, n_episod
     return float(np.mean([r["rmse_deg"] for r in rows]))
 
 
+def tuning_plants(unc: ParameterUncertainty, k: float, seeds: tuple[int, ...] = TUNING_SHIFT_SEEDS) -> dict:
+    """The plants a learner is chosen on: ``k``-sigma shifts with the seeds ``seeds`` (never the
+    scored plant's) and the fitted plant itself (a fine-tuning must not spoil a plant without a gap);
+    name -> :class:`SpineLayout`."""
+    return {**{f"shift{s}": shift_plant(unc, k, s).layout for s in seeds}, "fitted": fitted_layout(unc)}
+
+
 def select_learner(
     pretrained: str | Path,
-    unc: ParameterUncertainty,
+    plants: dict[str, SpineLayout],
     out: str | Path,
     *,
     candidates: dict[str, Learner],
-    k: float,
     n_timesteps: int,
-    seeds: tuple[int, ...] = TUNING_SHIFT_SEEDS,
-    n_episodes: int = 5,
+    seeds: tuple[int, ...] = TUNING_TRAIN_SEEDS,
+    n_episodes: int = 10,
 ) -> tuple[str, list[dict]]:
-    """The candidate with the lowest mean validation RMSE after fine-tuning on the tuning shifts
-    ``seeds`` (plants of :func:`shift_plant` with those seeds); returns (name, rows)."""
+    """The candidate with the lowest mean validation RMSE after fine-tuning, over the ``plants``
+    (:func:`tuning_plants`) and the training ``seeds``; the validation episodes are the same before
+    and after. Returns (name, one row per candidate, plant and seed)."""
     env_id = json.loads((Path(pretrained) / "meta.json").read_text())["env_id"]
     rows = []
-    for s in seeds:
-        plant = shift_plant(unc, k, s).layout
+    for plant_name, plant in plants.items():
         before = _validation_rmse(Path(pretrained), plant, env_id, n_episodes)
         for name, learner in candidates.items():
-            folder = Path(out) / f"{name}_shift{s}"
-            run = finetune(pretrained, plant, folder, learner=learner, n_timesteps=n_timesteps, seed=s)
-            after = _validation_rmse(run, plant, env_id, n_episodes)
-            cpu = json.loads((run / "meta.json").read_text())["train_cpu_time_s"]
-            rows.append(
-                {
-                    "learner": name,
-                    "shift_seed": s,
-                    "rmse_before": before,
-                    "rmse_after": after,
-                    "train_cpu_s": cpu,
-                }
-            )
+            for s in seeds:
+                folder = Path(out) / f"{name}_{plant_name}_{s}"
+                run = finetune(pretrained, plant, folder, learner=learner, n_timesteps=n_timesteps, seed=s)
+                after = _validation_rmse(run, plant, env_id, n_episodes)
+                cpu = json.loads((run / "meta.json").read_text())["train_cpu_time_s"]
+                rows.append(
+                    {
+                        "learner": name,
+                        "plant": plant_name,
+                        "train_seed": s,
+                        "rmse_before": before,
+                        "rmse_after": after,
+                        "change": after - before,
+                        "train_cpu_s": cpu,
+                    }
+                )
     means = {n: np.mean([r["rmse_after"] for r in rows if r["learner"] == n]) for n in candidates}
     return min(means, key=means.get), rows
 
 
 # ------------------------------------------------------------------------------------------ scoring
+FINETUNED = "finetuned@shifted"  # the fine-tuned runs on the shifted plant (their median row)
+CONTROL = "finetuned@nominal"  # the control arm: the same fine-tuning on the fitted plant (no shift)
+
+
 def score_rows(
     pretrained: str | Path,
     finetuned: list[str | Path],
     unc: ParameterUncertainty,
     shift: PlantShift,
     *,
+    control: list[str | Path] = (),
     suite: str = "full",
     env_id: str | None = None,
-) -> tuple[list[dict], list[dict]]:
+) -> tuple[list[dict], list[dict], list[dict]]:
     """Mean suite metrics per (row, scenario group) and over the whole suite (group ``all``) of
     ``pretrained@nominal``, ``pretrained@shifted``, ``finetuned@shifted`` (the median over the
-    fine-tuned runs ``finetuned``, one per training seed) and ``pid@shifted``; and the same rows of
-    each fine-tuned run (``finetuned@shifted#<i>``). Returns (rows, per-run rows)."""
+    fine-tuned runs ``finetuned``, one per training seed), ``finetuned@nominal`` (the median over the
+    control runs ``control``, fine-tuned on the fitted plant; none: no row) and ``pid@shifted``.
+    Returns (rows, per-run rows ``<row>#<i>``, per-scenario rows of every controller)."""
     env_id = env_id or json.loads((Path(pretrained) / "meta.json").read_text())["env_id"]
     nominal, shifted = nominal_env_kwargs(unc), plant_env_kwargs(shift.layout)
     pre = load_policy(pretrained)
     controllers = {
         "pretrained@nominal": (pre, nominal),
         "pretrained@shifted": (pre, shifted),
-        **{f"finetuned@shifted#{i}": (load_policy(f), shifted) for i, f in enumerate(finetuned)},
+        **{f"{FINETUNED}#{i}": (load_policy(f), shifted) for i, f in enumerate(finetuned)},
+        **{f"{CONTROL}#{i}": (load_policy(f), nominal) for i, f in enumerate(control)},
         "pid@shifted": (controller_for("pid", env_id, shifted), shifted),
     }
     scenarios = get_suite(suite, env_id=env_id)
@@ -417,24 +481,93 @@ def score_rows(
             {"controller": name, "group": "all", "n_scenarios": len(sel)}
             | {c: float(np.mean([r[c] for r in sel])) for c in METRIC_COLUMNS}
         )
-    runs = [m for m in means if m["controller"].startswith("finetuned@shifted#")]
-    out = [m for m in means if m not in runs]
-    for group in dict.fromkeys(m["group"] for m in runs):
-        sel = [m for m in runs if m["group"] == group]
-        median = {c: float(np.median([m[c] for m in sel])) for c in METRIC_COLUMNS}
-        row = {"controller": "finetuned@shifted", "group": group, "n_scenarios": sel[0]["n_scenarios"]}
-        out.append(row | median)
+    runs = [m for m in means if "#" in m["controller"]]
+    out = [m for m in means if "#" not in m["controller"]]
+    for arm in (FINETUNED, CONTROL):
+        arm_runs = [m for m in runs if m["controller"].startswith(arm + "#")]
+        for group in dict.fromkeys(m["group"] for m in arm_runs):
+            sel = [m for m in arm_runs if m["group"] == group]
+            median = {c: float(np.median([m[c] for m in sel])) for c in METRIC_COLUMNS}
+            out.append({"controller": arm, "group": group, "n_scenarios": sel[0]["n_scenarios"]} | median)
     order = list(ROW_LABELS)
     out.sort(key=lambda m: (m["group"] == "all", m["group"], order.index(m["controller"])))
-    return out, runs
+    return out, runs, rows
 
 
-def recovered_fraction(scores: list[dict], group: str = "all", finetuned: str = "finetuned@shifted") -> float:
+def recovered_fraction(scores: list[dict], group: str = "all", finetuned: str = FINETUNED) -> float:
     """(RMSE pretrained@shifted − finetuned) / (pretrained@shifted − pretrained@nominal): the share
     of the RMSE the shift cost that the fine-tuning won back (NaN if the shift cost none)."""
     r = {s["controller"]: s["rmse_deg"] for s in scores if s["group"] == group}
     cost = r["pretrained@shifted"] - r["pretrained@nominal"]
     return float((r["pretrained@shifted"] - r[finetuned]) / cost) if cost > 0 else math.nan
+
+
+def _rmse_matrix(scenario_rows: list[dict], prefix: str) -> np.ndarray:
+    """RMSE per (run, scenario) of the runs ``<prefix>#<i>`` (rows: runs in index order)."""
+    runs = sorted({r["controller"] for r in scenario_rows if r["controller"].startswith(prefix + "#")},
+                  key=lambda n: int(n.rsplit("#", 1)[1]))  # fmt: skip
+    return np.array([[float(r["rmse_deg"]) for r in scenario_rows if r["controller"] == n] for n in runs])
+
+
+def paired_gains(scenario_rows: list[dict], *, n_boot: int = 2000, seed: int = 0) -> dict:
+    """Paired before/after differences of suite RMSE [deg] and bootstrap intervals of them.
+
+    Per fine-tuning run ``i``: its gain on the shifted plant, ``pretrained@shifted − finetuned@shifted#i``
+    (mean over the suite's scenarios, the same scenarios before and after), and its recovered fraction,
+    that gain over the shift's cost ``pretrained@shifted − pretrained@nominal``; per control run, its
+    gain on the fitted plant, ``pretrained@nominal − finetuned@nominal#i`` (what the fine-tuning does
+    without a shift). The rows: the medians over the runs; ``excess_gain_deg`` = median gain − median
+    control gain, ``excess_fraction`` = that over the cost (the share of the cost won back beyond
+    what the fine-tuning wins on a plant without a gap).
+
+    Two 95 % intervals (``n_boot`` resamples each): ``<name>_ci95`` resamples the runs of each arm
+    (the fine-tuning's spread, the suite fixed, so the fractions keep the suite's cost);
+    ``<name>_ci95_scenarios`` resamples the scenarios too (the same draw for every row: the pairing
+    kept), in degrees only, and gives the cost's interval (``shift_cost_deg_ci95``)."""
+    by: dict[str, list[float]] = {}
+    for r in scenario_rows:
+        by.setdefault(r["controller"], []).append(float(r["rmse_deg"]))
+    pre_n, pre_s = np.asarray(by["pretrained@nominal"]), np.asarray(by["pretrained@shifted"])
+    ft, ctrl = _rmse_matrix(scenario_rows, FINETUNED), _rmse_matrix(scenario_rows, CONTROL)
+
+    def degrees(cols, ft_rows, ctrl_rows) -> tuple[float, float, float, float]:
+        cost = float(np.mean(pre_s[cols] - pre_n[cols]))
+        gain = float(np.median(np.mean(pre_s[cols] - ft[np.ix_(ft_rows, cols)], axis=1)))
+        c_gain = math.nan
+        if len(ctrl_rows):
+            c_gain = float(np.median(np.mean(pre_n[cols] - ctrl[np.ix_(ctrl_rows, cols)], axis=1)))
+        return cost, gain, c_gain, gain - c_gain
+
+    m, rng = len(pre_n), np.random.default_rng(seed)
+
+    def draw(n: int) -> np.ndarray:
+        return rng.integers(0, n, n) if n else np.arange(0)
+
+    cols = np.arange(m)
+    point = degrees(cols, np.arange(len(ft)), np.arange(len(ctrl)))
+    runs = np.array([degrees(cols, draw(len(ft)), draw(len(ctrl))) for _ in range(n_boot)])
+    both = np.array([degrees(draw(m), draw(len(ft)), draw(len(ctrl))) for _ in range(n_boot)])
+    cost = point[0]
+    scale = 1.0 / cost if cost > 0 else math.nan  # no cost: nothing to recover
+    out = {"n_runs": len(ft), "n_control_runs": len(ctrl), "n_scenarios": m,
+           "shift_cost_deg": cost, "shift_cost_deg_ci95": _interval(both[:, 0])}  # fmt: skip
+    for j, name in enumerate(("gain_deg", "control_gain_deg", "excess_gain_deg"), start=1):
+        out |= {name: point[j], f"{name}_ci95": _interval(runs[:, j]),
+                f"{name}_ci95_scenarios": _interval(both[:, j])}  # fmt: skip
+    for name, j in (("recovered_fraction", 1), ("excess_fraction", 3)):
+        out |= {name: point[j] * scale, f"{name}_ci95": _interval(runs[:, j] * scale)}
+    gains = np.mean(pre_s - ft, axis=1)
+    out["gain_deg_per_run"] = [float(g) for g in gains]
+    out["recovered_fraction_per_run"] = [float(g * scale) for g in gains]
+    out["control_gain_deg_per_run"] = [float(g) for g in np.mean(pre_n - ctrl, axis=1)] if len(ctrl) else []
+    return out
+
+
+def _interval(values: np.ndarray) -> list[float]:
+    """The central 95 % of bootstrap values (NaN if any is NaN)."""
+    if np.isnan(values).any():
+        return [math.nan, math.nan]
+    return [float(v) for v in np.quantile(values, [0.025, 0.975], method="inverted_cdf")]
 
 
 # -------------------------------------------------------------------------------------------- study
@@ -449,10 +582,12 @@ class StudyConfig:
         pretrain_steps: PPO steps of the pretraining (0: reuse ``pretrained``).
         pretrained: an existing pretrained run folder (with ``pretrain_steps`` 0).
         finetune_steps: the fine-tuning budget [env steps] (one spine: × the control period of hardware).
-        finetune_seeds: fine-tuning runs on the shifted plant (training seeds ``seed`` … ``seed + n − 1``;
-            the ``finetuned@shifted`` row is their median).
+        finetune_seeds: fine-tuning runs per arm (training seeds ``seed`` … ``seed + n − 1``): on the
+            shifted plant (the ``finetuned@shifted`` row is their median) and, the control arm, on the
+            fitted plant (``finetuned@nominal``).
         k, shift_seed: the shift of the "real" plant in standard errors, and the seed of its signs.
-        learners: candidate names of :data:`LEARNERS` (one: no selection).
+        learners: candidate names of :data:`LEARNERS` (one: no selection; several: chosen by
+            :func:`select_learner` on :func:`tuning_plants`).
         selection_episodes: validation episodes per tuning plant in the selection.
         suite: the evaluation suite (``full`` or ``quick``).
         seed: the training seed.
@@ -464,11 +599,11 @@ class StudyConfig:
     pretrain_steps: int = 300_000
     pretrained: str = ""
     finetune_steps: int = 6_000
-    finetune_seeds: int = 5
+    finetune_seeds: int = 8
     k: float = 3.0
     shift_seed: int = 0
-    learners: tuple[str, ...] = tuple(LEARNERS)
-    selection_episodes: int = 5
+    learners: tuple[str, ...] = (DEFAULT_LEARNER,)
+    selection_episodes: int = 10
     suite: str = "full"
     seed: int = 0
     command: str = field(default="", compare=False)
@@ -500,11 +635,6 @@ class StudyConfig:
         shift_plant(unc, self.k, self.shift_seed)  # k and the shift within the model's range
 
 
-def _check_int(name: str, value, lo: int, hi: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
-
-
 def _write_csv(path: Path, rows: list[dict]) -> None:
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -533,40 +663,50 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     candidates = {n: LEARNERS[n] for n in cfg.learners}
     chosen, sel_rows = cfg.learners[0], []
     if len(candidates) > 1:
-        say(f"choosing the learner among {list(candidates)} on tuning shifts {TUNING_SHIFT_SEEDS}")
+        plants = tuning_plants(unc, cfg.k)
+        say(f"choosing the learner among {list(candidates)} on the tuning plants {list(plants)}")
         chosen, sel_rows = select_learner(
-            pre, unc, out / "selection", candidates=candidates, k=cfg.k,
+            pre, plants, out / "selection", candidates=candidates,
             n_timesteps=cfg.finetune_steps, n_episodes=cfg.selection_episodes,
         )  # fmt: skip
         _write_csv(out / "selection.csv", sel_rows)
     seeds = range(cfg.seed, cfg.seed + cfg.finetune_seeds)
+    learner = LEARNERS[chosen]
     say(f"fine-tuning with {chosen} on the shifted plant (seed {cfg.shift_seed}, {cfg.finetune_steps} steps, "
-        f"training seeds {list(seeds)})")  # fmt: skip
-    fine = [
-        finetune(
-            pre, shift.layout, out / f"finetuned_{s}", learner=LEARNERS[chosen],
-            n_timesteps=cfg.finetune_steps, seed=s, plant_file=str(plant_file),
-        )  # fmt: skip
-        for s in seeds
-    ]
+        f"training seeds {list(seeds)}), and on the fitted plant (the control arm)")  # fmt: skip
+    arms = {}
+    plants = (("finetuned", shift.layout, str(plant_file)), ("control", fitted_layout(unc), cfg.preset))
+    for arm, layout, plant in plants:
+        arms[arm] = [
+            finetune(
+                pre, layout, out / f"{arm}_{s}", learner=learner,
+                n_timesteps=cfg.finetune_steps, seed=s, plant_file=plant,
+            )  # fmt: skip
+            for s in seeds
+        ]
     say(f"scoring on the {cfg.suite} suite")
-    scores, runs = score_rows(pre, fine, unc, shift, suite=cfg.suite, env_id=cfg.env_id)
+    scores, runs, scenario_rows = score_rows(
+        pre, arms["finetuned"], unc, shift, control=arms["control"], suite=cfg.suite, env_id=cfg.env_id
+    )
     _write_csv(out / "scores.csv", scores)
+    columns = ("controller", "group", "scenario", *SCORE_COLUMNS)
+    _write_csv(out / "scenarios.csv", [{k: r[k] for k in columns} for r in scenario_rows])
     for r in runs:
-        r["recovered_fraction"] = (
-            recovered_fraction(scores + runs, r["group"], r["controller"]) if r["group"] == "all" else ""
-        )
+        shifted_all = r["group"] == "all" and r["controller"].startswith(FINETUNED + "#")
+        fraction = recovered_fraction(scores + runs, "all", r["controller"]) if shifted_all else ""
+        r["recovered_fraction"] = fraction
     _write_csv(out / "finetune_seeds.csv", runs)
-    fractions = [r["recovered_fraction"] for r in runs if r["group"] == "all"]
+    paired = paired_gains(scenario_rows, seed=cfg.seed)
     summary = {
         "recovered_fraction": recovered_fraction(scores),
-        "recovered_fraction_per_seed": fractions,
+        **paired,
         "learner": chosen,
         "finetune_steps": cfg.finetune_steps,
         "finetune_seeds": list(seeds),
         "hardware_minutes": cfg.finetune_steps * float(config_of(cfg.env_id).control_period) / 60.0,
         "pretrained": str(pre),
-        "finetuned": [str(f) for f in fine],
+        "finetuned": [str(f) for f in arms["finetuned"]],
+        "control": [str(f) for f in arms["control"]],
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "command.txt").write_text(cfg.command + "\n")
@@ -579,6 +719,7 @@ ROW_LABELS = {
     "pretrained@nominal": "pretrained,\nnominal plant",
     "pretrained@shifted": "pretrained,\nshifted plant",
     "finetuned@shifted": "fine-tuned,\nshifted plant",
+    "finetuned@nominal": "fine-tuned,\nnominal plant\n(control)",
     "pid@shifted": "PID,\nshifted plant",
 }
 
@@ -586,8 +727,8 @@ ROW_LABELS = {
 def plot_scores(
     scores: list[dict], path: str | Path, title: str = "", runs: list[dict] | None = None
 ) -> Path:
-    """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row (the
-    fine-tuned bar: the median of the runs, each run a black dot)."""
+    """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row (a
+    fine-tuned bar: the median of its runs, each run a black dot)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -595,10 +736,13 @@ def plot_scores(
 
     rows = [s for s in scores if s["group"] == "all"]
     labels = [ROW_LABELS.get(r["controller"], r["controller"]) for r in rows]
-    colors = ["#7f7f7f", "#d62728", "#2ca02c", "#1f77b4"][: len(rows)]
+    palette = {"pretrained@nominal": "#7f7f7f", "pretrained@shifted": "#d62728", FINETUNED: "#2ca02c",
+               CONTROL: "#98df8a", "pid@shifted": "#1f77b4"}  # fmt: skip
+    colors = [palette.get(r["controller"], "#bcbd22") for r in rows]
+    names = [r["controller"] for r in rows]
     panels = (("rmse_deg", "tracking RMSE [deg]"), ("energy_J", "energy per episode [J]"),
               ("time_over_limit_s", "time over the temperature limit [s]"))  # fmt: skip
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
+    fig, axes = plt.subplots(1, 3, figsize=(4.0 + 2.2 * len(rows), 4.4))
     for ax, (key, ylabel) in zip(axes, panels, strict=True):
         vals = [r[key] for r in rows]
         ax.bar(range(len(rows)), vals, color=colors)
@@ -608,10 +752,13 @@ def plot_scores(
             ax.annotate(f"{v:.3g}", (i, v), ha="center", va="bottom", fontsize=8)
         if max(vals) == 0.0:
             ax.set_ylim(0.0, 1.0)  # e.g. no time over the limit at all: a readable empty axis
-        seeds = [r[key] for r in runs or [] if r["group"] == "all"]
-        if seeds and "finetuned@shifted" in [r["controller"] for r in rows]:
-            i = [r["controller"] for r in rows].index("finetuned@shifted")
-            ax.plot([i] * len(seeds), seeds, "k.", label="fine-tuning runs (seeds)")
+        for arm in (FINETUNED, CONTROL):
+            own = [r for r in runs or [] if r["group"] == "all" and r["controller"].split("#")[0] == arm]
+            seeds = [r[key] for r in own]
+            if seeds and arm in names:
+                label = "fine-tuning runs (seeds)" if arm == FINETUNED else None
+                ax.plot([names.index(arm)] * len(seeds), seeds, "k.", label=label)
+        if runs and FINETUNED in names:
             ax.legend(fontsize=7, loc="lower right")
     fig.suptitle(title + " (means over the evaluation suite)")
     fig.tight_layout()

@@ -11,12 +11,15 @@ from repo import ROOT
 
 from spine_gym import cli
 from spine_gym.agents.reality_gap import (
+    DEFAULT_LEARNER,
     LEARNERS,
     Learner,
     StudyConfig,
     fitted_layout,
+    paired_gains,
     recovered_fraction,
     shift_plant,
+    tuning_plants,
     write_plant,
 )
 from spine_gym.layout import wire_key
@@ -102,6 +105,8 @@ def test_a_preset_without_per_wire_values_is_refused():
         ({"batch_size": 512}, "batch_size"),
         ({"n_epochs": 0}, "n_epochs"),
         ({"learning_rate": 0.5}, "learning_rate"),
+        ({"clip_range": 0.0}, "clip_range"),
+        ({"vf_warmup_steps": -1}, "vf_warmup_steps"),
     ],
 )
 def test_bad_learner_settings_name_the_setting(kwargs, name):
@@ -118,6 +123,69 @@ def test_the_recovered_fraction_is_the_share_of_the_shift_cost_won_back():
     assert recovered_fraction(rows) == pytest.approx(0.75)
     rows[1]["rmse_deg"] = 1.5  # the shift cost nothing: nothing to recover
     assert np.isnan(recovered_fraction(rows))
+
+
+def test_the_value_function_warm_up_freezes_exactly_the_actor():
+    from stable_baselines3 import PPO
+
+    from spine_gym.agents.reality_gap import _actor_parameters
+    from spine_gym.agents.runtime import make_env
+
+    env = make_env({}, env_id="SmaSpine3DEasy-v2")
+    policy = PPO("MlpPolicy", env, use_sde=True, device="cpu").policy
+    actor = {id(p) for p in _actor_parameters(policy)}
+    critic = {id(p) for p in [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]}
+    assert actor and critic and not actor & critic
+    assert actor | critic == {id(p) for p in policy.parameters()}  # nothing shared, nothing left out
+    env.close()
+
+
+def test_the_tuning_plants_are_other_shifts_and_the_fitted_plant_never_the_scored_one(unc):
+    plants = tuning_plants(unc, 3.0)
+    scored = shift_plant(unc, 3.0, 0).layout
+    assert plants["fitted"].wire_values == fitted_layout(unc).wire_values
+    assert all(p.wire_values != scored.wire_values for p in plants.values())
+    assert len(plants) == 3 and DEFAULT_LEARNER in LEARNERS
+
+
+def _scenario_rows(pre_n, pre_s, ft, ctrl):
+    rows = []
+    for name, vals in (("pretrained@nominal", pre_n), ("pretrained@shifted", pre_s)):
+        rows += [{"controller": name, "rmse_deg": v} for v in vals]
+    for arm, runs in (("finetuned@shifted", ft), ("finetuned@nominal", ctrl)):
+        for i, vals in enumerate(runs):
+            rows += [{"controller": f"{arm}#{i}", "rmse_deg": v} for v in vals]
+    return rows
+
+
+def test_paired_gains_are_the_per_run_differences_on_the_same_scenarios():
+    pre_n, pre_s = [2.0, 4.0, 3.0], [3.0, 5.0, 4.0]  # the shift costs 1 deg on every scenario
+    ft = [[2.5, 4.5, 3.5], [3.0, 5.0, 4.0], [2.0, 4.0, 3.0]]  # gains 0.5, 0, 1
+    ctrl = [[2.0, 4.0, 3.0], [2.2, 4.2, 3.2]]  # control gains 0, -0.2
+    out = paired_gains(_scenario_rows(pre_n, pre_s, ft, ctrl), n_boot=200)
+    assert out["shift_cost_deg"] == pytest.approx(1.0)
+    assert out["gain_deg_per_run"] == pytest.approx([0.5, 0.0, 1.0])
+    assert out["recovered_fraction"] == pytest.approx(0.5)
+    assert out["control_gain_deg_per_run"] == pytest.approx([0.0, -0.2])
+    assert out["control_gain_deg"] == pytest.approx(-0.1)
+    assert out["excess_gain_deg"] == pytest.approx(0.6) and out["excess_fraction"] == pytest.approx(0.6)
+    lo, hi = out["recovered_fraction_ci95"]
+    assert 0.0 <= lo <= 0.5 <= hi <= 1.0 and lo < hi  # the runs' spread, never beyond their range
+    assert out["shift_cost_deg_ci95"] == pytest.approx([1.0, 1.0])  # the same cost on every scenario
+
+
+def test_paired_gains_without_spread_have_a_point_interval():
+    pre_n, pre_s = [2.0, 4.0], [3.0, 5.0]
+    out = paired_gains(_scenario_rows(pre_n, pre_s, [[2.4, 4.4]] * 3, [[2.0, 4.0]] * 2), n_boot=100)
+    assert out["recovered_fraction_ci95"] == pytest.approx([0.6, 0.6])
+    assert out["control_gain_deg_ci95"] == pytest.approx([0.0, 0.0])
+    assert out["gain_deg_ci95_scenarios"] == pytest.approx([0.6, 0.6])
+
+
+def test_a_shift_that_cost_nothing_has_no_recovered_fraction():
+    out = paired_gains(_scenario_rows([3.0, 5.0], [3.0, 4.0], [[2.0, 4.0]], [[3.0, 5.0]]), n_boot=50)
+    assert out["shift_cost_deg"] == pytest.approx(-0.5) and np.isnan(out["recovered_fraction"])
+    assert np.isnan(out["recovered_fraction_ci95"]).all()
 
 
 BAD = {
@@ -152,22 +220,29 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     out = tmp_path / "rg"
     argv = ["finetune", "--preset", str(PRESET), "--quick", "--learners", *list(LEARNERS)[:2], "-o", str(out)]
     assert cli.main([*argv, "--no-progress"]) == 0
-    assert "fine-tuned on the shifted plant in 256 steps (0.4 min of hardware)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "fine-tuned on the shifted plant in 256 steps (0.4 min of hardware)" in printed
     with open(out / "scores.csv") as f:
         rows = list(csv.DictReader(f))
-    expected = {"pretrained@nominal", "pretrained@shifted", "finetuned@shifted", "pid@shifted"}
+    arms = ("finetuned@shifted", "finetuned@nominal")
+    expected = {"pretrained@nominal", "pretrained@shifted", *arms, "pid@shifted"}
     assert {r["controller"] for r in rows} == expected
     assert {r["group"] for r in rows} == {"nominal", "disturbed", "all"}
     assert all(float(r["rmse_deg"]) > 0 and float(r["energy_J"]) > 0 for r in rows)
     with open(out / "selection.csv") as f:
-        assert len(list(csv.DictReader(f))) == 2 * 2  # 2 learners x 2 tuning plants
+        assert len(list(csv.DictReader(f))) == 2 * 3 * 2  # 2 learners x 3 tuning plants x 2 seeds
     with open(out / "finetune_seeds.csv") as f:
         runs = list(csv.DictReader(f))
-    assert {r["controller"] for r in runs} == {"finetuned@shifted#0", "finetuned@shifted#1"}
-    for group in ("nominal", "disturbed", "all"):  # the fine-tuned row is the median of the runs
-        median = np.median([float(r["rmse_deg"]) for r in runs if r["group"] == group])
-        row = [r for r in rows if r["controller"] == "finetuned@shifted" and r["group"] == group]
-        assert float(row[0]["rmse_deg"]) == pytest.approx(median)
+    assert {r["controller"] for r in runs} == {f"{a}#{i}" for a in arms for i in (0, 1)}
+    for arm in arms:
+        for group in ("nominal", "disturbed", "all"):  # a fine-tuned row is the median of its runs
+            sel = [r for r in runs if r["group"] == group and r["controller"].startswith(arm)]
+            median = np.median([float(r["rmse_deg"]) for r in sel])
+            row = [r for r in rows if r["controller"] == arm and r["group"] == group]
+            assert float(row[0]["rmse_deg"]) == pytest.approx(median)
+    with open(out / "scenarios.csv") as f:
+        per_scenario = list(csv.DictReader(f))
+    assert len(per_scenario) == len({r["scenario"] for r in per_scenario}) * (3 + 2 * 2)
     meta = json.loads((out / "finetuned_1" / "meta.json").read_text())
     assert meta["seed"] == 1
     assert meta["finetune_timesteps"] >= 256 and meta["n_envs"] == 1
@@ -175,5 +250,9 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     assert meta["start_timesteps"] == pretrained["total_timesteps"]
     assert (out / "reality_gap.png").stat().st_size > 10_000
     assert (out / "command.txt").read_text().startswith("spine-gym finetune --preset")
+    control = json.loads((out / "control_0" / "meta.json").read_text())
+    assert control["plant"] == str(PRESET)  # the control arm: the fitted plant
     summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_runs"] == summary["n_control_runs"] == 2
+    assert len(summary["recovered_fraction_ci95"]) == 2
     assert summary["finetune_steps"] == 256 and summary["hardware_minutes"] == pytest.approx(256 * 0.1 / 60)
