@@ -20,12 +20,13 @@ blocks' env steps per wall second, and the process's CPU time per env step (all 
 OpenMP workers show up here). Then a **trace**: the default env at N = ``--trace`` (64) runs on
 without a break for four ``--segment`` (3 s) segments, quiet, busy, quiet, busy (load that starts
 and stops mid-run): its rate and the share of its steps on the parallel kernel per segment.
-Writes ``benchmarks/results/contention<tag>.json`` and ``.png``; the committed results are tagged
-``_quiet`` (an idle machine), ``_busy`` (one other CPU-bound job running throughout) and
-``_busy_spin`` (the same with the second command).
+Writes the entry ``--condition`` of ``benchmarks/results/contention.json`` (the others are kept) and
+redraws ``contention.png`` (one row of panels per entry); the committed entries are ``quiet`` (an
+idle machine), ``busy`` (one other CPU-bound job running throughout) and ``busy_spin`` (the same
+with the second command).
 
-    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py [--sizes 8 64 256] [--repeats 7] [--tag _busy]
-    GOMP_SPINCOUNT=300000 PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py --tag _busy_spin
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py [--sizes 8 64 256] [--repeats 7] [--condition busy]
+    GOMP_SPINCOUNT=300000 PYTHONPATH=$PWD .venv/bin/python benchmarks/bench_contention.py --condition busy_spin
 
 The env starts numba's threads with sleeping OpenMP workers (:func:`spine_gym.envs._kernel_choice.
 launch_threads`) unless ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is set; the second command keeps
@@ -207,14 +208,23 @@ def machine() -> dict:
     }
 
 
-def plot(res: dict, path: Path) -> None:
+def plot(conditions: dict[str, dict], path: Path) -> None:
+    """One row of panels (quiet phase, busy phase) per entry of ``conditions`` (name -> results)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    fig, rows = plt.subplots(len(conditions), 2, figsize=(11, 4.2 * len(conditions)), squeeze=False)
+    for axes, (condition, res) in zip(rows, conditions.items(), strict=True):
+        _plot_row(axes, condition, res)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _plot_row(axes, condition: str, res: dict) -> None:
     sizes = res["sizes"]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     width = 0.27
     colors = {"serial": "tab:blue", "parallel": "tab:orange", "default": "tab:green"}
     for ax, name in zip(axes, ("quiet", "busy"), strict=True):
@@ -235,15 +245,13 @@ def plot(res: dict, path: Path) -> None:
         ends = ("load_start", "load_end")
         loads = [res["runs"][str(n)][name][k]["loadavg"][0] for n in sizes for k in ends]
         ax.set_title(
-            f"SmaSpine-v0 native vector env, {title}\n1-min load average {min(loads):.1f}-{max(loads):.1f}",
+            f"{condition}: SmaSpine-v0 native vector env, {title}\n"
+            f"1-min load average {min(loads):.1f}-{max(loads):.1f}",
             fontsize=9,
         )
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].set_ylabel("env steps per wall second [thousands]")
     axes[0].legend(title="kernel", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
 
 
 def main(argv=None) -> int:
@@ -254,7 +262,7 @@ def main(argv=None) -> int:
     ap.add_argument("--block", type=int, default=20000, help="env steps per timed block (>= 50 vector steps)")
     ap.add_argument("--trace", type=int, default=64, help="N of the start/stop trace (0: none)")
     ap.add_argument("--segment", type=float, default=3.0, help="seconds per trace segment (default 3)")
-    ap.add_argument("--tag", default="", help="suffix of the output names (contention<tag>.json/.png)")
+    ap.add_argument("--condition", default="busy", help="the entry of contention.json to write (quiet, busy, ...)")
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
     for name in ("warm", "repeats", "block"):
@@ -283,8 +291,11 @@ def main(argv=None) -> int:
     res["wall_time_s"] = time.perf_counter() - t0
     args.out.mkdir(parents=True, exist_ok=True)
     out = {"machine": info, "results": res}
-    (args.out / f"contention{args.tag}.json").write_text(json.dumps(out, indent=2))
-    plot(res, args.out / f"contention{args.tag}.png")
+    path = args.out / "contention.json"
+    merged = json.loads(path.read_text()) if path.exists() else {}
+    merged[args.condition] = out
+    path.write_text(json.dumps(merged, indent=2))
+    plot({c: entry["results"] for c, entry in merged.items()}, args.out / "contention.png")
     env = f"OMP_WAIT_POLICY {info['OMP_WAIT_POLICY']}, GOMP_SPINCOUNT {info['GOMP_SPINCOUNT']}"
     print(f"threading layer {info['numba_threading_layer']}, {env}; {res['wall_time_s']:.0f} s")
     return 0

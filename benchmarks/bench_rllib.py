@@ -16,9 +16,10 @@ is the median of the rounds, and ratios are taken round by round against ``sync`
 number of runners. Only one configuration samples at a time; the cluster gets ``--num-cpus``
 logical CPUs (default 16) so that all four can be built at once on a 2-core machine.
 
-    .venv-rllib/bin/python benchmarks/bench_rllib.py [--envs-per-runner 8] [--steps 1024] [--repeats 5] [--tag ""]
+    .venv-rllib/bin/python benchmarks/bench_rllib.py [--envs-per-runner 8] [--steps 1024] [--repeats 5] [--condition busy]
 
-Needs ray[rllib] (the ``.venv-rllib`` of ``.ci/run``). Writes ``benchmarks/results/rllib_speed<tag>.json``.
+Needs ray[rllib] (the ``.venv-rllib`` of ``.ci/run``). Writes the entry ``--condition`` of
+``benchmarks/results/rllib_speed.json`` (one entry per measured condition; the others are kept).
 """
 
 from __future__ import annotations
@@ -63,7 +64,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--num-cpus", type=int, default=16, help="logical CPUs of the local Ray cluster")
     ap.add_argument("--out", type=Path, default=OUT)
-    ap.add_argument("--tag", default="", help="suffix of the output file name (rllib_speed<tag>.json)")
+    ap.add_argument(
+        "--condition", default="busy", help="the entry of rllib_speed.json to write (idle, load, busy, ...)"
+    )
     args = ap.parse_args(argv)
     if args.repeats < 1 or args.steps < args.envs_per_runner:
         raise SystemExit("--repeats must be >= 1 and --steps >= --envs-per-runner")
@@ -113,7 +116,10 @@ def main(argv=None) -> dict:
         "machine": info,
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / f"rllib_speed{args.tag}.json").write_text(json.dumps(out, indent=2, default=float) + "\n")
+    path = args.out / "rllib_speed.json"
+    merged = json.loads(path.read_text()) if path.exists() else {}
+    merged[args.condition] = out
+    path.write_text(json.dumps(merged, indent=2, default=float) + "\n")
     print(json.dumps(results, indent=2, default=float))
     return out
 

@@ -21,7 +21,8 @@ Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, 
 runs' records are kept there as ``records.tar.xz`` (:mod:`spine_gym.agents.benchmark_records`),
 unpacked on start, so ``--summary-only`` rewrites the summary from them.
 The PID's validation scores are read from the benchmark's reference cache
-(``benchmarks/results/rl_benchmark/references``), computed there if missing.
+(``benchmarks/results/rl_benchmark/references``, unpacked from that study's ``records.tar.xz``),
+computed there if missing.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import torch
 
 from spine_gym.agents import benchmark_stats as stats
 from spine_gym.agents.benchmark import reference_scores
-from spine_gym.agents.benchmark_records import restore_records
+from spine_gym.agents.benchmark_records import restore_records, restore_references
 from spine_gym.agents.benchmark_run import RunSpec, read_curve, run_one
 from spine_gym.agents.training import resolve_config
 from spine_gym.envs import BENCHMARK_IDS
@@ -163,6 +164,7 @@ def main() -> None:
         p.error(f"--seeds must avoid the benchmark's seeds 0-4, got {args.seeds}")
     runs = plan(args.candidates, args.seeds, args.eval_freq, args.envs)
     restore_records(OUT)  # the study's runs of records.tar.xz, as run folders
+    restore_references(REFERENCES)  # the benchmark's references/*.json of its records.tar.xz
     if not args.summary_only:
         run(runs, args.workers)
     write(summarise(runs))

@@ -34,11 +34,11 @@ Output folder (``--out``, default ``results/benchmark``):
   :func:`spine_gym.agents.runtime.load_policy`), ``done.json`` (the run's settings and result; a run that
   has it is skipped on the next invocation, one without it starts over);
 * ``records.tar.xz`` (a study's folder only) — its runs' records (``curve.csv``, ``meta.json``,
-  ``done.json``) as one archive (:mod:`spine_gym.agents.benchmark_records`), unpacked into
-  ``runs/`` on start wherever a run folder is missing, so the study resumes from it;
+  ``done.json``) and ``references/`` as one archive (:mod:`spine_gym.agents.benchmark_records`),
+  unpacked on start wherever a run folder or reference file is missing, so the study resumes from it;
 * ``references/<env id>.json`` — the reference controllers' validation episodes;
 * ``evaluations.csv`` (every evaluation of every finished run), ``learning_curves.csv`` (IQM and
-  CI over seeds per evaluation), ``curves_<env id>.png``;
+  CI over seeds per evaluation), ``curves.png`` (one panel per env id);
 * ``table.csv`` (per algorithm x env id: IQM and 95 % stratified bootstrap CI over seeds of the
   final validation metrics, from ``rliable``, and of the env steps to the PID's validation RMSE
   with the hardware time they stand for (steps × the control period: what a real spine would
@@ -238,7 +238,7 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
         return []
     write_csv(out / "evaluations.csv", evaluations)
     write_csv(out / "runs.csv", runs)
-    curve_rows = []
+    curve_rows, panels = [], {}
     for env_id, by_algo in curves.items():
         plotted = {}
         for algo, cs in by_algo.items():
@@ -249,7 +249,8 @@ def write_report(out: Path, specs: list[RunSpec], references: dict, units: dict,
                 {"env_id": env_id, "algo": algo, "n_runs": len(cs), **{k: float(v[i]) for k, v in lc.items()}}
                 for i in range(len(lc["step"]))
             ]
-        stats.plot_curves(out / f"curves_{env_id}.png", env_id, plotted, references[env_id], units[env_id])
+        panels[env_id] = {"curves": plotted, "references": references[env_id], "unit": units[env_id]}
+    stats.plot_curves(out / "curves.png", panels)
     write_csv(out / "learning_curves.csv", curve_rows)
     kwargs = {s.env_id: s.env_kwargs for s in specs}
     periods = {e: float(config_of(e, **kwargs[e]).control_period) for e in curves}

@@ -408,16 +408,8 @@ def plot_table(path, summary: list[dict], units: dict[str, str]) -> None:
     fig.savefig(path, dpi=90)
 
 
-def plot_curves(path, env_id: str, curves: dict[str, dict], references: dict[str, dict], unit: str) -> None:
-    """Validation RMSE vs env steps of each algorithm (IQM line, CI band over seeds) with the
-    references as horizontal lines (the tuned PID's drawn solid).
-
-    Args:
-        curves: ``{algo: {"steps", "iqm", "low", "high", "n_runs"}}`` (arrays over evaluations).
-        references: ``{controller: {"rmse": mean, ...}}``.
-    """
-    fig = Figure(figsize=(7, 4.2))
-    ax = fig.subplots()
+def _plot_curve_panel(ax, env_id: str, curves: dict[str, dict], references: dict[str, dict], unit: str) -> None:
+    """One env id's panel of :func:`plot_curves`."""
     for k, (algo, c) in enumerate(curves.items()):
         ax.plot(c["steps"], c["iqm"], color=f"C{k}", lw=1.6, label=f"{algo} (IQM of {c['n_runs']} seeds)")
         ax.fill_between(c["steps"], c["low"], c["high"], color=f"C{k}", alpha=0.2, lw=0)
@@ -431,7 +423,27 @@ def plot_curves(path, env_id: str, curves: dict[str, dict], references: dict[str
     ax.set_ylabel(f"validation tracking RMSE [{unit}]")
     ax.set_title(f"{env_id}: IQM and {round(100 * CONFIDENCE)} % CI over seeds", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
+
+
+def plot_curves(path, panels: dict[str, dict]) -> None:
+    """Validation RMSE vs env steps of each algorithm (IQM line, CI band over seeds) with the
+    references as horizontal lines (the tuned PID's drawn solid): one panel per env id, in the
+    order of ``panels``, two per row, in one figure.
+
+    Args:
+        panels: ``{env id: {"curves", "references", "unit"}}``: ``curves`` is
+            ``{algo: {"steps", "iqm", "low", "high", "n_runs"}}`` (arrays over evaluations),
+            ``references`` ``{controller: {"rmse": mean, ...}}``, ``unit`` the RMSE's unit.
+    """
+    cols = min(2, len(panels))
+    rows = math.ceil(len(panels) / cols)
+    fig = Figure(figsize=(7 * cols, 4.2 * rows))
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
+    for ax, (env_id, panel) in zip(axes, panels.items()):
+        _plot_curve_panel(ax, env_id, panel["curves"], panel["references"], panel["unit"])
+    for ax in axes[len(panels) :]:
+        ax.set_visible(False)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
 

@@ -3,6 +3,7 @@ the run folders they came from."""
 
 import io
 import json
+import shutil
 import tarfile
 
 import pytest
@@ -13,12 +14,14 @@ from spine_gym.agents.benchmark_records import (
     pack_records,
     record_paths,
     restore_records,
+    restore_references,
 )
 
 
 def _study(folder):
-    """A tiny synthetic study: two finished runs (one in a candidate's sub-folder) and a model file."""
-    files = {}
+    """A tiny synthetic study: two finished runs (one in a candidate's sub-folder), the references'
+    cache of one env id and a model file."""
+    files = {"references/SmaSpine-v1.json": json.dumps({"pid": {"means": {"rmse": 3.0}}}).encode()}
     for run, rmse in (("runs/SmaSpine-v1/ppo/seed_0", 3.5), ("cand_a/runs/SmaSpine-v1/sac/seed_1", 4.25)):
         files[f"{run}/curve.csv"] = f"step,rmse\n0,9.0\n1000,{rmse}\n".encode()
         files[f"{run}/meta.json"] = json.dumps({"algo": run.split("/")[-2]}).encode()
@@ -58,6 +61,19 @@ def test_restoring_into_an_empty_folder_gives_back_the_run_folders(tmp_path):
     assert restore_records(clone) == 0  # every run folder there now
 
 
+def test_the_references_alone_are_restored_and_one_that_exists_is_kept(tmp_path):
+    files = _study(tmp_path)
+    pack_records(tmp_path)
+    ref = tmp_path / "references/SmaSpine-v1.json"
+    ref.unlink()
+    shutil.rmtree(tmp_path / "cand_a")
+    assert restore_references(tmp_path) == 1
+    assert ref.read_bytes() == files["references/SmaSpine-v1.json"]
+    assert not (tmp_path / "cand_a").exists()  # the runs are restore_records'
+    ref.write_text("{}")  # recomputed since: kept
+    assert restore_references(tmp_path) == 0 and ref.read_text() == "{}"
+
+
 def test_a_run_folder_that_exists_is_kept_as_it_is(tmp_path):
     _study(tmp_path)
     pack_records(tmp_path)
@@ -76,7 +92,10 @@ def test_no_archive_restores_nothing_and_no_records_is_refused(tmp_path):
     assert not (tmp_path / ARCHIVE).exists()
 
 
-@pytest.mark.parametrize("name", ["../runs/a/done.json", "/tmp/runs/a/done.json", "runs/a/model.zip"])
+@pytest.mark.parametrize(
+    "name",
+    ["../runs/a/done.json", "/tmp/runs/a/done.json", "runs/a/model.zip", "references/a.txt", "a/references/b.json"],
+)
 def test_a_member_that_is_not_a_record_inside_the_folder_is_refused(tmp_path, name):
     with tarfile.open(tmp_path / ARCHIVE, "w:xz") as tar:
         info = tarfile.TarInfo(name)
