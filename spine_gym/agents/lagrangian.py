@@ -24,6 +24,10 @@ suite): :func:`spine_gym.agents.runtime.validation_scores`.
   ``VecNormalize``, above ``VecMonitor``/:class:`spine_gym.agents.residual.ResidualVecEnv`).
 * :class:`LagrangianCallback` — the dual update, logged as ``lagrangian/lambda`` and
   ``lagrangian/energy_ratio``.
+* :class:`EnergyRelabelReplayBuffer` — the replay buffer of an off-policy learner under a budget:
+  it keeps each transition's reward without its energy term and the term's energy apart, and
+  samples them with the current λ (a plain buffer would replay every transition with the λ it was
+  collected under).
 """
 
 from __future__ import annotations
@@ -31,10 +35,12 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.type_aliases import ReplayBufferSamples
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-__all__ = ["EnergyBudgetVecEnv", "LagrangianCallback", "check_budget_args", "dual_step"]
+__all__ = ["EnergyBudgetVecEnv", "EnergyRelabelReplayBuffer", "LagrangianCallback", "check_budget_args", "dual_step"]
 
 
 def check_budget_args(budget_J: float, energy_ref_J: float, lam0: float, eta: float) -> None:
@@ -147,16 +153,66 @@ class LagrangianCallback(BaseCallback):
         self.eta = float(eta)
         self.lam_range = (float(lam_range[0]), float(lam_range[1]))
 
+    def _on_training_start(self) -> None:
+        self._sync_buffer()
+
     def _on_step(self) -> bool:
         return True
+
+    def _sync_buffer(self) -> None:
+        buffer = getattr(self.model, "replay_buffer", None)
+        if isinstance(buffer, EnergyRelabelReplayBuffer):
+            buffer.lam = self.budget_env.lam
 
     def _on_rollout_end(self) -> None:
         ratio = self.budget_env.dual_ratio()
         if ratio is None:
             return
         self.budget_env.lam = dual_step(self.budget_env.lam, ratio, self.eta, self.lam_range)
+        self._sync_buffer()
         self.logger.record("lagrangian/lambda", self.budget_env.lam)
         self.logger.record("lagrangian/energy_ratio", ratio)
         if self.verbose:
             lam = self.budget_env.lam
             print(f"step {self.num_timesteps}: energy/budget {ratio:.3f}  lambda {lam:.3f}", flush=True)
+
+
+class EnergyRelabelReplayBuffer(ReplayBuffer):
+    """SB3's replay buffer for rewards of an :class:`EnergyBudgetVecEnv` (``r = r_rest − λ · E / E_ref``):
+    it stores ``r_rest`` and ``E / E_ref`` (``E`` from ``info["energy_J"]``) and samples
+    ``r_rest − λ · E / E_ref`` with the λ of now (:attr:`lam`, set by :class:`LagrangianCallback`
+    after each dual step and equal to the env's while transitions are added).
+
+    Args (beyond SB3's ``ReplayBuffer``'s):
+        energy_ref: the env's energy normaliser E_ref [J] (> 0).
+    """
+
+    def __init__(self, *args, energy_ref: float = 1.0, **kwargs):
+        if not np.isfinite(energy_ref) or energy_ref <= 0.0:
+            raise ValueError(f"energy_ref must be a finite number > 0 J, got {energy_ref}")
+        super().__init__(*args, **kwargs)
+        self.energy_ref = float(energy_ref)
+        self.lam = 0.0
+        self.energy_terms = np.zeros((self.buffer_size, self.n_envs), dtype=np.float32)
+
+    def add(self, obs, next_obs, action, reward, done, infos) -> None:
+        terms = np.array([float(info["energy_J"]) for info in infos]) / self.energy_ref
+        self.energy_terms[self.pos] = terms
+        super().add(obs, next_obs, action, np.asarray(reward) + self.lam * terms, done, infos)
+
+    def _get_samples(self, batch_inds: np.ndarray, env=None) -> ReplayBufferSamples:
+        env_indices = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        if self.optimize_memory_usage:
+            next_obs = self.observations[(batch_inds + 1) % self.buffer_size, env_indices, :]
+        else:
+            next_obs = self.next_observations[batch_inds, env_indices, :]
+        rewards = self.rewards[batch_inds, env_indices] - self.lam * self.energy_terms[batch_inds, env_indices]
+        dones = self.dones[batch_inds, env_indices] * (1 - self.timeouts[batch_inds, env_indices])
+        data = (
+            self._normalize_obs(self.observations[batch_inds, env_indices, :], env),
+            self.actions[batch_inds, env_indices, :],
+            self._normalize_obs(next_obs, env),
+            dones.reshape(-1, 1),
+            self._normalize_reward(rewards.reshape(-1, 1).astype(np.float32), env),
+        )
+        return ReplayBufferSamples(*tuple(map(self.to_torch, data)))

@@ -27,7 +27,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from spine_gym.envs import config_of
 
 from .checkpoints import lagrangian_candidates, load_lagrangian
-from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
+from .lagrangian import EnergyBudgetVecEnv, EnergyRelabelReplayBuffer, LagrangianCallback
 from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
 from .runtime import (
@@ -303,6 +303,7 @@ def build_model(
     if not trained_agent:
         noise = action_noise(cfg, int(np.prod(env.action_space.shape)))
         extra = {} if noise is None else {"action_noise": noise}
+        extra |= relabel_buffer(cfg)
         return algo_cls(
             cfg.special["policy"],
             env,
@@ -329,6 +330,20 @@ def build_model(
     if resume:
         model._last_obs = None  # SB3's learn resets the env when there is no last observation
     return model
+
+
+def relabel_buffer(cfg: RunConfig) -> dict:
+    """``replay_buffer_class`` and its kwargs of an energy-budget run with ``budget_relabel``
+    (:class:`spine_gym.agents.lagrangian.EnergyRelabelReplayBuffer`; empty dict otherwise)."""
+    relabel = cfg.special["budget_relabel"]
+    if relabel not in (True, False):
+        raise ValueError(f"budget_relabel must be true or false, got {relabel!r}")
+    if not relabel:
+        return {}
+    if cfg.special["energy_budget"] is None or cfg.algo not in OFF_POLICY:
+        raise ValueError(f"budget_relabel is for the off-policy algorithms {OFF_POLICY} with an energy_budget")
+    energy_ref = config_of(cfg.env_id, **cfg.env_kwargs).energy_reference
+    return {"replay_buffer_class": EnergyRelabelReplayBuffer, "replay_buffer_kwargs": {"energy_ref": energy_ref}}
 
 
 def lagrangian_callbacks(cfg: RunConfig, envs: TrainingEnvs, verbose: int = 0) -> list:

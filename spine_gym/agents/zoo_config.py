@@ -33,7 +33,7 @@ CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
 ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, and -v1/-v2 with their tiers, of the three families
 SB3_ALGOS = ("ppo", "sac", "td3", "tqc")  # Stable-Baselines3 on torch (tqc: sb3-contrib)
 #: Stable-Baselines3's JAX edition (``sbx-rl``, the ``jax`` extra; :mod:`spine_gym.agents.jax_algos`)
-JAX_ALGOS = ("crossq", "droq", "sbx_sac")
+JAX_ALGOS = ("crossq", "droq", "sbx_sac", "sbx_tqc")
 ALGOS = SB3_ALGOS + JAX_ALGOS
 OFF_POLICY = ("sac", "td3", "tqc", *JAX_ALGOS)  # the algorithms with a replay buffer
 
@@ -53,6 +53,7 @@ SPECIAL_KEYS = (
     "budget_episodes",
     "budget_window",
     "budget_scale",
+    "budget_relabel",
     "obs_integral",
     "obs_integral_limit",
     "obs_history",
@@ -162,6 +163,7 @@ def preprocess_hyperparams(hp: dict) -> tuple[dict, dict]:
     special.setdefault("budget_episodes", 16)
     special.setdefault("budget_window", 32)  # finished episodes the dual step's mean energy is over
     special.setdefault("budget_scale", 1.0)  # the budget is this fraction of energy_budget's joules
+    special.setdefault("budget_relabel", False)  # off-policy: replay rewards with the current multiplier
     special.setdefault("obs_integral", None)  # leak time constant [s] (or "inf") of spine_gym.agents.observations
     special.setdefault("obs_integral_limit", 300.0)  # its clip [deg s]
     special.setdefault("obs_history", None)  # k earlier frames of angle and action (spine_gym.agents.observations)

@@ -9,7 +9,7 @@ import pytest
 import torch
 from agent_cli import TINY, run_cli
 
-from spine_gym.agents.lagrangian import EnergyBudgetVecEnv, LagrangianCallback, dual_step
+from spine_gym.agents.lagrangian import EnergyBudgetVecEnv, EnergyRelabelReplayBuffer, LagrangianCallback, dual_step
 from spine_gym.agents.runtime import build_controller, make_env, validation_scores
 from spine_gym.agents.training import energy_budget
 from spine_gym.agents.vec_env import make_vec_env
@@ -101,6 +101,38 @@ def test_budget_arguments_are_validated():
         LagrangianCallback(env, eta=0.0)
     with pytest.raises(ValueError, match="energy_budget must be 'pid' or a number"):
         energy_budget("lots", KW, 1)
+    env.close()
+
+
+def test_the_relabel_buffer_replays_each_reward_with_the_multiplier_of_now():
+    """A transition collected under λ = 0.5 (r = r_rest − 0.5 · E / E_ref) is sampled after the dual
+    step moved λ to 2 as r_rest − 2 · E / E_ref, and as collected while λ stays."""
+    env, e_ref = _budget_env(0.5)
+    buf = EnergyRelabelReplayBuffer(64, env.observation_space, env.action_space, n_envs=2, energy_ref=e_ref)
+    buf.lam = env.lam
+    obs = env.reset()
+    rng = np.random.default_rng(1)
+    rewards, energies = [], []
+    for _ in range(8):
+        env.step_async(rng.uniform(-1, 1, (2, 2)).astype(np.float32))
+        nxt, r, dones, infos = env.step_wait()
+        buf.add(obs, nxt, rng.uniform(-1, 1, (2, 2)), r, dones, infos)
+        rewards.append(r)
+        energies.append([i["energy_J"] for i in infos])
+        obs = nxt
+    rewards, energies = np.array(rewards), np.array(energies)
+    assert energies.sum() > 0.0
+    for lam in (0.5, 2.0):
+        buf.lam = lam
+        expected = rewards - (lam - 0.5) * energies / e_ref
+        np.random.seed(3)
+        got = buf.sample(200).rewards.numpy().ravel()
+        np.random.seed(3)
+        idx = np.random.randint(0, 8, 200)
+        envs = np.random.randint(0, 2, 200)
+        np.testing.assert_allclose(got, expected[idx, envs], rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="energy_ref must be a finite number > 0 J"):
+        EnergyRelabelReplayBuffer(8, env.observation_space, env.action_space, energy_ref=0.0)
     env.close()
 
 
