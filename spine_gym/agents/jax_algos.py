@@ -25,7 +25,7 @@ import sys
 #: XLA's CPU backend on one thread (Eigen's thread pool off, one intra-op thread)
 ONE_THREAD_XLA_FLAGS = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 
-_CLASSES = {"crossq": "CrossQ", "droq": "SAC", "sbx_sac": "SAC"}  # algo -> class of the sbx package
+_CLASSES = {"crossq": "CrossQ", "droq": "SAC", "sbx_sac": "SAC", "sbx_tqc": "TQC"}  # algo -> class of the sbx package
 
 
 def jax_algo_class(algo: str) -> type:
