@@ -147,6 +147,7 @@ QUICK_HYPERPARAMS = {
     "crossq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "droq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "sbx_sac": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1},
+    "sbx_tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1},
 }
 
 

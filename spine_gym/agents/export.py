@@ -157,7 +157,7 @@ def _sbx_activation(fn) -> str:
 
 
 def _sbx_actor_layers(model) -> tuple[str, list[list], str]:
-    """``("sbx_<class>", layers, "squash")`` of an SBX ``CrossQ`` or ``SAC`` (DroQ is SBX's SAC): the
+    """``("sbx_<class>", layers, "squash")`` of an SBX ``CrossQ``, ``SAC`` (DroQ is SBX's SAC) or ``TQC``: the
     Dense layers of the actor up to its mean head, whose tanh is SBX's deterministic action. CrossQ's batch
     renormalisation layers are affine at inference (running statistics: ``scale (x − mean) /
     √(var + ε) + bias``) and are folded into the Dense layer after each, in float64."""
@@ -185,7 +185,7 @@ def _sbx_actor_layers(model) -> tuple[str, list[list], str]:
             a, c = _renorm_affine(params[f"BatchRenorm_{i}"], stats[f"BatchRenorm_{i}"])
             kernel, bias = kernel * a[:, None], bias + c @ kernel
         layers.append([kernel.T.astype(np.float32), bias.astype(np.float32), act if i < n_hidden else "none"])
-    return "sbx_" + type(model).__name__.lower(), layers, "squash"  # sbx_crossq, sbx_sac (DroQ's too)
+    return "sbx_" + type(model).__name__.lower(), layers, "squash"  # sbx_crossq, sbx_sac (DroQ's too), sbx_tqc
 
 
 #: the epsilon of SBX's ``BatchRenorm`` (its default; CrossQ does not set it)

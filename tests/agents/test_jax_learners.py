@@ -138,6 +138,7 @@ EXPORT_CASES = {
     "crossq": ("crossq", {"net_arch": {"pi": [64, 48], "qf": [32, 32]}}),
     "crossq_without_actor_renorm": ("crossq", {"net_arch": [64, 48], "batch_norm_actor": False}),
     "droq": ("droq", {"net_arch": [64, 48], "dropout_rate": 0.01, "layer_norm": True}),
+    "sbx_tqc": ("sbx_tqc", {"net_arch": [64, 48]}),
 }
 
 
@@ -154,7 +155,7 @@ def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
     bundle = tmp_path / "bundle"
     export_policy(policy, bundle, source=case)
     spec = json.loads((bundle / "policy.json").read_text())
-    assert spec["algo"] == {"crossq": "sbx_crossq", "droq": "sbx_sac"}[algo]
+    assert spec["algo"] == {"crossq": "sbx_crossq", "droq": "sbx_sac", "sbx_tqc": "sbx_tqc"}[algo]
     assert spec["network"]["sizes"] == [10, 64, 48, 2] and spec["network"]["output"] == "squash"
     for name, got in (
         ("onnxruntime", onnx_runner(bundle, obs)),
