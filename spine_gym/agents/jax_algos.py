@@ -8,6 +8,9 @@
   hyperparameter file's (``spine_gym/agents/hyperparams/droq.yml``), the class is SBX's SAC.
 * ``sbx_sac`` — ``sbx.SAC`` sized for a CPU core (small networks, several updates per jit-compiled
   call; ``spine_gym/agents/hyperparams/sbx_sac.yml``).
+* ``sbx_tqc`` — ``sbx.TQC`` (distributional critics, the top quantiles of their target dropped;
+  Kuznetsov et al., ICML 2020) with ``sbx_sac``'s networks and schedule
+  (``spine_gym/agents/hyperparams/sbx_tqc.yml``).
 
 Their models save, load and predict as SB3's do (SBX keeps SB3's interfaces), so training,
 checkpoints, evaluation and the benchmark treat them like the torch algorithms;
@@ -29,7 +32,7 @@ _CLASSES = {"crossq": "CrossQ", "droq": "SAC", "sbx_sac": "SAC", "sbx_tqc": "TQC
 
 
 def jax_algo_class(algo: str) -> type:
-    """The ``sbx`` class of ``algo`` (``crossq``: ``CrossQ``; ``droq``, ``sbx_sac``: ``SAC``); an ImportError naming
+    """The ``sbx`` class of ``algo`` (``crossq``: ``CrossQ``; ``droq``, ``sbx_sac``: ``SAC``; ``sbx_tqc``: ``TQC``); an ImportError naming
     the extra to install if ``sbx-rl`` is missing."""
     if algo not in _CLASSES:
         raise ValueError(f"algo must be one of {tuple(_CLASSES)}, got {algo!r}")

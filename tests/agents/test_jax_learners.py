@@ -59,6 +59,8 @@ def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
     sac = resolve_config("sbx_sac", ENV)  # small networks, 8 updates per call, update-to-data ratio 0.25
     assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}
     assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25
+    for env_id in ENV_IDS:  # sbx_tqc: the same entry, TQC's critics
+        assert load_hyperparams("sbx_tqc", env_id) == load_hyperparams("sbx_sac", env_id)
 
 
 # --------------------------------------------------------------------------- the CLI
