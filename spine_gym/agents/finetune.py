@@ -73,7 +73,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add("--pretrain-steps", type=int, default=300_000, help="PPO pretraining steps (0: --pretrained)")
     add("--pretrained", default="", help="an existing pretrained run folder (with --pretrain-steps 0)")
     add("--finetune-steps", type=int, default=6_000, help="fine-tuning budget [env steps] on one spine")
-    add("--finetune-seeds", type=int, default=6,
+    add("--finetune-seeds", type=int, default=4,
         help="fine-tuning runs (seeds) per arm and plant; a row: their median")  # fmt: skip
     add("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
     add("--shift-seeds", type=int, nargs="+", default=list(SHIFT_SEEDS),

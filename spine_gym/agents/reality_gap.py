@@ -98,7 +98,7 @@ TUNING_SHIFT_SEEDS = (101, 102)  # the learner is chosen on these plants; the ev
 TUNING_TRAIN_SEEDS = (100, 101)  # fine-tuning seeds of the selection; the scored runs use 0, 1, ...
 SHIFT_SEEDS = (0, 1, 2, 3)  # the scored plants: the k-sigma shifts with these sign seeds
 MAX_PLANTS = 16  # the most scored plants a study takes
-EVAL_EPISODES = 30  # held-out episodes of the env's own samplers, scored next to the suite
+EVAL_EPISODES = 20  # held-out episodes of the env's own samplers, scored next to the suite
 MAX_EVAL_EPISODES = 1000
 #: reset seeds of the held-out episodes (``HELDOUT_SEED_BASE + i``): above the learner selection's
 #: validation episodes (``VALIDATION_SEED_BASE + i``, i < 100), below the suite's seeds
@@ -804,7 +804,7 @@ class StudyConfig:
     pretrain_steps: int = 300_000
     pretrained: str = ""
     finetune_steps: int = 6_000
-    finetune_seeds: int = 6
+    finetune_seeds: int = 4
     k: float = 3.0
     shift_seeds: tuple[int, ...] = SHIFT_SEEDS
     learners: tuple[str, ...] = (DEFAULT_LEARNER,)
