@@ -27,6 +27,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from spine_gym.envs import config_of
 
 from .checkpoints import lagrangian_candidates, load_lagrangian
+from .entropy_coef import ENTROPY_ALGOS, checked_ent_coef, set_ent_coef
 from .lagrangian import EnergyBudgetVecEnv, LagrangianCallback
 from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
@@ -271,8 +272,9 @@ FIXED_ON_LOAD = ("policy_kwargs", "use_sde")
 def load_overrides(cfg: RunConfig, given, source: str = "-params/--hyperparams") -> dict:
     """The hyperparameters ``given`` (their keys; e.g. those of the command line) as ``cfg`` resolved
     them, to set on a model loaded from a checkpoint (SB3's ``load`` sets them before it builds its
-    rollout or replay buffer and its schedules); ValueError (one line, naming ``source``) for one of
-    :data:`FIXED_ON_LOAD`. The entry's other settings (energy budget, observation features...) shape
+    rollout or replay buffer and its schedules; :func:`build_model` sets a SAC-family ``ent_coef``
+    after it, :mod:`spine_gym.agents.entropy_coef`); ValueError (one line, naming ``source``) for one of
+    :data:`FIXED_ON_LOAD` or a bad ``ent_coef``. The entry's other settings (energy budget, observation features...) shape
     the env, which is built anew either way."""
     fixed = sorted(set(given) & set(FIXED_ON_LOAD))
     if fixed:
@@ -280,6 +282,8 @@ def load_overrides(cfg: RunConfig, given, source: str = "-params/--hyperparams")
             f"{source} {', '.join(fixed)} cannot change on a loaded model (its network is the "
             "checkpoint's): drop them, or train a new model"
         )
+    if "ent_coef" in given and cfg.algo in ENTROPY_ALGOS:
+        checked_ent_coef(cfg.hp["ent_coef"])
     return {k: cfg.hp[k] for k in given if k in cfg.hp}
 
 
@@ -313,10 +317,14 @@ def build_model(
             **cfg.hp,
             **extra,
         )
+    overrides = dict(overrides or {})
+    ent_coef = overrides.pop("ent_coef", None) if cfg.algo in ENTROPY_ALGOS else None
     model = algo_cls.load(
         trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose,
-        **(overrides or {}),
+        **overrides,
     )  # fmt: skip
+    if ent_coef is not None:  # load keeps the checkpoint's coefficient: set it on the model
+        set_ent_coef(model, ent_coef)
     if model.seed != seed:
         # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
         # Only re-seed when it differs: a second seeding after the network's construction changes
