@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import math
 
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, tuned_record
+from spine_gym.controllers.registry import get_spec, guard_temperature, tuned_record
 from spine_gym.envs import base_id
 
 from . import benchmark_stats as stats
 from .metrics import TIME_OVER_LIMIT_CAP_S
-from .runtime import env_temperature_limit, envelope_of, make_env
+from .runtime import env_temperature_limit, env_thermal_cutoff, envelope_of, make_env
 
 RANKED, OVER_CAP, NOT_RECORDED = "ranked", "over the cap", "not recorded"
 T_OVER = "time_over_limit_s"  # the constrained metric (a key of benchmark_stats.METRICS)
@@ -53,13 +53,13 @@ def constrained_split(summary: list[dict], env_id: str) -> dict[str, list[dict]]
 # --------------------------------------------------------------------------- envelope, budget
 def envelope(env_id: str, env_kwargs: dict, guard: bool) -> dict:
     """The actuator envelope of a method on ``env_id`` with ``env_kwargs``
-    (:func:`~spine_gym.agents.runtime.envelope_of`): ``v_max_V`` (the voltage of action +1),
+    (:func:`~spine_gym.agents.runtime.envelope_of`): ``v_max_V`` (the env's ``v_max``),
     ``cutoff_K`` (the plant's thermal cut-off, the ``-v2`` ids; ``None``: none) and ``guard``
     (``"plant 418 K"``: the env's driver cuts every controller's wires; ``"controller 418 K"``: a
-    guarded registry controller (``guard``) cuts a wire observed at the temperature limit minus
-    :data:`~spine_gym.controllers.registry.GUARD_MARGIN_K`; ``"none"``: nothing cuts it)."""
+    guarded registry controller (``guard``) cuts a wire observed at
+    :func:`~spine_gym.controllers.registry.guard_temperature`; ``"none"``: nothing cuts it)."""
     env = make_env(env_kwargs, env_id=env_id)
-    own = env_temperature_limit(env) - GUARD_MARGIN_K if guard else None
+    own = guard_temperature(guard, env_temperature_limit(env), env_thermal_cutoff(env))
     out = envelope_of(env, own)
     env.close()
     return out
