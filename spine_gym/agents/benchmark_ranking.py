@@ -5,9 +5,10 @@ Per env id, the methods whose time over the temperature limit per episode is at 
 the final validation value; a reference controller: the mean over its validation episodes) are
 ranked by their tracking RMSE IQM, with the energy next to it; the others are listed apart with
 their violation; a method whose time over the limit was not recorded is listed apart as such,
-never ranked. Each row carries its actuator envelope (the voltage of action +1, the plant's thermal
-cut-off and who cuts a hot wire: the plant, the controller or nothing) and its budget (env steps × seeds of an algorithm, tuning
-trials × episodes of a tuned controller).
+never ranked. Each row carries its actuator envelope (``v_max``, the voltage of action +1 on a
+full-length wire; the plant's thermal cut-off; who cuts a hot wire: the plant, the controller or
+nothing) and its budget (env steps × seeds of an algorithm, tuning trials × episodes of a tuned
+controller).
 
 * :func:`cap_status`, :func:`constrained_split` — the constraint on summary rows
   (:func:`spine_gym.agents.benchmark_stats.summary_rows`);

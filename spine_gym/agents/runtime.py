@@ -218,7 +218,9 @@ ENVELOPE_COLUMNS = ("v_max_V", "cutoff_K", "guard")
 
 
 def envelope_of(env, controller_cutoff: float | None = None) -> dict:
-    """The actuator envelope a controller meets on ``env``: ``v_max_V`` (the voltage of action +1),
+    """The actuator envelope a controller meets on ``env``: ``v_max_V`` (the env's ``v_max``: the
+    voltage of action +1 on a full-length wire; the chain's shorter wires get ``v_max`` × their
+    length / L0, ``config.volt_coef``),
     ``cutoff_K`` (the plant's thermal cut-off, ``None`` if it has none) and ``guard``, who cuts a hot
     wire and where: ``"plant 418 K"`` (the env's driver, the same for every controller),
     ``"controller 418 K"`` (the controller's own guard at ``controller_cutoff`` [K], on its observed
