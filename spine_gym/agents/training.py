@@ -125,10 +125,13 @@ def resolve_config(
 ) -> RunConfig:
     """The hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (or ``conf_file``) with
     ``hyperparams`` overriding it; ``n_envs``/``n_timesteps`` > 0 override the entry's (-1: the
-    entry's), ``env_kwargs`` update the entry's."""
+    entry's), ``env_kwargs`` update the entry's. A SAC-family ``ent_coef`` is checked
+    (:func:`~spine_gym.agents.entropy_coef.checked_ent_coef`, ValueError)."""
     hp_raw = load_hyperparams(algo, env_id, conf_file)
     hp_raw.update(hyperparams or {})
     hp, special = preprocess_hyperparams(hp_raw)
+    if algo in ENTROPY_ALGOS and "ent_coef" in hp:
+        hp["ent_coef"] = checked_ent_coef(hp["ent_coef"])
     return RunConfig(
         algo=algo,
         env_id=env_id,
@@ -273,17 +276,15 @@ def load_overrides(cfg: RunConfig, given, source: str = "-params/--hyperparams")
     """The hyperparameters ``given`` (their keys; e.g. those of the command line) as ``cfg`` resolved
     them, to set on a model loaded from a checkpoint (SB3's ``load`` sets them before it builds its
     rollout or replay buffer and its schedules; :func:`build_model` sets a SAC-family ``ent_coef``
-    after it, :mod:`spine_gym.agents.entropy_coef`); ValueError (one line, naming ``source``) for one of
-    :data:`FIXED_ON_LOAD` or a bad ``ent_coef``. The entry's other settings (energy budget, observation features...) shape
-    the env, which is built anew either way."""
+    after it, :mod:`spine_gym.agents.entropy_coef`); ValueError (one line, naming ``source``) for
+    one of :data:`FIXED_ON_LOAD`. The entry's other settings (energy budget, observation
+    features...) shape the env, which is built anew either way."""
     fixed = sorted(set(given) & set(FIXED_ON_LOAD))
     if fixed:
         raise ValueError(
             f"{source} {', '.join(fixed)} cannot change on a loaded model (its network is the "
             "checkpoint's): drop them, or train a new model"
         )
-    if "ent_coef" in given and cfg.algo in ENTROPY_ALGOS:
-        checked_ent_coef(cfg.hp["ent_coef"])
     return {k: cfg.hp[k] for k in given if k in cfg.hp}
 
 

@@ -124,6 +124,10 @@ def test_a_fine_tune_switches_sac_ent_coef_between_learned_and_fixed(tmp_path, c
         _parse([*argv, "-f", str(tmp_path / "e"), "-params", "ent_coef:auto_0"])
     assert exit_.value.code == 2 and not (tmp_path / "e").exists()
     assert "ent_coef must be 'auto', 'auto_<initial value > 0>' or a number >= 0, got 'auto_0'" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # a new model's too
+        _parse(["--algo", "sac", "--env", "SmaSpine-v0", "-f", str(tmp_path / "e"), "-params", "ent_coef:-1"])
+    assert exit_.value.code == 2 and not (tmp_path / "e").exists()
+    assert "ent_coef must be 'auto', 'auto_<initial value > 0>' or a number >= 0, got -1" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("algo", ["tqc", "sbx_sac"])
