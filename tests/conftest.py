@@ -1,6 +1,11 @@
-"""Shared test set-up: one torch thread (on 2 cores a second one made PPO slower)."""
+"""Shared test set-up: one torch thread (on 2 cores a second one made PPO slower); under pytest-xdist
+(``scripts/test.sh``: ``-n N --dist loadgroup``) the tests that share a fixture built once per module run
+on one worker, which builds it once."""
 
+import inspect
 import os
+
+import pytest
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
@@ -11,3 +16,22 @@ try:  # torch comes with the [rl] extra; the physics and env tests run without i
     torch.set_num_threads(1)
 except ImportError:  # pragma: no cover
     pass
+
+
+def _shares_a_fixture(item) -> bool:
+    """Whether ``item`` uses a fixture of its own file that is built once per module (or session)."""
+    here = str(item.path)
+    for defs in item._fixtureinfo.name2fixturedefs.values():
+        d = defs[-1]
+        if d.scope != "function" and inspect.getsourcefile(d.func) == here:
+            return True
+    return False
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the groups
+def pytest_collection_modifyitems(config, items):
+    if getattr(config.option, "dist", "no") != "loadgroup":
+        return
+    for item in items:
+        if _shares_a_fixture(item):
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
