@@ -386,6 +386,8 @@ PLACEHOLDERS = ("spine-gym benchmark --address HOST:6379", "spine-gym <command> 
 #: options appended to an example whose full budget takes minutes, or that would use two cores (the
 #: tests get one each): (pattern, options), every matching one in turn
 SHRINK = (
+    # a training budget of 10 k steps or more: one PPO rollout of 8 envs x 256 steps; CrossQ's first updates
+    (r"^spine-gym train\b.* -n [0-9]{5,}\b", "-n 2048"),
     (r"^spine-gym tune\b", "--trials 2 --episodes 1"),
     (r"^spine-gym benchmark\b", "--quick --algos ppo --envs SmaSpine-v1 --n-seeds 1 -n 512"),
     (r"^spine-gym reproduce\b(?!.*--quick)", "--quick --no-plots"),
