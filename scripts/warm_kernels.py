@@ -19,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 import spine_gym  # noqa: F401 - registers the env ids
-from spine_gym.agents.runtime import build_controller
+from spine_gym.agents.runtime import build_controller, make_env
 from spine_gym.controllers.registry import registry_for
 from spine_gym.layout import SpineLayout
 from spine_gym.simulate import simulate
@@ -30,7 +30,7 @@ IDS = {"planar": ("SmaSpine-v2",), "spatial": ("SmaSpine3D-v2", "SmaSpineChain-v
 
 def warm_env(env_id: str) -> None:
     """Step the single env, the serial and the parallel vector env, and every registered controller once."""
-    env = gym.make(env_id, episode_duration=3.0)
+    env = make_env({"episode_duration": 3.0}, env_id=env_id)
     obs, _ = env.reset(seed=0)
     env.step(np.zeros(env.action_space.shape, np.float32))
     for name in registry_for(env_id):  # the MPC entries roll their plans out on the env's own core

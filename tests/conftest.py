@@ -1,6 +1,6 @@
 """Shared test set-up: one torch thread (on 2 cores a second one made PPO slower); under pytest-xdist
-(``scripts/test.sh``: ``-n N --dist loadgroup``) the tests that share a fixture built once per module run
-on one worker, which builds it once."""
+(``scripts/test.sh``: ``-n N --dist loadgroup``) the tests of a file with a fixture built once per module
+run on one worker, one after the other, which builds it once."""
 
 import inspect
 import os
@@ -30,8 +30,10 @@ def _shares_a_fixture(item) -> bool:
 
 @pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the groups
 def pytest_collection_modifyitems(config, items):
-    if getattr(config.option, "dist", "no") != "loadgroup":
+    if not getattr(config.option, "loadgroup", False):  # what an xdist worker of --dist loadgroup is told
         return
+    # the whole file: a test of another file run in between would tear the module's fixture down
+    shared = {item.path for item in items if _shares_a_fixture(item)}
     for item in items:
-        if _shares_a_fixture(item):
+        if item.path in shared:
             item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
