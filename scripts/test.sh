@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up (scripts/setup.sh) and run the whole test suite. Extra arguments go to pytest.
 #
-# The numba kernels are compiled into their on-disk cache first, the planar and the spatial ones side by
+# The numba kernels most tests call are compiled into their on-disk cache first, planar and spatial side by
 # side (scripts/warm_kernels.py): on a fresh clone the test processes would otherwise compile the same
 # kernels each. The tests then run on TEST_WORKERS pytest-xdist workers (default: one per core, at most
 # 8); tests of one xdist_group run on one worker. TEST_WORKERS=0 runs them in this one process. A failed
