@@ -4,8 +4,9 @@
 # The numba kernels most tests call are compiled into their on-disk cache first, planar and spatial side by
 # side (scripts/warm_kernels.py): on a fresh clone the test processes would otherwise compile the same
 # kernels each. The tests then run on TEST_WORKERS pytest-xdist workers (default: one per core, at most
-# 8); tests of one xdist_group run on one worker. TEST_WORKERS=0 runs them in this one process. A failed
-# warm-up does not stop the suite: the tests that call the failing code report it.
+# 8); the tests of a file with a fixture built once per module stay on one worker (tests/conftest.py).
+# TEST_WORKERS=0 runs them in this one process. A failed warm-up does not stop the suite: the tests
+# that call the failing code report it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
