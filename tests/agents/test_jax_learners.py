@@ -60,7 +60,7 @@ def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
         sac = resolve_config("sbx_sac", env_id)
         assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}, env_id
         assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25, env_id
-        assert (sac.hp["batch_size"], sac.n_timesteps) == (256, 60000), env_id
+        assert sac.n_timesteps == 60000, env_id
 
 
 # --------------------------------------------------------------------------- the CLI
