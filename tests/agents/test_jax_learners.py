@@ -15,10 +15,10 @@ import shutil
 import numpy as np
 import pytest
 from agent_cli import run_cli
-from export_parity import c_runner, onnx_runner, record_observations, save_model_run
+from export_parity import c_runner, onnx_runner, save_model_run
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from spine_gym.agents.export import UnsupportedPolicyError, export_policy
+from spine_gym.agents.export import UnsupportedPolicyError, export_policy, record_observations
 from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.runtime import load_policy, make_env
 from spine_gym.agents.training import hyperparameter_keys, resolve_config
