@@ -56,9 +56,11 @@ def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
     assert crossq["policy_kwargs"]["net_arch"]["qf"] == [256, 256]  # the paper's 2048 is too slow on a CPU
     droq = resolve_config("droq", ENV).hp["policy_kwargs"]
     assert droq["dropout_rate"] > 0 and droq["layer_norm"] is True
-    sac = resolve_config("sbx_sac", ENV)  # small networks, 8 updates per call, update-to-data ratio 0.25
-    assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}
-    assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25
+    for env_id in ENV_IDS:  # small networks, several updates per call, update-to-data ratio 0.25 (chain too)
+        sac = resolve_config("sbx_sac", env_id)
+        assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}, env_id
+        assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25, env_id
+        assert sac.n_timesteps == 60000, env_id
 
 
 # --------------------------------------------------------------------------- the CLI
