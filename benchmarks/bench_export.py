@@ -34,7 +34,6 @@ import json
 import os
 import platform
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -43,18 +42,14 @@ import numpy as np
 import onnxruntime as ort
 import torch
 
+from spine_gym.agents.evaluation import evaluate
+from spine_gym.agents.export import OneUlpUp, export_policy, record_observations
+from spine_gym.agents.export_c import compile_driver
+from spine_gym.agents.numpy_policy import load_bundle
+from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy
+from spine_gym.agents.scenarios import get_suite
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests" / "support"))  # the observations the export tests compare on
-
-from export_parity import record_observations  # noqa: E402
-
-from spine_gym.agents.evaluation import evaluate  # noqa: E402
-from spine_gym.agents.export import OneUlpUp, export_policy  # noqa: E402
-from spine_gym.agents.export_c import compile_driver  # noqa: E402
-from spine_gym.agents.numpy_policy import load_bundle  # noqa: E402
-from spine_gym.agents.runtime import evaluation_env_kwargs, load_policy  # noqa: E402
-from spine_gym.agents.scenarios import get_suite  # noqa: E402
 
 C_CALLS = 200_000  # calls per timed pass of the C program
 

@@ -17,9 +17,10 @@ measured exactly as the benchmark measures them (validation time excluded, torch
         --candidates batch512_epochs5_envs16 batch512_epochs5_lr6e-4 batch512_epochs5_envs32 \
         batch1024_epochs5_envs16 batch512_epochs5_envs16_steps64 batch512_epochs5_envs16_steps32
 
-Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv``, ``summary.md``); the
-runs' records are kept there as ``records.tar.xz`` (:mod:`spine_gym.agents.benchmark_records`),
-unpacked on start, so ``--summary-only`` rewrites the summary from them.
+Writes ``benchmarks/results/ppo_v1_tuning/`` (the run folders, ``summary.csv`` and ``README.md`` with
+the table); the runs' records are kept there as ``records.tar.xz``
+(:mod:`spine_gym.agents.benchmark_records`), unpacked on start, so ``--summary-only`` rewrites the
+summary from them.
 The PID's validation scores are read from the benchmark's reference cache
 (``benchmarks/results/rl_benchmark/references``, unpacked from that study's ``records.tar.xz``),
 computed there if missing.
@@ -127,6 +128,28 @@ def summarise(runs: list[tuple[str, RunSpec]]) -> list[dict]:
     return rows
 
 
+#: the head of the study's README.md, above the table :func:`write` puts under it
+README_HEAD = """# PPO's -v1 entry: learner throughput vs sample efficiency
+
+Written by `benchmarks/tune_ppo_v1.py` (its docstring gives the two commands; the candidates are
+overrides of the `-v1` entry of `spine_gym/agents/hyperparams/ppo.yml`), on the tuning seeds 100 and
+101, validated on the benchmark's validation episodes against the PID of
+`../rl_benchmark/references/` (in `../rl_benchmark/records.tar.xz`, unpacked by
+the script). What it chose and why: `benchmarks/README.md` and `docs/results.md`.
+
+* the table below / `summary.csv` — per candidate × env id: runs that reached the PID's validation
+  RMSE, median wall, CPU time and steps to it, mean total wall time, final RMSE and energy over the PID's.
+* `records.tar.xz` — every run's record (`<candidate>/runs/<env id>/ppo/seed_<k>/`: `curve.csv`,
+  `done.json`, `meta.json`; no models), unpacked on start by the script wherever a run folder is
+  missing; `python benchmarks/tune_ppo_v1.py --summary-only` rewrites this page and `summary.csv` from it
+  (byte-identical). After new runs: `pack_records('benchmarks/results/ppo_v1_tuning')` of
+  `spine_gym.agents.benchmark_records`. An archive in the tree, as for the RL benchmark
+  (`../rl_benchmark/README.md` says why).
+
+## The candidates
+"""
+
+
 def write(rows: list[dict]) -> None:
     if not rows:
         return
@@ -147,7 +170,7 @@ def write(rows: list[dict]) -> None:
             f"{r['mean_final_rmse_ratio']:.2f} | "
             f"{r['mean_final_energy_ratio']:.2f} |"
         )  # fmt: skip
-    (OUT / "summary.md").write_text("\n".join(lines) + "\n")
+    (OUT / "README.md").write_text(README_HEAD + "\n" + "\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

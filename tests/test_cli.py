@@ -373,12 +373,14 @@ def test_train_prints_a_progress_line_and_the_next_step(tmp_path):
 # --------------------------------------------------------------------------- every --help example, as printed
 # The examples are shell lines: each runs with ``bash -c`` in a temporary folder, with this checkout's
 # ``spine-gym`` and ``python`` first on ``PATH`` and Minari's data folder inside the temporary folder.
-# The examples of one command run in the order printed, those of all commands in one folder, so that
-# ``evaluate``, ``export`` and ``datasets`` find the run folder the ``train`` examples wrote (those of
-# ``spine-gym --help``, a train-then-evaluate pair, in a folder of their own); the calibration's
-# "measured" CSVs are written first (synthetic, by the model). An example whose full budget takes
-# minutes gets options appended that shrink it (SHRINK; argparse keeps the last value), and two
-# examples stand for a value the user must supply (PLACEHOLDERS).
+# The examples of one command run in the order printed; the commands whose examples use what another
+# command's wrote run after it in one folder (CHAINS): ``evaluate``, ``export`` and ``datasets`` find
+# the run folder the ``train`` examples wrote, ``finetune`` the fit the ``calibrate`` examples wrote
+# (their "measured" CSVs written first: synthetic, by the model); those of ``spine-gym --help``, a
+# train-then-evaluate pair, in a folder of their own. A chain is one test, so that the chains can run
+# side by side. An example whose full budget takes minutes gets options appended that shrink it
+# (SHRINK; argparse keeps the last value), and two examples stand for a value the user must supply
+# (PLACEHOLDERS).
 BIN = Path(sys.executable).parent
 
 #: examples that name a value of the user's (a Ray head's address, a command)
@@ -386,6 +388,8 @@ PLACEHOLDERS = ("spine-gym benchmark --address HOST:6379", "spine-gym <command> 
 #: options appended to an example whose full budget takes minutes, or that would use two cores (the
 #: tests get one each): (pattern, options), every matching one in turn
 SHRINK = (
+    # a training budget of 10 k steps or more: one PPO rollout of 8 envs x 256 steps; CrossQ's first updates
+    (r"^spine-gym train\b.* -n [0-9]{5,}\b", "-n 2048"),
     (r"^spine-gym tune\b", "--trials 2 --episodes 1"),
     (r"^spine-gym benchmark\b", "--quick --algos ppo --envs SmaSpine-v1 --n-seeds 1 -n 512"),
     (r"^spine-gym reproduce\b(?!.*--quick)", "--quick --no-plots"),
@@ -398,6 +402,16 @@ SHRINK = (
 ORDER = (
     "train", "evaluate", "export", "datasets", "tune", "benchmark", "reproduce", "calibrate", "finetune", "design"
 )  # fmt: skip
+#: the commands whose examples run in one folder, in ORDER ("spine-gym": the top-level help's)
+CHAINS = {
+    "spine-gym": ("spine-gym",),
+    "train": ("train", "evaluate", "export", "datasets"),
+    "tune": ("tune",),
+    "benchmark": ("benchmark",),
+    "reproduce": ("reproduce",),
+    "calibrate": ("calibrate", "finetune"),
+    "design": ("design",),
+}
 
 
 def help_examples(argv: list[str]) -> list[str]:
@@ -464,23 +478,26 @@ def test_the_examples_name_only_runnable_commands():
     assert all(any(e.startswith(p) for e in examples) for p in PLACEHOLDERS)
 
 
+def test_every_command_is_in_one_chain():
+    chained = [c for chain in CHAINS.values() for c in chain]
+    assert sorted(chained) == sorted({c for c, _ in all_examples()}) and len(chained) == len(set(chained))
+
+
 @pytest.mark.slow
-def test_every_help_example_runs_as_printed(tmp_path):
-    top = tmp_path / "top"  # spine-gym --help's examples: a pair of their own (train, then evaluate it)
-    shared = tmp_path / "commands"
-    top.mkdir()
-    shared.mkdir()
-    write_calibration_inputs(shared)
+@pytest.mark.parametrize("chain", list(CHAINS))
+def test_every_help_example_runs_as_printed(chain, tmp_path):
+    if "calibrate" in CHAINS[chain]:
+        write_calibration_inputs(tmp_path)
     failures = []
     for command, example in all_examples():
-        if example.startswith(PLACEHOLDERS):
+        if command not in CHAINS[chain] or example.startswith(PLACEHOLDERS):
             continue
-        folder = top if command == "spine-gym" else shared
         line = shrunk(example)
         t0 = time.perf_counter()
         proc = subprocess.run(
-            ["bash", "-c", line], cwd=folder, env=_env(folder), capture_output=True, text=True, timeout=600
-        )
+            ["bash", "-c", line], cwd=tmp_path, env=_env(tmp_path), capture_output=True, text=True,
+            timeout=600,
+        )  # fmt: skip
         print(f"{time.perf_counter() - t0:6.1f} s  {line}")  # pytest -s: where the minutes go
         if proc.returncode != 0:
             failures.append(f"{line}\n  exit {proc.returncode}: {proc.stderr.strip()[-800:]}")

@@ -20,6 +20,7 @@ Runtime (no command line):
   energy-budget wrappers.
 * :mod:`~spine_gym.agents.training` — how a training run is built; :mod:`~spine_gym.agents.vec_env` — its
   vector envs; :mod:`~spine_gym.agents.checkpoints` — resumable checkpoints;
+  :mod:`~spine_gym.agents.entropy_coef` — a loaded SAC's entropy coefficient, learned or fixed;
   :mod:`~spine_gym.agents.benchmark_run` — one benchmark run and many.
 * :mod:`~spine_gym.agents.zoo_config` — env ids, algorithms and the hyperparameter files
   (``spine_gym/agents/hyperparams/``).

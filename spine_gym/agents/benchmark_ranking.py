@@ -5,9 +5,10 @@ Per env id, the methods whose time over the temperature limit per episode is at 
 the final validation value; a reference controller: the mean over its validation episodes) are
 ranked by their tracking RMSE IQM, with the energy next to it; the others are listed apart with
 their violation; a method whose time over the limit was not recorded is listed apart as such,
-never ranked. Each row carries its actuator envelope (the voltage of action +1, the plant's thermal
-cut-off and who cuts a hot wire: the plant, the controller or nothing) and its budget (env steps × seeds of an algorithm, tuning
-trials × episodes of a tuned controller).
+never ranked. Each row carries its actuator envelope (``v_max``, the voltage of action +1 on a
+full-length wire; the plant's thermal cut-off; who cuts a hot wire: the plant, the controller or
+nothing) and its budget (env steps × seeds of an algorithm, tuning trials × episodes of a tuned
+controller).
 
 * :func:`cap_status`, :func:`constrained_split` — the constraint on summary rows
   (:func:`spine_gym.agents.benchmark_stats.summary_rows`);
@@ -20,12 +21,12 @@ from __future__ import annotations
 
 import math
 
-from spine_gym.controllers.registry import GUARD_MARGIN_K, get_spec, tuned_record
+from spine_gym.controllers.registry import get_spec, guard_temperature, tuned_record
 from spine_gym.envs import base_id
 
 from . import benchmark_stats as stats
 from .metrics import TIME_OVER_LIMIT_CAP_S
-from .runtime import env_temperature_limit, envelope_of, make_env
+from .runtime import env_temperature_limit, env_thermal_cutoff, envelope_of, make_env
 
 RANKED, OVER_CAP, NOT_RECORDED = "ranked", "over the cap", "not recorded"
 T_OVER = "time_over_limit_s"  # the constrained metric (a key of benchmark_stats.METRICS)
@@ -53,13 +54,13 @@ def constrained_split(summary: list[dict], env_id: str) -> dict[str, list[dict]]
 # --------------------------------------------------------------------------- envelope, budget
 def envelope(env_id: str, env_kwargs: dict, guard: bool) -> dict:
     """The actuator envelope of a method on ``env_id`` with ``env_kwargs``
-    (:func:`~spine_gym.agents.runtime.envelope_of`): ``v_max_V`` (the voltage of action +1),
+    (:func:`~spine_gym.agents.runtime.envelope_of`): ``v_max_V`` (the env's ``v_max``),
     ``cutoff_K`` (the plant's thermal cut-off, the ``-v2`` ids; ``None``: none) and ``guard``
     (``"plant 418 K"``: the env's driver cuts every controller's wires; ``"controller 418 K"``: a
-    guarded registry controller (``guard``) cuts a wire observed at the temperature limit minus
-    :data:`~spine_gym.controllers.registry.GUARD_MARGIN_K`; ``"none"``: nothing cuts it)."""
+    guarded registry controller (``guard``) cuts a wire observed at
+    :func:`~spine_gym.controllers.registry.guard_temperature`; ``"none"``: nothing cuts it)."""
     env = make_env(env_kwargs, env_id=env_id)
-    own = env_temperature_limit(env) - GUARD_MARGIN_K if guard else None
+    own = guard_temperature(guard, env_temperature_limit(env), env_thermal_cutoff(env))
     out = envelope_of(env, own)
     env.close()
     return out

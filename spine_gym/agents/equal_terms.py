@@ -1,8 +1,9 @@
 """The equal-terms comparison that ``spine-gym evaluate`` prints first.
 
-Controllers are compared only with controllers that ran in the same actuator envelope (the
-voltage of action +1, ``v_max``): a model trained at another ceiling gets its own block, in which
-the baselines were re-run at its ceiling, and is never ranked against baselines held to another.
+Controllers are compared only with controllers that ran in the same actuator envelope (``v_max``,
+the voltage of action +1 on a full-length wire): a model trained at another ceiling gets its own
+block, in which the baselines were re-run at its ceiling, and is never ranked against baselines
+held to another.
 In each block and scenario group, as in Safety-Gymnasium, the methods at most
 :data:`~spine_gym.agents.metrics.TIME_OVER_LIMIT_CAP_S` per episode over the temperature limit (the
 mean over the group's scenarios, one episode each) are ranked by tracking RMSE, with the energy

@@ -175,7 +175,8 @@ def plan(args) -> tuple[list[Scenario], list[str], dict[str, Path]]:
 
 
 def _v_max(env_id: str, env_kwargs: dict) -> float:
-    """[V] The voltage of action +1 of an env of ``env_id`` made with ``env_kwargs``."""
+    """[V] The ``v_max`` of an env of ``env_id`` made with ``env_kwargs`` (the voltage of action +1 on a
+    full-length wire)."""
     return float(config_of(env_id, **env_kwargs).v_max)
 
 

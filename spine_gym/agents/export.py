@@ -67,7 +67,16 @@ from .residual import ResidualPolicy
 from .runtime import SavedPolicy, load_policy, make_env
 from .zoo_config import ENV_ID
 
-__all__ = ["UnsupportedPolicyError", "actor_layers", "bundle_of", "export_policy", "write_onnx", "main"]
+__all__ = [
+    "UnsupportedPolicyError",
+    "actor_layers",
+    "bundle_of",
+    "export_policy",
+    "write_onnx",
+    "record_observations",
+    "OneUlpUp",
+    "main",
+]
 
 ONNX_OPSET = 17
 _ACTIVATION_NAMES = {nn.Tanh: "tanh", nn.ReLU: "relu"}
@@ -389,6 +398,25 @@ def export_policy(policy, out: str | Path, source: str = "") -> dict[str, Path]:
     paths["h"], paths["c"] = write_c(arrays, spec, out)
     paths["runner"] = Path(shutil.copyfile(numpy_policy.__file__, out / "numpy_policy.py"))
     return paths
+
+
+def record_observations(n: int = 1000, seed: int = 0) -> np.ndarray:
+    """``n`` observations (float32, ``(n, 10)``) of ``SmaSpine-v0`` under uniform random actions held
+    for 10 steps, reset with ``seed`` (and ``seed`` + the rows so far after an episode's end): the
+    observations an exported policy's runners are compared and timed on."""
+    env = make_env()
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    rows = []
+    while len(rows) < n:
+        a = rng.uniform(-1, 1, size=2).astype(np.float32)
+        for _ in range(10):
+            rows.append(obs)
+            obs, _, term, trunc, _ = env.step(a)
+            if term or trunc:
+                obs, _ = env.reset(seed=seed + len(rows))
+    env.close()
+    return np.asarray(rows[:n], dtype=np.float32)
 
 
 class OneUlpUp:

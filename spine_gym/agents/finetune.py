@@ -1,13 +1,14 @@
 """``spine-gym finetune``: pretrain with domain randomisation from a calibration preset, shift the
-plant by what the calibration leaves uncertain, fine-tune on it and score before/after.
+plant by what the calibration leaves uncertain (several plants), fine-tune on each and score before/after.
 
 The library is :mod:`spine_gym.agents.reality_gap`; this is its command line. Writes into ``-o``:
-``scores.csv`` (the suite's means per row and group), ``finetune_seeds.csv`` (each fine-tuning run's
-rows), ``scenarios.csv`` (every controller's metrics per scenario), ``plant.csv`` and
-``real_plant.json`` (the shifted plant), ``selection.csv`` (the learners on the tuning shifts),
-``reality_gap.png``, ``summary.json`` (the recovered fraction, the control arm, their bootstrap
-intervals), ``command.txt`` and the run folders ``pretrained/``, ``finetuned_<seed>/`` and
-``control_<seed>/`` (the same fine-tuning on the fitted plant).
+``scores.csv`` (the evaluation set's means per plant, row and group), ``finetune_seeds.csv`` (each
+fine-tuning run's rows), ``scenarios.csv`` (every controller's metrics per plant and scenario),
+``plant.csv`` and ``real_plant_shift<seed>.json`` (the shifted plants), ``selection.csv`` (the
+learners on the tuning shifts), ``reality_gap.png``, ``summary.json`` (the recovered fraction pooled
+and per plant, the control arm, their bootstrap intervals, the target's verdict), ``command.txt``
+and the run folders ``pretrained/``, ``finetuned_shift<seed>_<training seed>/`` and
+``control_<training seed>/`` (the same fine-tuning on the fitted plant).
 """
 
 from __future__ import annotations
@@ -27,7 +28,15 @@ from spine_gym.cli_conventions import (
     module_prog,
 )
 
-from .reality_gap import DEFAULT_ENV_ID, DEFAULT_LEARNER, LEARNERS, StudyConfig, run_study
+from .reality_gap import (
+    DEFAULT_ENV_ID,
+    DEFAULT_LEARNER,
+    EVAL_EPISODES,
+    LEARNERS,
+    SHIFT_SEEDS,
+    StudyConfig,
+    run_study,
+)
 
 PROG = module_prog(__spec__.name)
 
@@ -44,6 +53,7 @@ QUICK = {
     "finetune_seeds": 2,
     "selection_episodes": 1,
     "suite": "quick",
+    "eval_episodes": 2,
 }
 
 
@@ -63,14 +73,18 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add("--pretrain-steps", type=int, default=300_000, help="PPO pretraining steps (0: --pretrained)")
     add("--pretrained", default="", help="an existing pretrained run folder (with --pretrain-steps 0)")
     add("--finetune-steps", type=int, default=6_000, help="fine-tuning budget [env steps] on one spine")
-    add("--finetune-seeds", type=int, default=8, help="fine-tuning runs (seeds) per arm; a row: their median")
+    add("--finetune-seeds", type=int, default=4,
+        help="fine-tuning runs (seeds) per arm and plant; a row: their median")  # fmt: skip
     add("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
-    add("--shift-seed", type=int, default=0, help="seed of the shift's signs (the 'real' plant)")
+    add("--shift-seeds", type=int, nargs="+", default=list(SHIFT_SEEDS),
+        help="seeds of the shifts' signs, a 'real' plant each (not 101, 102: the tuning plants)")  # fmt: skip
     learners = ", ".join(LEARNERS)
     add("--learners", nargs="+", default=[DEFAULT_LEARNER],
         help=f"fine-tuning settings among {learners} (several: chosen on tuning plants)")  # fmt: skip
     add("--selection-episodes", type=int, default=10, help="validation episodes per tuning plant")
     add("--suite", default="full", help="evaluation suite: full or quick")
+    add("--eval-episodes", type=int, default=EVAL_EPISODES,
+        help="held-out episodes of the env's own samplers scored next to the suite")  # fmt: skip
     add("--seed", type=int, default=0, help="training seed (the first of the fine-tuning seeds)")
     add("--quick", action="store_true", help="tiny budgets and the quick suite (a pipeline check)")
     add_out(p, default="results/reality_gap")
@@ -89,6 +103,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         "finetune_seeds": args.finetune_seeds,
         "selection_episodes": args.selection_episodes,
         "suite": args.suite,
+        "eval_episodes": args.eval_episodes,
     }
     if args.quick:
         pretrain_steps = QUICK["pretrain_steps"] if args.pretrain_steps else 0
@@ -102,7 +117,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
             env_id=args.env,
             pretrained=args.pretrained,
             k=args.k,
-            shift_seed=args.shift_seed,
+            shift_seeds=tuple(args.shift_seeds),
             learners=tuple(args.learners),
             seed=args.seed,
             command=shlex.join(["spine-gym", "finetune", *argv]),
@@ -112,30 +127,32 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         parser.error(first_line(e))
     summary = run_study(cfg, progress=args.progress)
     print(
-        f"fine-tuned on the shifted plant in {cfg.finetune_steps} steps "
+        f"fine-tuned on each shifted plant in {cfg.finetune_steps} steps "
         f"({summary['hardware_minutes']:.1f} min of hardware): {outcome_line(summary)}; wrote {args.out}/"
     )
     return 0
 
 
 def outcome_line(summary: dict) -> str:
-    """The shift's cost, the recovered fraction and the control arm, each with its 95 % interval."""
+    """The shift's cost, the recovered fraction and the control arm pooled over the plants, each with
+    its 95 % interval (evaluation episodes and runs resampled), and the target's verdict."""
     lo, hi = summary["shift_cost_deg_ci95"]
+    n = len(summary["plants"])
     cost = (
-        f"the shift cost {summary['shift_cost_deg']:.2f} deg of suite RMSE "
-        f"(95 % CI over scenarios {lo:.2f} to {hi:.2f})"
+        f"over {n} shifted plant{'s' * (n > 1)} the shift cost {summary['shift_cost_deg']:.2f} deg of RMSE "
+        f"(95 % CI {lo:.2f} to {hi:.2f})"
     )
     c_lo, c_hi = summary["control_gain_deg_ci95"]
     control = (
         f"the same fine-tuning on the unshifted plant moved it by {-summary['control_gain_deg']:+.2f} deg "
-        f"(95 % CI over runs {-c_hi:+.2f} to {-c_lo:+.2f})"
+        f"(95 % CI {-c_hi:+.2f} to {-c_lo:+.2f})"
     )
     if summary["shift_cost_deg"] <= 0:
         return f"{cost}: nothing to recover; {control}"
     f_lo, f_hi = summary["recovered_fraction_ci95"]
     won = (
         f"the fine-tuning won back {summary['recovered_fraction']:.0%} of it "
-        f"(median of {summary['n_runs']} runs, 95 % CI over runs {f_lo:.0%} to {f_hi:.0%})"
+        f"(95 % CI {f_lo:.0%} to {f_hi:.0%}; target {summary['target_fraction']:.0%}: {summary['verdict']})"
     )
     return f"{cost}; {won}; {control}"
 

@@ -6,7 +6,8 @@ The steps, each a function:
 * :func:`shift_plant` — the "real" plant: the fitted preset (shared parameters and per-wire values)
   with every fit parameter moved by ``k`` of its standard errors (default 3 σ), the sign of each
   move drawn from ``seed`` (:class:`PlantShift`; an unidentified parameter moves by ``k`` × the
-  standard deviation of its uniform draw). :func:`write_plant` saves it as a preset file.
+  standard deviation of its uniform draw). :func:`shift_plants`: the scored plants, one per sign
+  seed (default four). :func:`write_plant` saves one as a preset file.
 * :func:`pretrain` — PPO on the env id with ``domain_randomization=<preset>`` (every episode a
   plant drawn from the fit's covariance, per-wire values included), the plain ``-v1`` entry of
   ``hyperparams/ppo.yml`` (:func:`plain_entry`: no energy budget, no observation wrappers).
@@ -15,11 +16,14 @@ The steps, each a function:
   function and its observation statistics continue from the pretrained run).
 * :func:`select_learner` — the learner chosen among candidates on *tuning* shifts (other seeds than
   the evaluated plant's) by the mean validation RMSE, never on the evaluation suite.
-* :func:`score_rows` — the before/after rows on the suite: the pretrained policy on the nominal
-  (fitted) plant and on the shifted plant, the fine-tuned policy and the tuned PID on the shifted
-  plant; :func:`recovered_fraction` — how much of the RMSE the shift cost the fine-tuning won back.
+* :func:`score_rows` — the before/after rows on the evaluation set (the suite and held-out episodes
+  of the env's own samplers): the pretrained policy on the nominal (fitted) plant and on each shifted
+  plant, the fine-tuned policies and the tuned PID on each shifted plant, the control arm;
+  :func:`paired_gains` (one plant) and :func:`pooled_gains` (all of them) — how much of the RMSE
+  the shift cost the fine-tuning won back, with bootstrap intervals; :func:`target_verdict` —
+  whether that is at least half, with 95 % confidence.
 * :func:`run_study` — all of it into one folder (``scores.csv``, ``plant.csv``, ``selection.csv``,
-  ``reality_gap.png``, ``command.txt``, the policies).
+  ``reality_gap.png``, ``summary.json``, ``command.txt``, the policies).
 
 A run folder of :func:`pretrain` or :func:`finetune` holds ``model.zip``, ``vecnormalize.pkl`` and
 ``meta.json``: ``spine-gym evaluate``, ``spine-gym export`` and ``spine-gym train -i`` read it.
@@ -41,9 +45,18 @@ from spine_gym.envs import ENV_SPECS, config_of
 from spine_gym.layout import SpineLayout
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
-from .evaluation import evaluate, summarize
-from .metrics import METRIC_COLUMNS
-from .runtime import controller_for, evaluation_env_kwargs, load_policy, validation_metrics
+from .evaluation import evaluate
+from .metrics import METRIC_COLUMNS, episode_metrics
+from .runtime import (
+    VALIDATION_SEED_BASE,
+    controller_for,
+    env_temperature_limit,
+    evaluation_env_kwargs,
+    load_policy,
+    make_env,
+    run_episode,
+    validation_metrics,
+)
 from .scenarios import get_suite
 from .training import build_envs, build_model, resolve_config
 from .vec_env import make_vec_env
@@ -58,6 +71,7 @@ __all__ = [
     "DEFAULT_LEARNER",
     "StudyConfig",
     "shift_plant",
+    "shift_plants",
     "write_plant",
     "plant_env_kwargs",
     "nominal_env_kwargs",
@@ -68,6 +82,9 @@ __all__ = [
     "tuning_plants",
     "select_learner",
     "paired_gains",
+    "plant_rows",
+    "pooled_gains",
+    "target_verdict",
     "score_rows",
     "recovered_fraction",
     "run_study",
@@ -79,6 +96,14 @@ STEP_BUDGET_LIMIT = 1_000_000  # [env steps] the largest fine-tuning budget the 
 SCORE_COLUMNS = ("rmse_deg", "energy_J", "time_over_limit_s", "max_error_deg", "peak_temperature_K")
 TUNING_SHIFT_SEEDS = (101, 102)  # the learner is chosen on these plants; the evaluated plant has its own seed
 TUNING_TRAIN_SEEDS = (100, 101)  # fine-tuning seeds of the selection; the scored runs use 0, 1, ...
+SHIFT_SEEDS = (0, 1, 2, 3)  # the scored plants: the k-sigma shifts with these sign seeds
+MAX_PLANTS = 16  # the most scored plants a study takes
+EVAL_EPISODES = 20  # held-out episodes of the env's own samplers, scored next to the suite
+MAX_EVAL_EPISODES = 1000
+#: reset seeds of the held-out episodes (``HELDOUT_SEED_BASE + i``): above the learner selection's
+#: validation episodes (``VALIDATION_SEED_BASE + i``, i < 100), below the suite's seeds
+HELDOUT_SEED_BASE = VALIDATION_SEED_BASE + 100_000
+TARGET_FRACTION = 0.5  # the study's target: the fine-tuning wins back at least half of the shift's cost
 
 
 def _check_int(name: str, value, lo: int, hi: int) -> None:
@@ -175,6 +200,25 @@ def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0) -> Pla
         layout=layout,
         source=unc.source,
     )
+
+
+def shift_plants(unc: ParameterUncertainty, k: float = 3.0, seeds=SHIFT_SEEDS) -> dict[str, PlantShift]:
+    """The scored plants: one :func:`shift_plant` per sign seed, named ``shift<seed>``, in the order given.
+
+    The seeds are fixed before anything is scored (never chosen by the size of their cost); they must
+    be distinct and differ from the tuning plants' seeds (:data:`TUNING_SHIFT_SEEDS`)."""
+    seeds = tuple(seeds)
+    ints = all(isinstance(s, int | np.integer) and not isinstance(s, bool) and 0 <= s < 2**31 for s in seeds)
+    if not ints or not 1 <= len(seeds) <= MAX_PLANTS or len(set(seeds)) != len(seeds):
+        raise ValueError(
+            f"shift_seeds must be 1 to {MAX_PLANTS} distinct integers in [0, 2**31 - 1], got {list(seeds)!r}"
+        )
+    tuning = sorted(set(seeds) & set(TUNING_SHIFT_SEEDS))
+    if tuning:
+        raise ValueError(
+            f"shift_seeds must not include the tuning plants' seeds {list(TUNING_SHIFT_SEEDS)}, got {tuning}"
+        )
+    return {f"shift{s}": shift_plant(unc, k, s) for s in seeds}
 
 
 def write_plant(shift: PlantShift, path: str | Path) -> Path:
@@ -445,53 +489,116 @@ FINETUNED = "finetuned@shifted"  # the fine-tuned runs on the shifted plant (the
 CONTROL = "finetuned@nominal"  # the control arm: the same fine-tuning on the fitted plant (no shift)
 
 
+FITTED = "fitted"  # the plant column of the rows on the fitted (nominal) plant
+POOLED = "pooled"  # the plant column of the rows averaged over the scored plants
+HELDOUT_GROUP = "episodes"  # the group of the held-out episodes in the rows
+
+
 def score_rows(
     pretrained: str | Path,
-    finetuned: list[str | Path],
+    finetuned: dict[str, list[str | Path]],
     unc: ParameterUncertainty,
-    shift: PlantShift,
+    shifts: dict[str, PlantShift],
     *,
     control: list[str | Path] = (),
     suite: str = "full",
+    n_episodes: int = 0,
     env_id: str | None = None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
-    """Mean suite metrics per (row, scenario group) and over the whole suite (group ``all``) of
-    ``pretrained@nominal``, ``pretrained@shifted``, ``finetuned@shifted`` (the median over the
-    fine-tuned runs ``finetuned``, one per training seed), ``finetuned@nominal`` (the median over the
-    control runs ``control``, fine-tuned on the fitted plant; none: no row) and ``pid@shifted``.
+    """Every row on the evaluation set: the ``suite``'s scenarios and ``n_episodes`` held-out episodes
+    of the env's own samplers (group ``episodes``, reset seeds ``HELDOUT_SEED_BASE + i``), the same
+    for every row, so every difference is paired.
+
+    The rows, each with a ``plant`` column: on the fitted plant (``fitted``) ``pretrained@nominal``
+    and ``finetuned@nominal`` (the median over the control runs ``control``; none: no row); per
+    shifted plant ``name`` of ``shifts`` ``pretrained@shifted``, ``finetuned@shifted`` (the median
+    over the fine-tuned runs ``finetuned[name]``) and ``pid@shifted``; plant ``pooled``: the mean of
+    each shifted row over the plants. Means per scenario group and over the whole set (``all``).
     Returns (rows, per-run rows ``<row>#<i>``, per-scenario rows of every controller)."""
     env_id = env_id or json.loads((Path(pretrained) / "meta.json").read_text())["env_id"]
-    nominal, shifted = nominal_env_kwargs(unc), plant_env_kwargs(shift.layout)
+    nominal = nominal_env_kwargs(unc)
     pre = load_policy(pretrained)
-    controllers = {
-        "pretrained@nominal": (pre, nominal),
-        "pretrained@shifted": (pre, shifted),
-        **{f"{FINETUNED}#{i}": (load_policy(f), shifted) for i, f in enumerate(finetuned)},
-        **{f"{CONTROL}#{i}": (load_policy(f), nominal) for i, f in enumerate(control)},
-        "pid@shifted": (controller_for("pid", env_id, shifted), shifted),
+    controllers = {  # (plant, row) -> (controller, env kwargs)
+        (FITTED, "pretrained@nominal"): (pre, nominal),
+        **{(FITTED, f"{CONTROL}#{i}"): (load_policy(f), nominal) for i, f in enumerate(control)},
     }
-    scenarios = get_suite(suite, env_id=env_id)
-    rows, _ = evaluate(
-        {n: c for n, (c, _) in controllers.items()}, scenarios, {n: kw for n, (_, kw) in controllers.items()}
+    for name, shift in shifts.items():
+        shifted = plant_env_kwargs(shift.layout)
+        controllers[(name, "pretrained@shifted")] = (pre, shifted)
+        for i, f in enumerate(finetuned[name]):
+            controllers[(name, f"{FINETUNED}#{i}")] = (load_policy(f), shifted)
+        controllers[(name, "pid@shifted")] = (controller_for("pid", env_id, shifted), shifted)
+    keys = {f"{plant}/{row}": (plant, row) for plant, row in controllers}
+    suite_rows, _ = evaluate(
+        {k: controllers[pr][0] for k, pr in keys.items()},
+        get_suite(suite, env_id=env_id),
+        {k: controllers[pr][1] for k, pr in keys.items()},
     )
-    means = summarize(rows)
-    for name in controllers:
-        sel = [r for r in rows if r["controller"] == name]
-        means.append(
-            {"controller": name, "group": "all", "n_scenarios": len(sel)}
-            | {c: float(np.mean([r[c] for r in sel])) for c in METRIC_COLUMNS}
-        )
+    rows = []
+    for key, (plant, row) in keys.items():
+        controller, env_kwargs = controllers[(plant, row)]
+        own = [r for r in suite_rows if r["controller"] == key]
+        own += _heldout_rows(controller, env_kwargs, env_id, n_episodes)
+        rows += [{**r, "controller": row, "plant": plant} for r in own]
+    means = _means(rows)
     runs = [m for m in means if "#" in m["controller"]]
     out = [m for m in means if "#" not in m["controller"]]
-    for arm in (FINETUNED, CONTROL):
-        arm_runs = [m for m in runs if m["controller"].startswith(arm + "#")]
-        for group in dict.fromkeys(m["group"] for m in arm_runs):
-            sel = [m for m in arm_runs if m["group"] == group]
-            median = {c: float(np.median([m[c] for m in sel])) for c in METRIC_COLUMNS}
-            out.append({"controller": arm, "group": group, "n_scenarios": sel[0]["n_scenarios"]} | median)
-    order = list(ROW_LABELS)
-    out.sort(key=lambda m: (m["group"] == "all", m["group"], order.index(m["controller"])))
+    def arm_of(m: dict) -> tuple[str, str, str]:
+        return m["plant"], m["controller"].split("#")[0], m["group"]
+
+    for plant, arm, group in dict.fromkeys(arm_of(m) for m in runs):
+        sel = [m for m in runs if arm_of(m) == (plant, arm, group)]
+        median = {c: float(np.median([m[c] for m in sel])) for c in METRIC_COLUMNS}
+        row = {"plant": plant, "controller": arm, "group": group, "n_scenarios": sel[0]["n_scenarios"]}
+        out.append(row | median)
+    out += _pooled_rows(out, list(shifts))
+    order, plants = list(ROW_LABELS), [FITTED, *shifts, POOLED]
+    groups = [*dict.fromkeys(m["group"] for m in out if m["group"] != "all"), "all"]
+    out.sort(key=lambda m: (plants.index(m["plant"]), groups.index(m["group"]), order.index(m["controller"])))
     return out, runs, rows
+
+
+def _heldout_rows(controller, env_kwargs: dict, env_id: str, n_episodes: int) -> list[dict]:
+    """Metrics of ``controller`` on the held-out episodes ``0 … n_episodes − 1`` (group ``episodes``)."""
+    if not n_episodes:
+        return []
+    env = make_env(env_kwargs, env_id=env_id)
+    limit, dt = env_temperature_limit(env), float(env.control_period)
+    rows = []
+    for i in range(n_episodes):
+        traj = run_episode(env, controller, seed=HELDOUT_SEED_BASE + i)
+        rows.append({"group": HELDOUT_GROUP, "scenario": f"episode_{i}", "kind": "env"}
+                    | episode_metrics(traj, temperature_limit=limit, dt=dt))  # fmt: skip
+    env.close()
+    return rows
+
+
+def _means(rows: list[dict]) -> list[dict]:
+    """Mean of each metric per (plant, controller, group) and per (plant, controller) over all rows."""
+    out = []
+    for plant, name in dict.fromkeys((r["plant"], r["controller"]) for r in rows):
+        own = [r for r in rows if r["plant"] == plant and r["controller"] == name]
+        for group in [*dict.fromkeys(r["group"] for r in own), "all"]:
+            sel = own if group == "all" else [r for r in own if r["group"] == group]
+            out.append({"plant": plant, "controller": name, "group": group, "n_scenarios": len(sel)}
+                       | {c: _nanmean([r[c] for r in sel]) for c in METRIC_COLUMNS})  # fmt: skip
+    return out
+
+
+def _nanmean(values) -> float:
+    """Mean of the finite values (NaN if none: e.g. a settling time where no scenario settles)."""
+    v = np.asarray(values, dtype=float)
+    return float(np.mean(v[np.isfinite(v)])) if np.isfinite(v).any() else math.nan
+
+
+def _pooled_rows(rows: list[dict], plants: list[str]) -> list[dict]:
+    """Each shifted row averaged over the ``plants`` (plant ``pooled``)."""
+    out = []
+    for name, group in dict.fromkeys((m["controller"], m["group"]) for m in rows if m["plant"] in plants):
+        sel = [m for m in rows if m["plant"] in plants and m["controller"] == name and m["group"] == group]
+        out.append({"plant": POOLED, "controller": name, "group": group, "n_scenarios": sel[0]["n_scenarios"]}
+                   | {c: float(np.mean([m[c] for m in sel])) for c in METRIC_COLUMNS})  # fmt: skip
+    return out
 
 
 def recovered_fraction(scores: list[dict], group: str = "all", finetuned: str = FINETUNED) -> float:
@@ -555,12 +662,108 @@ def paired_gains(scenario_rows: list[dict], *, n_boot: int = 2000, seed: int = 0
         out |= {name: point[j], f"{name}_ci95": _interval(runs[:, j]),
                 f"{name}_ci95_scenarios": _interval(both[:, j])}  # fmt: skip
     for name, j in (("recovered_fraction", 1), ("excess_fraction", 3)):
-        out |= {name: point[j] * scale, f"{name}_ci95": _interval(runs[:, j] * scale)}
+        out |= {name: point[j] * scale, f"{name}_ci95": _interval(runs[:, j] * scale),
+                f"{name}_ci95_scenarios": _ratio_interval(both[:, j], both[:, 0], cost)}  # fmt: skip
     gains = np.mean(pre_s - ft, axis=1)
     out["gain_deg_per_run"] = [float(g) for g in gains]
     out["recovered_fraction_per_run"] = [float(g * scale) for g in gains]
     out["control_gain_deg_per_run"] = [float(g) for g in np.mean(pre_n - ctrl, axis=1)] if len(ctrl) else []
     return out
+
+
+def plant_rows(scenario_rows: list[dict], plant: str) -> list[dict]:
+    """The per-scenario rows of one shifted ``plant`` and those on the fitted plant (the nominal rows
+    and the control arm): what :func:`paired_gains` compares."""
+    return [r for r in scenario_rows if r["plant"] in (plant, FITTED)]
+
+
+def pooled_gains(scenario_rows: list[dict], plants: list[str], *, n_boot: int = 2000, seed: int = 0) -> dict:
+    """:func:`paired_gains` pooled over the shifted ``plants`` (the ``plant`` column of the rows).
+
+    The shift's cost and the gain are means over the plants of each plant's cost and median gain over
+    its runs; the recovered fraction is the pooled gain over the pooled cost, the control gain the
+    median over the control runs. Two 95 % intervals (``n_boot`` resamples): ``<name>_ci95``
+    resamples the evaluation episodes (the same draw for every row and plant) and the runs of each
+    arm and plant, the plants fixed; ``<name>_ci95_plants`` resamples the plants too (other plants
+    at the same ``k``)."""
+    pre_n = _rmse_vector(scenario_rows, FITTED, "pretrained@nominal")
+    ctrl = _rmse_matrix([r for r in scenario_rows if r["plant"] == FITTED], CONTROL)
+    pre_s = [_rmse_vector(scenario_rows, p, "pretrained@shifted") for p in plants]
+    ft = [_rmse_matrix([r for r in scenario_rows if r["plant"] == p], FINETUNED) for p in plants]
+    m, n_p, rng = len(pre_n), len(plants), np.random.default_rng(seed)
+
+    def stats(cols, ft_rows, ctrl_rows, which) -> np.ndarray:
+        cost = np.mean([np.mean(pre_s[p][cols] - pre_n[cols]) for p in which])
+        gain = np.mean([_median_gain(pre_s[p][cols], ft[p][np.ix_(ft_rows[p], cols)]) for p in which])
+        c_gain = _median_gain(pre_n[cols], ctrl[np.ix_(ctrl_rows, cols)]) if len(ctrl) else math.nan
+        return np.array([cost, gain, c_gain, gain - c_gain])
+
+    def draw(n: int) -> np.ndarray:
+        return rng.integers(0, n, n) if n else np.arange(0)
+
+    point = stats(np.arange(m), [np.arange(len(f)) for f in ft], np.arange(len(ctrl)), range(n_p))
+    boots = {}
+    for suffix, plants_drawn in (("", False), ("_plants", True)):
+        boots[suffix] = np.array([
+            stats(draw(m), [draw(len(f)) for f in ft], draw(len(ctrl)),
+                  draw(n_p) if plants_drawn else range(n_p))
+            for _ in range(n_boot)
+        ])  # fmt: skip
+    cost = float(point[0])
+    out = {"plants": list(plants), "n_scenarios": m, "n_runs": sum(len(f) for f in ft),
+           "n_control_runs": len(ctrl)}  # fmt: skip
+    for j, name in enumerate(("shift_cost_deg", "gain_deg", "control_gain_deg", "excess_gain_deg")):
+        out[name] = float(point[j])
+        for suffix, b in boots.items():
+            out[f"{name}_ci95{suffix}"] = _interval(b[:, j])
+    for name, j in (("recovered_fraction", 1), ("excess_fraction", 3)):
+        out[name] = float(point[j]) / cost if cost > 0 else math.nan
+        for suffix, b in boots.items():
+            out[f"{name}_ci95{suffix}"] = _ratio_interval(b[:, j], b[:, 0], cost)
+    out["verdict"] = target_verdict(out)
+    return out
+
+
+def target_verdict(gains: dict, target: float = TARGET_FRACTION) -> str:
+    """Whether the fine-tuning wins back at least ``target`` of the shift's cost, with 95 % confidence
+    (the intervals ``shift_cost_deg_ci95`` and ``recovered_fraction_ci95`` of :func:`pooled_gains`):
+    ``met`` (the fraction's lower bound ≥ target), ``not met`` (its upper bound < target), or
+    ``undecided`` (the interval holds the target, or the cost's interval reaches zero: no cost
+    established to recover)."""
+    if not 0.0 < target <= 1.0:
+        raise ValueError(f"target must be in (0, 1], got {target!r}")
+    if not gains["shift_cost_deg_ci95"][0] > 0:
+        return "undecided (the shift's cost is not distinguishable from zero)"
+    lo, hi = gains["recovered_fraction_ci95"]
+    if lo >= target:
+        return "met"
+    if hi < target:
+        return "not met"
+    return "undecided"
+
+
+def _rmse_vector(scenario_rows: list[dict], plant: str, controller: str) -> np.ndarray:
+    """RMSE per scenario of one controller on one plant."""
+    own = (r for r in scenario_rows if r["plant"] == plant and r["controller"] == controller)
+    return np.array([float(r["rmse_deg"]) for r in own])
+
+
+def _median_gain(before: np.ndarray, after: np.ndarray) -> float:
+    """The median over runs (rows of ``after``) of the mean over scenarios of ``before − after``."""
+    return float(np.median(np.mean(before - after, axis=1)))
+
+
+def _ratio_interval(num: np.ndarray, den: np.ndarray, point_den: float) -> list[float]:
+    """The 95 % interval of resampled ratios ``num / den`` (the cost resampled with the gain); NaN if
+    the point cost is not positive (nothing to recover). A resample whose cost is not positive has no
+    fraction: it counts as −inf when its gain is ≤ 0 or the cost < 0, else +inf, so the interval
+    widens rather than drops it."""
+    if not point_den > 0:
+        return [math.nan, math.nan]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        undefined = np.where((num > 0) & (den == 0), np.inf, -np.inf)
+        ratio = np.where(den > 0, num / np.where(den > 0, den, 1.0), undefined)
+    return _interval(ratio)
 
 
 def _interval(values: np.ndarray) -> list[float]:
@@ -582,14 +785,16 @@ class StudyConfig:
         pretrain_steps: PPO steps of the pretraining (0: reuse ``pretrained``).
         pretrained: an existing pretrained run folder (with ``pretrain_steps`` 0).
         finetune_steps: the fine-tuning budget [env steps] (one spine: × the control period of hardware).
-        finetune_seeds: fine-tuning runs per arm (training seeds ``seed`` … ``seed + n − 1``): on the
-            shifted plant (the ``finetuned@shifted`` row is their median) and, the control arm, on the
+        finetune_seeds: fine-tuning runs per arm (training seeds ``seed`` … ``seed + n − 1``): on each
+            shifted plant (its ``finetuned@shifted`` row is their median) and, the control arm, on the
             fitted plant (``finetuned@nominal``).
-        k, shift_seed: the shift of the "real" plant in standard errors, and the seed of its signs.
+        k, shift_seeds: the shift of the "real" plants in standard errors, and the seeds of their
+            signs (one plant each, :func:`shift_plants`).
         learners: candidate names of :data:`LEARNERS` (one: no selection; several: chosen by
             :func:`select_learner` on :func:`tuning_plants`).
         selection_episodes: validation episodes per tuning plant in the selection.
         suite: the evaluation suite (``full`` or ``quick``).
+        eval_episodes: held-out episodes of the env's own samplers scored next to the suite.
         seed: the training seed.
     """
 
@@ -599,12 +804,13 @@ class StudyConfig:
     pretrain_steps: int = 300_000
     pretrained: str = ""
     finetune_steps: int = 6_000
-    finetune_seeds: int = 8
+    finetune_seeds: int = 4
     k: float = 3.0
-    shift_seed: int = 0
+    shift_seeds: tuple[int, ...] = SHIFT_SEEDS
     learners: tuple[str, ...] = (DEFAULT_LEARNER,)
     selection_episodes: int = 10
     suite: str = "full"
+    eval_episodes: int = EVAL_EPISODES
     seed: int = 0
     command: str = field(default="", compare=False)
 
@@ -615,7 +821,7 @@ class StudyConfig:
         _check_int("pretrain_steps", self.pretrain_steps, 0, 10_000_000)
         _check_int("finetune_steps", self.finetune_steps, 1, STEP_BUDGET_LIMIT)
         _check_int("finetune_seeds", self.finetune_seeds, 1, 100)
-        _check_int("shift_seed", self.shift_seed, 0, 2**31 - 1)
+        _check_int("eval_episodes", self.eval_episodes, 0, MAX_EVAL_EPISODES)
         _check_int("seed", self.seed, 0, 2**31 - 1)
         _check_int("selection_episodes", self.selection_episodes, 1, 100)
         if (self.pretrain_steps == 0) == (not self.pretrained):
@@ -632,7 +838,7 @@ class StudyConfig:
             raise ValueError(f"suite must be 'full' or 'quick', got {self.suite!r}")
         unc = ParameterUncertainty.from_file(self.preset)
         config_of(self.env_id, domain_randomization=unc)  # the preset fits the env's module
-        shift_plant(unc, self.k, self.shift_seed)  # k and the shift within the model's range
+        shift_plants(unc, self.k, self.shift_seeds)  # k, the seeds and the shifts within the model's range
 
 
 def _write_csv(path: Path, rows: list[dict]) -> None:
@@ -645,14 +851,16 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
 
 def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     """Pretrain (or reuse), shift, select the learner, fine-tune, score; files into ``cfg.out``.
-    Returns a summary (the recovered fraction, the chosen learner, the folders)."""
+    Returns a summary: the pooled gains and recovered fraction with their intervals and the target's
+    verdict (:func:`pooled_gains`), per plant :func:`paired_gains` (``per_plant``), the chosen learner,
+    the folders."""
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     say = print if progress else (lambda *a, **k: None)
     unc = ParameterUncertainty.from_file(cfg.preset)
-    shift = shift_plant(unc, cfg.k, cfg.shift_seed)
-    plant_file = write_plant(shift, out / "real_plant.json")
-    _write_csv(out / "plant.csv", shift.rows())
+    shifts = shift_plants(unc, cfg.k, cfg.shift_seeds)
+    plant_files = {name: str(write_plant(sh, out / f"real_plant_{name}.json")) for name, sh in shifts.items()}
+    _write_csv(out / "plant.csv", [{"plant": name} | r for name, sh in shifts.items() for r in sh.rows()])
     pre = Path(cfg.pretrained) if cfg.pretrained else out / "pretrained"
     if cfg.pretrain_steps:
         say(
@@ -672,46 +880,57 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
         _write_csv(out / "selection.csv", sel_rows)
     seeds = range(cfg.seed, cfg.seed + cfg.finetune_seeds)
     learner = LEARNERS[chosen]
-    say(f"fine-tuning with {chosen} on the shifted plant (seed {cfg.shift_seed}, {cfg.finetune_steps} steps, "
+    say(f"fine-tuning with {chosen} on the shifted plants {list(shifts)} ({cfg.finetune_steps} steps, "
         f"training seeds {list(seeds)}), and on the fitted plant (the control arm)")  # fmt: skip
-    arms = {}
-    plants = (("finetuned", shift.layout, str(plant_file)), ("control", fitted_layout(unc), cfg.preset))
-    for arm, layout, plant in plants:
-        arms[arm] = [
-            finetune(
-                pre, layout, out / f"{arm}_{s}", learner=learner,
-                n_timesteps=cfg.finetune_steps, seed=s, plant_file=plant,
-            )  # fmt: skip
+
+    def arm(folder: str, layout: SpineLayout, plant_file: str) -> list[Path]:
+        return [
+            finetune(pre, layout, out / f"{folder}_{s}", learner=learner,
+                     n_timesteps=cfg.finetune_steps, seed=s, plant_file=plant_file)  # fmt: skip
             for s in seeds
         ]
-    say(f"scoring on the {cfg.suite} suite")
+
+    control = arm("control", fitted_layout(unc), cfg.preset)
+    finetuned = {name: arm(f"finetuned_{name}", sh.layout, plant_files[name]) for name, sh in shifts.items()}
+    say(f"scoring on the {cfg.suite} suite and {cfg.eval_episodes} held-out episodes")
     scores, runs, scenario_rows = score_rows(
-        pre, arms["finetuned"], unc, shift, control=arms["control"], suite=cfg.suite, env_id=cfg.env_id
-    )
+        pre, finetuned, unc, shifts, control=control, suite=cfg.suite,
+        n_episodes=cfg.eval_episodes, env_id=cfg.env_id,
+    )  # fmt: skip
     _write_csv(out / "scores.csv", scores)
-    columns = ("controller", "group", "scenario", *SCORE_COLUMNS)
+    columns = ("plant", "controller", "group", "scenario", *SCORE_COLUMNS)
     _write_csv(out / "scenarios.csv", [{k: r[k] for k in columns} for r in scenario_rows])
+    per_plant = {name: paired_gains(plant_rows(scenario_rows, name), seed=cfg.seed) for name in shifts}
     for r in runs:
-        shifted_all = r["group"] == "all" and r["controller"].startswith(FINETUNED + "#")
-        fraction = recovered_fraction(scores + runs, "all", r["controller"]) if shifted_all else ""
-        r["recovered_fraction"] = fraction
+        gains = per_plant.get(r["plant"])
+        shifted_all = gains and r["group"] == "all" and r["controller"].startswith(FINETUNED + "#")
+        r["recovered_fraction"] = (
+            gains["recovered_fraction_per_run"][int(r["controller"].rsplit("#", 1)[1])] if shifted_all else ""
+        )
     _write_csv(out / "finetune_seeds.csv", runs)
-    paired = paired_gains(scenario_rows, seed=cfg.seed)
     summary = {
-        "recovered_fraction": recovered_fraction(scores),
-        **paired,
+        **pooled_gains(scenario_rows, list(shifts), seed=cfg.seed),
+        "target_fraction": TARGET_FRACTION,
+        "per_plant": per_plant,
         "learner": chosen,
+        "k": cfg.k,
+        "shift_seeds": list(cfg.shift_seeds),
+        "suite": cfg.suite,
+        "eval_episodes": cfg.eval_episodes,
         "finetune_steps": cfg.finetune_steps,
         "finetune_seeds": list(seeds),
         "hardware_minutes": cfg.finetune_steps * float(config_of(cfg.env_id).control_period) / 60.0,
         "pretrained": str(pre),
-        "finetuned": [str(f) for f in arms["finetuned"]],
-        "control": [str(f) for f in arms["control"]],
+        "finetuned": {name: [str(f) for f in folders] for name, folders in finetuned.items()},
+        "control": [str(f) for f in control],
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "command.txt").write_text(cfg.command + "\n")
-    title = f"{cfg.env_id}: {cfg.k:g}-sigma shift, {cfg.finetune_steps} fine-tuning steps"
-    plot_scores(scores, out / "reality_gap.png", title=title, runs=runs)
+    title = (
+        f"{cfg.env_id}: {len(shifts)} plants shifted by {cfg.k:g} sigma, "
+        f"{cfg.finetune_steps} fine-tuning steps, {cfg.finetune_seeds} seeds per arm"
+    )
+    plot_scores(scores, summary, out / "reality_gap.png", title=title, runs=runs)
     return summary
 
 
@@ -725,42 +944,64 @@ ROW_LABELS = {
 
 
 def plot_scores(
-    scores: list[dict], path: str | Path, title: str = "", runs: list[dict] | None = None
+    scores: list[dict], summary: dict, path: str | Path, title: str = "", runs: list[dict] | None = None
 ) -> Path:
-    """Bars of the suite's mean RMSE [deg], energy [J] and time over the limit [s] per row (a
-    fine-tuned bar: the median of its runs, each run a black dot)."""
+    """Two panels. Left: the evaluation set's mean RMSE [deg] per shifted plant and pooled, bars of
+    the pretrained policy, the fine-tuned one (the median of its runs, each run a black dot) and the
+    PID on that plant, with the pretrained policy and the control arm on the fitted plant as lines.
+    Right: the recovered fraction [%] per plant and pooled with its 95 % interval (episodes and runs
+    resampled) and the target."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [s for s in scores if s["group"] == "all"]
-    labels = [ROW_LABELS.get(r["controller"], r["controller"]) for r in rows]
-    palette = {"pretrained@nominal": "#7f7f7f", "pretrained@shifted": "#d62728", FINETUNED: "#2ca02c",
-               CONTROL: "#98df8a", "pid@shifted": "#1f77b4"}  # fmt: skip
-    colors = [palette.get(r["controller"], "#bcbd22") for r in rows]
-    names = [r["controller"] for r in rows]
-    panels = (("rmse_deg", "tracking RMSE [deg]"), ("energy_J", "energy per episode [J]"),
-              ("time_over_limit_s", "time over the temperature limit [s]"))  # fmt: skip
-    fig, axes = plt.subplots(1, 3, figsize=(4.0 + 2.2 * len(rows), 4.4))
-    for ax, (key, ylabel) in zip(axes, panels, strict=True):
-        vals = [r[key] for r in rows]
-        ax.bar(range(len(rows)), vals, color=colors)
-        ax.set_xticks(range(len(rows)), labels, fontsize=8)
-        ax.set_ylabel(ylabel)
-        for i, v in enumerate(vals):
-            ax.annotate(f"{v:.3g}", (i, v), ha="center", va="bottom", fontsize=8)
-        if max(vals) == 0.0:
-            ax.set_ylim(0.0, 1.0)  # e.g. no time over the limit at all: a readable empty axis
-        for arm in (FINETUNED, CONTROL):
-            own = [r for r in runs or [] if r["group"] == "all" and r["controller"].split("#")[0] == arm]
-            seeds = [r[key] for r in own]
-            if seeds and arm in names:
-                label = "fine-tuning runs (seeds)" if arm == FINETUNED else None
-                ax.plot([names.index(arm)] * len(seeds), seeds, "k.", label=label)
-        if runs and FINETUNED in names:
-            ax.legend(fontsize=7, loc="lower right")
-    fig.suptitle(title + " (means over the evaluation suite)")
+    every = [s for s in scores if s["group"] == "all"]
+    plants = [*summary["per_plant"], POOLED]
+    rmse = {(s["plant"], s["controller"]): s["rmse_deg"] for s in every}
+    bars = (("pretrained@shifted", "#d62728"), (FINETUNED, "#2ca02c"), ("pid@shifted", "#1f77b4"))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(6.0 + 1.6 * len(plants), 4.6),
+                                  gridspec_kw={"width_ratios": [3, 2]})  # fmt: skip
+    width = 0.26
+    for j, (row, color) in enumerate(bars):
+        xs = np.arange(len(plants)) + (j - 1) * width
+        vals = [rmse[(p, row)] for p in plants]
+        ax.bar(xs, vals, width, color=color, label=ROW_LABELS[row].replace("\n", " "))
+        for x, v in zip(xs, vals, strict=True):
+            ax.annotate(f"{v:.2f}", (x, v), ha="center", va="bottom", fontsize=7)
+    for i, p in enumerate(plants[:-1]):
+        own = [r["rmse_deg"] for r in runs or [] if r["plant"] == p and r["group"] == "all"
+               and r["controller"].startswith(FINETUNED + "#")]  # fmt: skip
+        ax.plot([i] * len(own), own, "k.", ms=3, label="fine-tuning runs (seeds)" if i == 0 else None)
+    for row, style in (("pretrained@nominal", "--"), (CONTROL, ":")):
+        if (FITTED, row) in rmse:
+            label = ROW_LABELS[row].replace("\n", " ")
+            ax.axhline(rmse[(FITTED, row)], color="#555555", ls=style, lw=1.2, label=label)
+    lo = min(v for v in rmse.values()) * 0.9
+    ax.set_ylim(lo, max(v for v in rmse.values()) * 1.04)
+    ax.set_xticks(range(len(plants)), plants)
+    ax.set_ylabel("tracking RMSE, mean over the evaluation set [deg]")
+    ax.legend(fontsize=7, loc="lower left", ncol=2)
+    gains = [summary["per_plant"][p] for p in plants[:-1]] + [summary]
+    frac = [100.0 * g["recovered_fraction"] for g in gains]
+    # both resample the episodes and the runs: paired_gains' "_scenarios" interval, pooled_gains' own
+    ci = [g["recovered_fraction_ci95_scenarios"] for g in gains[:-1]] + [summary["recovered_fraction_ci95"]]
+    for i, (f, (c_lo, c_hi)) in enumerate(zip(frac, ci, strict=True)):
+        color = "#2ca02c" if i < len(plants) - 1 else "#000000"
+        if np.isfinite(f):
+            ax2.errorbar([i], [f], yerr=[[f - 100.0 * max(c_lo, -10.0)], [100.0 * min(c_hi, 10.0) - f]],
+                         fmt="o", color=color, capsize=4)  # fmt: skip
+        else:
+            ax2.annotate("no cost", (i, 0.0), ha="center", fontsize=7)
+    ax2.axhline(100.0 * summary.get("target_fraction", TARGET_FRACTION), color="#d62728", ls="--", lw=1,
+                label="target")  # fmt: skip
+    ax2.axhline(0.0, color="#555555", lw=0.8)
+    ax2.set_xticks(range(len(plants)), plants)
+    ax2.set_ylabel("share of the shift's cost won back [%]")
+    ax2.set_ylim(-150, 250)
+    ax2.legend(fontsize=7, loc="upper right")
+    ax2.set_title("recovered fraction, 95 % CI (episodes, runs)", fontsize=9)
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

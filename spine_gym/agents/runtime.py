@@ -218,7 +218,9 @@ ENVELOPE_COLUMNS = ("v_max_V", "cutoff_K", "guard")
 
 
 def envelope_of(env, controller_cutoff: float | None = None) -> dict:
-    """The actuator envelope a controller meets on ``env``: ``v_max_V`` (the voltage of action +1),
+    """The actuator envelope a controller meets on ``env``: ``v_max_V`` (the env's ``v_max``: the
+    voltage of action +1 on a full-length wire; the chain's shorter wires get ``v_max`` × their
+    length / L0, ``config.volt_coef``),
     ``cutoff_K`` (the plant's thermal cut-off, ``None`` if it has none) and ``guard``, who cuts a hot
     wire and where: ``"plant 418 K"`` (the env's driver, the same for every controller),
     ``"controller 418 K"`` (the controller's own guard at ``controller_cutoff`` [K], on its observed
@@ -328,16 +330,11 @@ def energy_weighted_oracle(env, w_energy: float, name: str = "mpc_oracle") -> MP
     """The registry's privileged MPC ``name`` (one of :data:`ORACLE_NAMES`: ``mpc_oracle``,
     ``mpc_oracle_causal``) for the planar ``env`` with the energy weight ``w_energy`` [1/J] of its
     cost (the other settings its defaults): the expert of ``scripts/studies/distill.py`` and the trade-off
-    sweep of ``scripts/studies/ceiling.py``."""
+    sweep of ``scripts/studies/ceiling.py``; its guard the registry's, :func:`controller_kwargs`)."""
     if name not in ORACLE_NAMES:
         raise ValueError(f"name must be one of {ORACLE_NAMES}, got {name!r}")
-    return MPPIController(
-        env.config,
-        env=env,
-        settings=MPPIConfig(w_energy=float(w_energy)),
-        temperature_limit=env_temperature_limit(env) - GUARD_MARGIN_K,
-        **get_spec(name).kwargs,
-    )
+    kwargs = controller_kwargs(name, env_id_of(env), None, env_temperature_limit(env), env_thermal_cutoff(env))
+    return MPPIController(env.config, env=env, settings=MPPIConfig(w_energy=float(w_energy)), **kwargs)
 
 
 def vecnormalize_candidates(model_path: Path) -> list[Path]:

@@ -47,7 +47,8 @@ give the same weights (``tests/agents/test_train_resume.py``). Evaluations up to
 ``-i path/to/model.zip`` is a fine-tune instead: a new run folder, ``-n`` more steps, the model's
 normalisation statistics and step counter, the multiplier from ``lagrangian_init``, and the
 hyperparameters given with ``-params`` set on the loaded model (rollout length, batch size,
-learning rate...; not those that make its network, ``policy_kwargs`` and ``use_sde``: a usage error).
+learning rate, SAC's ``ent_coef`` learned or fixed as :mod:`spine_gym.agents.entropy_coef` says...; not
+those that make its network, ``policy_kwargs`` and ``use_sde``: a usage error).
 
 The run is built by :mod:`spine_gym.agents.training` (shared with :mod:`spine_gym.agents.benchmark`):
 :func:`~spine_gym.agents.training.resolve_config` (the YAML entry with overrides),

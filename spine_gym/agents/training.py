@@ -27,6 +27,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from spine_gym.envs import config_of
 
 from .checkpoints import lagrangian_candidates, load_lagrangian
+from .entropy_coef import ENTROPY_ALGOS, checked_ent_coef, set_ent_coef
 from .lagrangian import EnergyBudgetVecEnv, EnergyRelabelReplayBuffer, LagrangianCallback
 from .observations import feature_specs, feature_vec_env
 from .residual import ResidualVecEnv, base_spec
@@ -124,10 +125,13 @@ def resolve_config(
 ) -> RunConfig:
     """The hyperparameter entry of ``env_id`` in ``hyperparams/{algo}.yml`` (or ``conf_file``) with
     ``hyperparams`` overriding it; ``n_envs``/``n_timesteps`` > 0 override the entry's (-1: the
-    entry's), ``env_kwargs`` update the entry's."""
+    entry's), ``env_kwargs`` update the entry's. A SAC-family ``ent_coef`` is checked
+    (:func:`~spine_gym.agents.entropy_coef.checked_ent_coef`, ValueError)."""
     hp_raw = load_hyperparams(algo, env_id, conf_file)
     hp_raw.update(hyperparams or {})
     hp, special = preprocess_hyperparams(hp_raw)
+    if algo in ENTROPY_ALGOS and "ent_coef" in hp:
+        hp["ent_coef"] = checked_ent_coef(hp["ent_coef"])
     return RunConfig(
         algo=algo,
         env_id=env_id,
@@ -271,9 +275,10 @@ FIXED_ON_LOAD = ("policy_kwargs", "use_sde")
 def load_overrides(cfg: RunConfig, given, source: str = "-params/--hyperparams") -> dict:
     """The hyperparameters ``given`` (their keys; e.g. those of the command line) as ``cfg`` resolved
     them, to set on a model loaded from a checkpoint (SB3's ``load`` sets them before it builds its
-    rollout or replay buffer and its schedules); ValueError (one line, naming ``source``) for one of
-    :data:`FIXED_ON_LOAD`. The entry's other settings (energy budget, observation features...) shape
-    the env, which is built anew either way."""
+    rollout or replay buffer and its schedules; :func:`build_model` sets a SAC-family ``ent_coef``
+    after it, :mod:`spine_gym.agents.entropy_coef`); ValueError (one line, naming ``source``) for
+    one of :data:`FIXED_ON_LOAD`. The entry's other settings (energy budget, observation
+    features...) shape the env, which is built anew either way."""
     fixed = sorted(set(given) & set(FIXED_ON_LOAD))
     if fixed:
         raise ValueError(
@@ -314,10 +319,14 @@ def build_model(
             **cfg.hp,
             **extra,
         )
+    overrides = dict(overrides or {})
+    ent_coef = overrides.pop("ent_coef", None) if cfg.algo in ENTROPY_ALGOS else None
     model = algo_cls.load(
         trained_agent, env=env, device=device, tensorboard_log=tensorboard_log, verbose=verbose,
-        **(overrides or {}),
+        **overrides,
     )  # fmt: skip
+    if ent_coef is not None:  # load keeps the checkpoint's coefficient: set it on the model
+        set_ent_coef(model, ent_coef)
     if model.seed != seed:
         # SB3's load seeds with the checkpoint's own seed, so --seed alone did nothing on a resume.
         # Only re-seed when it differs: a second seeding after the network's construction changes

@@ -19,7 +19,8 @@ built from the env (``from_env``: its layout, observation table and per-wire vol
 Every entry except the open-loop step drive gets the temperature guard the tuning used: a wire
 whose observed temperature reaches the env's limit minus :data:`GUARD_MARGIN_K` gets 0 V — except
 where the plant cuts hot wires itself (the ``thermal_cutoff`` env setting of the ``-v2`` ids): there no
-controller brings a guard of its own. :func:`controller_kwargs` is that one rule.
+controller brings a guard of its own. :func:`guard_temperature` is that one rule (and
+:func:`controller_kwargs` the kwargs it gives an entry).
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ __all__ = [
     "load_tuned",
     "tuned_record",
     "controller_kwargs",
+    "guard_temperature",
 ]
 
 GUARD_MARGIN_K = 5.0  # [K] the guarded controllers cut a wire at (env temperature limit - margin)
@@ -337,6 +339,15 @@ def controller_kwargs(
     kwargs = dict(spec.kwargs)
     if spec.tuned:
         kwargs.update((load_tuned(env_id=env_id) if tuned is None else tuned)[name])
-    if spec.guard and cutoff is None:
-        kwargs["temperature_limit"] = float(temperature_limit) - GUARD_MARGIN_K
+    own = guard_temperature(spec.guard, temperature_limit, cutoff)
+    if own is not None:
+        kwargs["temperature_limit"] = own
     return kwargs
+
+
+def guard_temperature(guard: bool, temperature_limit: float, cutoff: float | None = None) -> float | None:
+    """The observed temperature [K] at which a controller's own guard cuts a wire: the env's
+    ``temperature_limit`` minus :data:`GUARD_MARGIN_K` for a guarded entry (``guard``, its
+    :attr:`ControllerSpec.guard`) on a plant without a thermal cut-off (``cutoff`` ``None``); ``None``
+    (no guard of its own) otherwise."""
+    return float(temperature_limit) - GUARD_MARGIN_K if guard and cutoff is None else None

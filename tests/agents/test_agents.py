@@ -93,6 +93,69 @@ def test_train_sac_smoke_run(tmp_path):
     assert a.shape == (2,) and np.all(np.abs(a) <= 1.0)
 
 
+def test_a_fine_tune_switches_sac_ent_coef_between_learned_and_fixed(tmp_path, capsys):
+    """``-i`` with ``-params ent_coef:...``: a learned coefficient becomes a fixed one and back (``auto``
+    continues from the fixed value, ``auto_<x>`` starts from x); a bad value is a one-line usage error."""
+    from spine_gym.agents.entropy_coef import current_ent_coef
+    from spine_gym.agents.train import _parse
+
+    small = ["learning_starts:20", "batch_size:16", "gradient_steps:1", "train_freq:1"]
+
+    def train(out, ent_coef, model=None):
+        start = ["-i", str(model)] if model else []
+        run_cli(
+            "-m", "spine_gym.agents.train", "--algo", "sac", "-n", "40", "--n-envs", "2", "-f", str(tmp_path / out),
+            *start, "--eval-freq", "0", "--save-freq", "0", *TINY, "-params", *small, f"ent_coef:{ent_coef}",
+        )  # fmt: skip
+        return load_policy(tmp_path / out / "sac" / "SmaSpine-v0_1").model
+
+    learned = train("a", "auto_0.5")
+    assert learned.ent_coef_optimizer is not None and current_ent_coef(learned) != pytest.approx(0.5)
+    fixed = train("b", 0.05, tmp_path / "a" / "sac" / "SmaSpine-v0_1" / "model.zip")
+    assert fixed.ent_coef_optimizer is None and current_ent_coef(fixed) == pytest.approx(0.05)
+    again = train("c", "auto", tmp_path / "b" / "sac" / "SmaSpine-v0_1" / "model.zip")
+    assert again.ent_coef_optimizer is not None and again.ent_coef == "auto"
+    assert current_ent_coef(again) == pytest.approx(0.05, rel=0.05)  # 20 Adam steps from 0.05
+    restarted = train("d", "auto_0.3", tmp_path / "c" / "sac" / "SmaSpine-v0_1" / "model.zip")
+    assert current_ent_coef(restarted) == pytest.approx(0.3, rel=0.05)
+
+    argv = ["--algo", "sac", "--env", "SmaSpine-v0", "-i", str(tmp_path / "a" / "sac" / "SmaSpine-v0_1" / "model.zip")]
+    with pytest.raises(SystemExit) as exit_:
+        _parse([*argv, "-f", str(tmp_path / "e"), "-params", "ent_coef:auto_0"])
+    assert exit_.value.code == 2 and not (tmp_path / "e").exists()
+    assert "ent_coef must be 'auto', 'auto_<initial value > 0>' or a number >= 0, got 'auto_0'" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:  # a new model's too
+        _parse(["--algo", "sac", "--env", "SmaSpine-v0", "-f", str(tmp_path / "e"), "-params", "ent_coef:-1"])
+    assert exit_.value.code == 2 and not (tmp_path / "e").exists()
+    assert "ent_coef must be 'auto', 'auto_<initial value > 0>' or a number >= 0, got -1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("algo", ["tqc", "sbx_sac"])
+def test_a_loaded_models_ent_coef_is_set_for_tqc_and_the_jax_sac(algo, tmp_path):
+    """The fine-tune's ``ent_coef`` on TQC and SBX's SAC: a fixed one replaced by another or learned from
+    where it was, and the model saved after training loads with the coefficient it reached."""
+    if algo == "sbx_sac":
+        pytest.importorskip("sbx")
+    from spine_gym.agents.entropy_coef import current_ent_coef
+    from spine_gym.agents.training import build_envs, build_model, load_overrides, resolve_config
+
+    small = {"learning_starts": 20, "batch_size": 16, "gradient_steps": 1, "train_freq": 1}
+    cfg = resolve_config(algo, "SmaSpine-v0", n_envs=1, hyperparams=small | {"ent_coef": 0.05})
+    envs = build_envs(cfg, 0)
+    build_model(cfg, envs.env, 0).save(tmp_path / "fixed.zip")
+    for value, start in ((0.2, 0.2), ("auto", 0.05)):
+        cfg2 = resolve_config(algo, "SmaSpine-v0", n_envs=1, hyperparams=small | {"ent_coef": value})
+        overrides = load_overrides(cfg2, ["ent_coef"])
+        model = build_model(cfg2, envs.env, 0, trained_agent=str(tmp_path / "fixed.zip"), overrides=overrides)
+        assert current_ent_coef(model) == pytest.approx(start)
+        model.learn(40)
+        reached = current_ent_coef(model)
+        assert (reached == pytest.approx(0.2)) if value == 0.2 else (reached != pytest.approx(0.05, rel=1e-6))
+        model.save(tmp_path / "tuned.zip")
+        again = build_model(cfg, envs.env, 0, trained_agent=str(tmp_path / "tuned.zip"))
+        assert current_ent_coef(again) == pytest.approx(reached)
+
+
 def test_train_cli_rejects_bad_flags(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "spine_gym.agents.train", "--algo", "dqn", "-f", str(tmp_path)],

@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from export_parity import CLIP_OBS, c_runner, onnx_runner, record_observations, save_model_run
+from export_parity import CLIP_OBS, c_runner, onnx_runner, save_model_run
 from repo import ROOT
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from spine_gym.agents.evaluation import evaluate
-from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main
+from spine_gym.agents.export import OneUlpUp, UnsupportedPolicyError, export_policy, main, record_observations
 from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.observations import (
     HistoryObsVecEnv,

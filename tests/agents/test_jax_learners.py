@@ -15,10 +15,10 @@ import shutil
 import numpy as np
 import pytest
 from agent_cli import run_cli
-from export_parity import c_runner, onnx_runner, record_observations, save_model_run
+from export_parity import c_runner, onnx_runner, save_model_run
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from spine_gym.agents.export import UnsupportedPolicyError, export_policy
+from spine_gym.agents.export import UnsupportedPolicyError, export_policy, record_observations
 from spine_gym.agents.numpy_policy import load_bundle
 from spine_gym.agents.runtime import load_policy, make_env
 from spine_gym.agents.training import hyperparameter_keys, resolve_config
@@ -56,11 +56,13 @@ def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
     assert crossq["policy_kwargs"]["net_arch"]["qf"] == [256, 256]  # the paper's 2048 is too slow on a CPU
     droq = resolve_config("droq", ENV).hp["policy_kwargs"]
     assert droq["dropout_rate"] > 0 and droq["layer_norm"] is True
-    sac = resolve_config("sbx_sac", ENV)  # small networks, 8 updates per call, update-to-data ratio 0.25
-    assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}
-    assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25
-    for env_id in ENV_IDS:  # sbx_tqc: the same entry, TQC's critics
-        assert load_hyperparams("sbx_tqc", env_id) == load_hyperparams("sbx_sac", env_id)
+    for env_id in ENV_IDS:  # small networks, several updates per call, update-to-data ratio 0.25 (chain too)
+        sac = resolve_config("sbx_sac", env_id)
+        assert sac.hp["policy_kwargs"] == {"net_arch": [64, 64]}, env_id
+        assert sac.hp["gradient_steps"] / (sac.hp["train_freq"] * sac.n_envs) == 0.25, env_id
+        assert sac.n_timesteps == 60000, env_id
+    for env_id in (e for e in ENV_IDS if "Chain" not in e):  # sbx_tqc: sbx_sac's entry, TQC's critics
+        assert load_hyperparams("sbx_tqc", env_id) == load_hyperparams("sbx_sac", env_id), env_id
 
 
 # --------------------------------------------------------------------------- the CLI

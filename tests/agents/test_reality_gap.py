@@ -17,8 +17,11 @@ from spine_gym.agents.reality_gap import (
     StudyConfig,
     fitted_layout,
     paired_gains,
+    pooled_gains,
     recovered_fraction,
     shift_plant,
+    shift_plants,
+    target_verdict,
     tuning_plants,
     write_plant,
 )
@@ -81,6 +84,31 @@ def test_the_written_plant_reads_back_as_the_shifted_spine(unc, tmp_path):
 def test_the_shift_is_clipped_to_the_fit_bounds(unc):
     shift = shift_plant(unc, 10.0, 0)
     assert np.all(shift.shifted >= unc.lower) and np.all(shift.shifted <= unc.upper)
+
+
+def test_the_scored_plants_are_one_k_sigma_shift_per_seed_reproducible_and_within_the_bounds(unc):
+    plants = shift_plants(unc, 3.0, (0, 1, 2, 3))
+    again = shift_plants(unc, 3.0, (0, 1, 2, 3))
+    sigma = np.sqrt(np.diag(unc.covariance))
+    assert list(plants) == ["shift0", "shift1", "shift2", "shift3"]
+    for name, shift in plants.items():
+        np.testing.assert_array_equal(shift.offsets, again[name].offsets)  # seeded: the same plant again
+        np.testing.assert_array_equal(shift.offsets, shift_plant(unc, 3.0, shift.seed).offsets)
+        np.testing.assert_allclose(np.abs(shift.offsets), 3.0 * sigma, rtol=1e-12)  # every parameter 3 sigma
+        assert np.all(shift.shifted >= unc.lower) and np.all(shift.shifted <= unc.upper)
+    signs = {tuple(np.sign(s.offsets)) for s in plants.values()}
+    assert len(signs) == 4  # four directions, none the same
+    assert plants["shift0"].layout.wire_values != fitted_layout(unc).wire_values
+
+
+@pytest.mark.parametrize(
+    "seeds",
+    [(), (0, 0), (0, 101), (102,), (-1,), (1.5,), (True,), tuple(range(17))],
+    ids=["none", "repeated", "tuning 101", "tuning 102", "negative", "float", "bool", "too many"],
+)
+def test_bad_plant_seeds_name_the_parameter(unc, seeds):
+    with pytest.raises(ValueError, match="^shift_seeds must"):
+        shift_plants(unc, 3.0, seeds)
 
 
 @pytest.mark.parametrize(
@@ -188,6 +216,81 @@ def test_a_shift_that_cost_nothing_has_no_recovered_fraction():
     assert np.isnan(out["recovered_fraction_ci95"]).all()
 
 
+def _plant_rows(pre_n, ctrl, plants):
+    """Per-scenario rows of the fitted plant (``pre_n``, control runs ``ctrl``) and of each shifted plant
+    ``name -> (pre_s, fine-tuned runs)``, with the plant column."""
+    rows = [r | {"plant": "fitted"} for r in _scenario_rows(pre_n, [], [], ctrl)]
+    for name, (pre_s, ft) in plants.items():
+        own = _scenario_rows([], pre_s, ft, [])
+        rows += [r | {"plant": name} for r in own]
+    return rows
+
+
+def test_pooled_gains_average_the_plants_costs_and_median_gains():
+    pre_n = [2.0, 4.0, 3.0]
+    plants = {
+        "a": ([3.0, 5.0, 4.0], [[2.5, 4.5, 3.5], [3.0, 5.0, 4.0], [2.0, 4.0, 3.0]]),  # cost 1, gains .5 0 1
+        "b": ([5.0, 7.0, 6.0], [[4.0, 6.0, 5.0], [3.0, 5.0, 4.0], [4.0, 6.0, 5.0]]),  # cost 3, gains 1 2 1
+    }
+    ctrl = [[2.0, 4.0, 3.0], [2.2, 4.2, 3.2]]  # control gains 0, -0.2
+    out = pooled_gains(_plant_rows(pre_n, ctrl, plants), ["a", "b"], n_boot=300)
+    assert out["shift_cost_deg"] == pytest.approx(2.0)  # (1 + 3) / 2
+    assert out["gain_deg"] == pytest.approx(0.75)  # (median 0.5 + median 1) / 2
+    assert out["recovered_fraction"] == pytest.approx(0.375)
+    assert out["control_gain_deg"] == pytest.approx(-0.1) and out["excess_gain_deg"] == pytest.approx(0.85)
+    assert out["shift_cost_deg_ci95"] == pytest.approx([2.0, 2.0])  # every scenario costs the same: no spread
+    lo, hi = out["recovered_fraction_ci95"]
+    assert 0.25 - 1e-9 <= lo <= 0.375 <= hi <= 0.75 + 1e-9 and lo < hi  # within what the runs allow
+    c_lo, c_hi = out["shift_cost_deg_ci95_plants"]
+    assert c_lo == pytest.approx(1.0) and c_hi == pytest.approx(3.0)  # plants resampled: one or the other
+    assert out["n_runs"] == 6 and out["n_control_runs"] == 2 and out["plants"] == ["a", "b"]
+    assert out["verdict"] == "undecided"  # its interval holds 50 %
+
+
+def test_pooled_gains_of_one_plant_are_its_paired_gains():
+    pre_n, pre_s = [2.0, 4.0, 3.0, 5.0], [3.0, 4.5, 4.0, 5.2]
+    ft, ctrl = [[2.5, 4.5, 3.5, 5.0], [2.8, 4.0, 3.9, 5.2]], [[2.0, 4.1, 3.0, 4.9]]
+    one = pooled_gains(_plant_rows(pre_n, ctrl, {"a": (pre_s, ft)}), ["a"], n_boot=50)
+    ref = paired_gains(_scenario_rows(pre_n, pre_s, ft, ctrl), n_boot=50)
+    for key in ("shift_cost_deg", "gain_deg", "control_gain_deg", "excess_gain_deg", "recovered_fraction"):
+        assert one[key] == pytest.approx(ref[key]), key
+
+
+def _gains(cost_ci, fraction_ci):
+    return {"shift_cost_deg_ci95": cost_ci, "recovered_fraction_ci95": fraction_ci}
+
+
+@pytest.mark.parametrize(
+    "cost_ci, fraction_ci, verdict",
+    [
+        ([0.2, 0.9], [0.55, 1.2], "met"),
+        ([0.2, 0.9], [0.5, 1.2], "met"),
+        ([0.2, 0.9], [-0.3, 0.45], "not met"),
+        ([0.2, 0.9], [0.3, 0.9], "undecided"),
+        ([-0.1, 0.9], [0.6, 1.2], "undecided (the shift's cost is not distinguishable from zero)"),
+        ([0.0, 0.9], [0.6, 1.2], "undecided (the shift's cost is not distinguishable from zero)"),
+    ],
+)
+def test_the_target_is_met_only_when_the_whole_interval_clears_it(cost_ci, fraction_ci, verdict):
+    assert target_verdict(_gains(cost_ci, fraction_ci)) == verdict
+
+
+@pytest.mark.parametrize("target", [0.0, 1.5, float("nan")])
+def test_a_bad_target_names_the_parameter(target):
+    with pytest.raises(ValueError, match="^target must be in"):
+        target_verdict(_gains([0.2, 0.9], [0.6, 1.0]), target)
+
+
+def test_a_resampled_cost_of_zero_or_less_widens_the_fraction_interval_not_drops_it():
+    pre_n = [2.0, 2.0, 2.0, 2.0]
+    plants = {"a": ([4.0, 1.0, 4.0, 1.0], [[3.0, 1.0, 3.0, 1.0]])}  # cost +2 or -1 per scenario: some <= 0
+    out = pooled_gains(_plant_rows(pre_n, [[2.0] * 4], plants), ["a"], n_boot=400)
+    assert out["shift_cost_deg"] == pytest.approx(0.5) and out["recovered_fraction"] == pytest.approx(1.0)
+    lo, hi = out["recovered_fraction_ci95"]
+    assert lo == -np.inf and hi >= 1.0
+    assert out["verdict"].startswith("undecided (the shift's cost")
+
+
 BAD = {
     "env": (["--env", "SmaSpine-v2"], "env_id must be a four-wire module id"),
     "k": (["--k", "-3"], "k (the shift in standard errors)"),
@@ -195,6 +298,9 @@ BAD = {
     "finetune seeds": (["--finetune-seeds", "0"], "finetune_seeds must be an integer"),
     "learner": (["--learners", "dqn"], "learners must be among"),
     "suite": (["--suite", "long"], "suite must be 'full' or 'quick'"),
+    "eval episodes": (["--eval-episodes", "-1"], "eval_episodes must be an integer in [0, 1000]"),
+    "tuning plant": (["--shift-seeds", "0", "101"], "shift_seeds must not include the tuning plants' seeds"),
+    "repeated plant": (["--shift-seeds", "3", "3"], "shift_seeds must be 1 to 16 distinct integers"),
     "pretrained": (["--pretrain-steps", "0"], "pretrained: give a pretrained run folder"),
     "planar preset": (["--preset", str(ROOT / "docs" / "calibration" / "fit.json")], "preset: "),
 }
@@ -219,32 +325,44 @@ def test_the_study_config_refuses_what_the_command_line_would(tmp_path):
 def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     out = tmp_path / "rg"
     argv = ["finetune", "--preset", str(PRESET), "--quick", "--learners", *list(LEARNERS)[:2], "-o", str(out)]
-    assert cli.main([*argv, "--no-progress"]) == 0
+    assert cli.main([*argv, "--shift-seeds", "0", "1", "--no-progress"]) == 0
     printed = capsys.readouterr().out
-    assert "fine-tuned on the shifted plant in 256 steps (0.4 min of hardware)" in printed
+    assert "fine-tuned on each shifted plant in 256 steps (0.4 min of hardware)" in printed
+    assert "over 2 shifted plants the shift cost" in printed
     with open(out / "scores.csv") as f:
         rows = list(csv.DictReader(f))
     arms = ("finetuned@shifted", "finetuned@nominal")
-    expected = {"pretrained@nominal", "pretrained@shifted", *arms, "pid@shifted"}
-    assert {r["controller"] for r in rows} == expected
-    assert {r["group"] for r in rows} == {"nominal", "disturbed", "all"}
+    shifted = {"pretrained@shifted", "finetuned@shifted", "pid@shifted"}
+    for plant in ("shift0", "shift1", "pooled"):
+        assert {r["controller"] for r in rows if r["plant"] == plant} == shifted
+    assert {r["controller"] for r in rows if r["plant"] == "fitted"} == {"pretrained@nominal", arms[1]}
+    assert {r["group"] for r in rows} == {"nominal", "disturbed", "episodes", "all"}
     assert all(float(r["rmse_deg"]) > 0 and float(r["energy_J"]) > 0 for r in rows)
+    for r in [r for r in rows if r["plant"] == "pooled"]:  # the pooled row: the plants' mean
+        own = [float(x["rmse_deg"]) for x in rows if x["plant"] in ("shift0", "shift1")
+               and (x["controller"], x["group"]) == (r["controller"], r["group"])]  # fmt: skip
+        assert float(r["rmse_deg"]) == pytest.approx(np.mean(own))
     with open(out / "selection.csv") as f:
         assert len(list(csv.DictReader(f))) == 2 * 3 * 2  # 2 learners x 3 tuning plants x 2 seeds
     with open(out / "finetune_seeds.csv") as f:
         runs = list(csv.DictReader(f))
-    assert {r["controller"] for r in runs} == {f"{a}#{i}" for a in arms for i in (0, 1)}
-    for arm in arms:
-        for group in ("nominal", "disturbed", "all"):  # a fine-tuned row is the median of its runs
-            sel = [r for r in runs if r["group"] == group and r["controller"].startswith(arm)]
+    expected = {("fitted", f"{arms[1]}#{i}") for i in (0, 1)}
+    expected |= {(p, f"{arms[0]}#{i}") for p in ("shift0", "shift1") for i in (0, 1)}
+    assert {(r["plant"], r["controller"]) for r in runs} == expected
+    for plant, arm in (("shift0", arms[0]), ("shift1", arms[0]), ("fitted", arms[1])):
+        for group in ("nominal", "disturbed", "episodes", "all"):  # a fine-tuned row: the median of its runs
+            sel = [r for r in runs if (r["plant"], r["group"]) == (plant, group)
+                   and r["controller"].startswith(arm)]  # fmt: skip
             median = np.median([float(r["rmse_deg"]) for r in sel])
-            row = [r for r in rows if r["controller"] == arm and r["group"] == group]
+            row = [r for r in rows if (r["plant"], r["controller"], r["group"]) == (plant, arm, group)]
             assert float(row[0]["rmse_deg"]) == pytest.approx(median)
     with open(out / "scenarios.csv") as f:
         per_scenario = list(csv.DictReader(f))
-    assert len(per_scenario) == len({r["scenario"] for r in per_scenario}) * (3 + 2 * 2)
-    meta = json.loads((out / "finetuned_1" / "meta.json").read_text())
-    assert meta["seed"] == 1
+    n_scenarios = 4 + 2  # the quick suite and two held-out episodes
+    assert len({r["scenario"] for r in per_scenario}) == n_scenarios
+    assert len(per_scenario) == n_scenarios * (1 + 2 + 2 * (2 + 2))  # fitted: 1 + 2 runs; a plant: 2 + 2
+    meta = json.loads((out / "finetuned_shift1_1" / "meta.json").read_text())
+    assert meta["seed"] == 1 and meta["plant"].endswith("real_plant_shift1.json")
     assert meta["finetune_timesteps"] >= 256 and meta["n_envs"] == 1
     pretrained = json.loads((out / "pretrained" / "meta.json").read_text())
     assert meta["start_timesteps"] == pretrained["total_timesteps"]
@@ -252,7 +370,11 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     assert (out / "command.txt").read_text().startswith("spine-gym finetune --preset")
     control = json.loads((out / "control_0" / "meta.json").read_text())
     assert control["plant"] == str(PRESET)  # the control arm: the fitted plant
+    with open(out / "plant.csv") as f:
+        assert [r["plant"] for r in csv.DictReader(f)] == ["shift0"] * 14 + ["shift1"] * 14
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["n_runs"] == summary["n_control_runs"] == 2
-    assert len(summary["recovered_fraction_ci95"]) == 2
+    assert summary["n_runs"] == 4 and summary["n_control_runs"] == 2
+    assert summary["plants"] == ["shift0", "shift1"]
+    assert len(summary["recovered_fraction_ci95"]) == 2 and summary["verdict"]
+    assert set(summary["per_plant"]) == {"shift0", "shift1"} and summary["per_plant"]["shift0"]["n_runs"] == 2
     assert summary["finetune_steps"] == 256 and summary["hardware_minutes"] == pytest.approx(256 * 0.1 / 60)

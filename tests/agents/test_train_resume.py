@@ -29,7 +29,7 @@ from repo import ROOT
 from spine_gym.agents.checkpoints import checkpoint_steps, latest_checkpoint
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(ROOT)}
-N = 2048  # env steps of the run: 1024 vector steps of 2 envs, 64 rollouts of 16 steps
+N = 1024  # env steps of the run: 512 vector steps of 2 envs, 32 rollouts of 16 steps
 N_ENVS = 2
 RUN = [
     "-m", "spine_gym.agents.train", "--algo", "ppo", "--env", "SmaSpine-v0", "-n", str(N), "--n-envs", str(N_ENVS), "--seed", "5",

@@ -7,6 +7,7 @@ import pytest
 import spine_gym  # noqa: F401 - registers SmaSpine-v0
 from spine_gym.agents.runtime import VALIDATION_SEED_BASE, load_tuned
 from spine_gym.agents.scenarios import HARD_LIKE_KWARGS
+from spine_gym.controllers.registry import GUARD_MARGIN_K
 from spine_gym.controllers import (
     DisturbanceConfig,
     MPPIConfig,
@@ -514,3 +515,16 @@ def test_energy_weighted_oracle_builds_either_privileged_entry_and_rejects_other
     assert energy_weighted_oracle(env, 0.5).mode == "oracle"
     with pytest.raises(ValueError, match="name must be one of"):
         energy_weighted_oracle(env, 1.0, "mpc_estimated")
+
+
+
+def test_energy_weighted_oracle_has_the_registry_entrys_guard():
+    """The oracle's own guard is the one its registry entry gets (the env's limit minus the margin),
+    and none where the plant cuts hot wires itself (``SmaSpine-v2``)."""
+    from spine_gym.agents.runtime import build_controller, energy_weighted_oracle
+
+    env = _env()
+    expected = build_controller("mpc_oracle", env).temperature_limit
+    assert energy_weighted_oracle(env, 1.0).temperature_limit == expected == env.temperature_limit - GUARD_MARGIN_K
+    cut = gym.make("SmaSpine-v2").unwrapped
+    assert cut.thermal_cutoff is not None and energy_weighted_oracle(cut, 1.0).temperature_limit is None

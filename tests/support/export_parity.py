@@ -1,5 +1,6 @@
-"""The scaffold of the export-parity tests: observations to compare on, an untrained model saved as a
-run folder with non-trivial ``VecNormalize`` statistics, and the exported bundle's ONNX and C runners."""
+"""The scaffold of the export-parity tests: an untrained model saved as a run folder with non-trivial
+``VecNormalize`` statistics, and the exported bundle's ONNX and C runners (the observations they are
+compared on: :func:`spine_gym.agents.export.record_observations`)."""
 
 from __future__ import annotations
 
@@ -12,26 +13,8 @@ import onnxruntime as ort
 from stable_baselines3.common.vec_env import VecNormalize
 
 from spine_gym.agents.export_c import compile_driver
-from spine_gym.agents.runtime import make_env
 
 CLIP_OBS = 3.0  # tight enough that the normaliser's clip is reached on some rows
-
-
-def record_observations(n: int = 1000, seed: int = 0) -> np.ndarray:
-    """``n`` observations of ``SmaSpine-v0`` under random actions held for 10 steps."""
-    env = make_env()
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    rows = []
-    while len(rows) < n:
-        a = rng.uniform(-1, 1, size=2).astype(np.float32)
-        for _ in range(10):
-            rows.append(obs)
-            obs, _, term, trunc, _ = env.step(a)
-            if term or trunc:
-                obs, _ = env.reset(seed=seed + len(rows))
-    env.close()
-    return np.asarray(rows[:n], dtype=np.float32)
 
 
 def save_model_run(
