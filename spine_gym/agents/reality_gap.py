@@ -943,6 +943,24 @@ ROW_LABELS = {
 }
 
 
+FRACTION_SHOWN = 10.0  # the recovered-fraction panel draws fractions and intervals within +-10 (+-1000 %)
+
+
+def _shown(fraction_pct: float) -> float:
+    """A recovered fraction [%] as drawn: clipped to the panel's +-1000 %."""
+    return float(np.clip(fraction_pct, -100.0 * FRACTION_SHOWN, 100.0 * FRACTION_SHOWN))
+
+
+def _error_bar(fraction_pct: float, lo: float, hi: float) -> list[list[float]]:
+    """Matplotlib's [[below], [above]] for a fraction [%] and its interval (fractions, maybe infinite or
+    NaN), both clipped to the panel; never negative, also when the point lies outside its clipped
+    interval (a fraction beyond +-1000 %) or the interval is unknown (drawn as none)."""
+    f = _shown(fraction_pct)
+    lo_pct, hi_pct = (100.0 * float(np.clip(c, -FRACTION_SHOWN, FRACTION_SHOWN)) for c in (lo, hi))
+    below, above = np.nan_to_num([f - lo_pct, hi_pct - f], nan=0.0)
+    return [[max(float(below), 0.0)], [max(float(above), 0.0)]]
+
+
 def plot_scores(
     scores: list[dict], summary: dict, path: str | Path, title: str = "", runs: list[dict] | None = None
 ) -> Path:
@@ -978,10 +996,10 @@ def plot_scores(
             label = ROW_LABELS[row].replace("\n", " ")
             ax.axhline(rmse[(FITTED, row)], color="#555555", ls=style, lw=1.2, label=label)
     lo = min(v for v in rmse.values()) * 0.9
-    ax.set_ylim(lo, max(v for v in rmse.values()) * 1.04)
+    ax.set_ylim(lo, max(v for v in rmse.values()) * 1.12)  # room for the legend above the bars
     ax.set_xticks(range(len(plants)), plants)
     ax.set_ylabel("tracking RMSE, mean over the evaluation set [deg]")
-    ax.legend(fontsize=7, loc="lower left", ncol=2)
+    ax.legend(fontsize=7, loc="upper left", ncol=3)
     gains = [summary["per_plant"][p] for p in plants[:-1]] + [summary]
     frac = [100.0 * g["recovered_fraction"] for g in gains]
     # both resample the episodes and the runs: paired_gains' "_scenarios" interval, pooled_gains' own
@@ -989,8 +1007,7 @@ def plot_scores(
     for i, (f, (c_lo, c_hi)) in enumerate(zip(frac, ci, strict=True)):
         color = "#2ca02c" if i < len(plants) - 1 else "#000000"
         if np.isfinite(f):
-            ax2.errorbar([i], [f], yerr=[[f - 100.0 * max(c_lo, -10.0)], [100.0 * min(c_hi, 10.0) - f]],
-                         fmt="o", color=color, capsize=4)  # fmt: skip
+            ax2.errorbar([i], [_shown(f)], yerr=_error_bar(f, c_lo, c_hi), fmt="o", color=color, capsize=4)
         else:
             ax2.annotate("no cost", (i, 0.0), ha="center", fontsize=7)
     ax2.axhline(100.0 * summary.get("target_fraction", TARGET_FRACTION), color="#d62728", ls="--", lw=1,

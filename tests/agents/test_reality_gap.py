@@ -378,3 +378,19 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     assert len(summary["recovered_fraction_ci95"]) == 2 and summary["verdict"]
     assert set(summary["per_plant"]) == {"shift0", "shift1"} and summary["per_plant"]["shift0"]["n_runs"] == 2
     assert summary["finetune_steps"] == 256 and summary["hardware_minutes"] == pytest.approx(256 * 0.1 / 60)
+
+
+@pytest.mark.parametrize(
+    ("fraction_pct", "lo", "hi", "expected"),
+    [
+        (96.0, -np.inf, 11.48, [[96.0 + 1000.0], [1000.0 - 96.0]]),  # lower end unbounded: drawn to the panel's edge
+        (1500.0, 0.2, 12.0, [[1000.0 - 20.0], [0.0]]),  # the point beyond the panel: clipped with it, no negative bar
+        (-1500.0, -20.0, 0.5, [[0.0], [50.0 + 1000.0]]),
+        (50.0, np.nan, np.nan, [[0.0], [0.0]]),  # an unknown interval is drawn as none
+    ],
+)
+def test_error_bars_of_the_recovered_fraction_are_never_negative(fraction_pct, lo, hi, expected):
+    from spine_gym.agents.reality_gap import _error_bar
+
+    (below,), (above,) = _error_bar(fraction_pct, lo, hi)
+    assert [below, above] == pytest.approx([expected[0][0], expected[1][0]])
