@@ -25,6 +25,7 @@ before JAX is first imported): the machines this runs on share their cores betwe
 
 from __future__ import annotations
 
+import importlib
 import os
 import sys
 
@@ -47,8 +48,6 @@ def jax_algo_class(algo: str) -> type:
         raise ImportError(
             f"algo {algo!r} needs Stable-Baselines3's JAX edition: pip install 'spine_gym[jax]' ({e})"
         ) from e
-    if algo == "sbx_mbpo":
-        from .model_based import MBPO
-
-        return MBPO
+    if algo == "sbx_mbpo":  # not imported with this module: it would load JAX before the thread flags are set
+        return importlib.import_module(f"{__package__}.model_based").MBPO
     return getattr(sbx, _CLASSES[algo])
