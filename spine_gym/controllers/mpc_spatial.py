@@ -237,16 +237,16 @@ class SpatialMPPIController(MPPIBase):
         """(state0, kp, kw, km, loads, resolve, targets (H, d), offset (d,), ohm, wvol)."""
         h = self.horizon_steps
         if self.mode in PRIVILEGED_MODES:
-            snap = self._oracle_env().snapshot()
+            snap, (state0, kp, kw, km) = self._oracle_snapshot("states", "kps", "kws", "kms")
             a = snap.arrays
             loads, resolve = self._snapshot_loads(snap, self._shape[2])
             targets = self._snapshot_targets(snap) if self.mode == "oracle" else self._observed_targets(obs)
             offset = np.zeros(targets.shape[1])
             return (
-                snap.state,
-                snap.kp,
-                a["kws"],
-                a["kms"],
+                state0,
+                kp,
+                kw,
+                km,
                 loads,
                 resolve,
                 targets,
