@@ -109,8 +109,8 @@ class SpatialReadings:
             rows,
             rec,
             self.record_cols,
-            np.ascontiguousarray(np.broadcast_to(ohm, (m, ohm.shape[0]))),
-            np.ascontiguousarray(np.broadcast_to(wvol, (m, wvol.shape[0]))),
+            np.repeat(ohm[None, :], m, axis=0),  # fresh writable rows (a broadcast of one row is read-only,
+            np.repeat(wvol[None, :], m, axis=0),  # and numba compiles another specialisation for it)
             self.probe_cols,
             probe,
         )
@@ -242,18 +242,7 @@ class SpatialMPPIController(MPPIBase):
             loads, resolve = self._snapshot_loads(snap, self._shape[2])
             targets = self._snapshot_targets(snap) if self.mode == "oracle" else self._observed_targets(obs)
             offset = np.zeros(targets.shape[1])
-            return (
-                state0,
-                kp,
-                kw,
-                km,
-                loads,
-                resolve,
-                targets,
-                offset,
-                a["ohm"],
-                a["wvol"],
-            )
+            return state0, kp, kw, km, loads, resolve, targets, offset, a["ohm"], a["wvol"]
         est = self.estimator
         state0 = est.update(obs)
         loads = np.zeros((h, self._shape[2], 3))
