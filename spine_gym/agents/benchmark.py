@@ -148,6 +148,10 @@ QUICK_HYPERPARAMS = {
     "droq": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000},
     "sbx_sac": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1},
     "sbx_tqc": {"learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1},
+    "sbx_mbpo": {
+        "learning_starts": 64, "batch_size": 64, "gradient_steps": 1, "buffer_size": 5000, "train_freq": 1,
+        "model_train_freq": 128, "model_train_steps": 20, "rollout_batch_size": 64,
+    },
 }
 
 

@@ -146,7 +146,7 @@ def actor_layers(model) -> tuple[str, list[list], str]:
             raise UnsupportedPolicyError("exporting a TD3 actor that does not end in Tanh is not supported")
         layers[-1][2] = "none"
         return type(model).__name__.lower(), layers, "squash"
-    if type(model).__module__.split(".")[0] == "sbx":
+    if _sbx_class(model) is not None:
         return _sbx_actor_layers(model)
     raise UnsupportedPolicyError(
         f"exporting a {type(model).__name__} model is not supported: "
@@ -194,7 +194,13 @@ def _sbx_actor_layers(model) -> tuple[str, list[list], str]:
             a, c = _renorm_affine(params[f"BatchRenorm_{i}"], stats[f"BatchRenorm_{i}"])
             kernel, bias = kernel * a[:, None], bias + c @ kernel
         layers.append([kernel.T.astype(np.float32), bias.astype(np.float32), act if i < n_hidden else "none"])
-    return "sbx_" + type(model).__name__.lower(), layers, "squash"  # sbx_crossq, sbx_sac (DroQ's too), sbx_tqc
+    # sbx_crossq, sbx_sac (DroQ's and MBPO's too: SAC's actor), sbx_tqc
+    return "sbx_" + _sbx_class(model).__name__.lower(), layers, "squash"
+
+
+def _sbx_class(model) -> type | None:
+    """The SBX class ``model`` is or derives from (MBPO: SAC), ``None`` for any other model."""
+    return next((c for c in type(model).__mro__ if c.__module__.split(".")[0] == "sbx"), None)
 
 
 #: the epsilon of SBX's ``BatchRenorm`` (its default; CrossQ does not set it)

@@ -33,7 +33,7 @@ CHAIN_ENV_ID = "SmaSpineChain-v0"  # chained four-wire modules
 ENV_IDS = tuple(ENV_SPECS)  # every registered id: -v0, and -v1/-v2 with their tiers, of the three families
 SB3_ALGOS = ("ppo", "sac", "td3", "tqc")  # Stable-Baselines3 on torch (tqc: sb3-contrib)
 #: Stable-Baselines3's JAX edition (``sbx-rl``, the ``jax`` extra; :mod:`spine_gym.agents.jax_algos`)
-JAX_ALGOS = ("crossq", "droq", "sbx_sac", "sbx_tqc")
+JAX_ALGOS = ("crossq", "droq", "sbx_sac", "sbx_tqc", "sbx_mbpo")
 ALGOS = SB3_ALGOS + JAX_ALGOS
 OFF_POLICY = ("sac", "td3", "tqc", *JAX_ALGOS)  # the algorithms with a replay buffer
 

@@ -1,4 +1,4 @@
-"""The JAX learners of the ``jax`` extra (SBX's CrossQ, and its SAC as DroQ): they train, save, load and
+"""The JAX learners of the ``jax`` extra (SBX's CrossQ, TQC, its SAC as DroQ and under MBPO): they train, save, load and
 evaluate through the CLI, their YAML entries load, and their exported policies (ONNX, NumPy, C) give
 the model's own deterministic actions.
 
@@ -48,7 +48,7 @@ def test_every_id_has_an_entry_whose_keys_the_algorithm_takes(algo):
         assert set(entry) <= keys, (env_id, set(entry) - keys)
         cfg = resolve_config(algo, env_id)
         assert cfg.n_timesteps > 0 and cfg.n_envs >= 1 and cfg.special["normalize"] is not None
-    assert algo_class(algo).__module__.startswith("sbx.")
+    assert any(c.__module__.startswith("sbx.") for c in algo_class(algo).__mro__)  # sbx_mbpo: SAC's subclass
 
 
 def test_crossq_droq_and_sbx_sac_entries_are_what_their_names_say():
@@ -143,6 +143,7 @@ EXPORT_CASES = {
     "crossq_without_actor_renorm": ("crossq", {"net_arch": [64, 48], "batch_norm_actor": False}),
     "droq": ("droq", {"net_arch": [64, 48], "dropout_rate": 0.01, "layer_norm": True}),
     "sbx_tqc": ("sbx_tqc", {"net_arch": [64, 48]}),
+    "sbx_mbpo": ("sbx_mbpo", {"net_arch": [64, 48]}),
 }
 
 
@@ -159,7 +160,7 @@ def test_exported_jax_policy_gives_the_models_actions(case, tmp_path):
     bundle = tmp_path / "bundle"
     export_policy(policy, bundle, source=case)
     spec = json.loads((bundle / "policy.json").read_text())
-    assert spec["algo"] == {"crossq": "sbx_crossq", "droq": "sbx_sac", "sbx_tqc": "sbx_tqc"}[algo]
+    assert spec["algo"] == {"crossq": "sbx_crossq", "droq": "sbx_sac", "sbx_tqc": "sbx_tqc", "sbx_mbpo": "sbx_sac"}[algo]
     assert spec["network"]["sizes"] == [10, 64, 48, 2] and spec["network"]["output"] == "squash"
     for name, got in (
         ("onnxruntime", onnx_runner(bundle, obs)),
