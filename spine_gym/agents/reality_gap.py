@@ -203,14 +203,15 @@ STRUCTURE_FIELDS = ("n_w", "n_seg")
 def check_model_error(unc: ParameterUncertainty, model_error) -> dict[str, float]:
     """``model_error`` ({ModelParams field: value}, or (field, value) pairs) validated against the fit:
     every field one the fit holds fixed (not a fit parameter, shared or per wire, not
-    :data:`STRUCTURE_FIELDS`), every
-    value finite and within the field's valid range; returns it as {field: float}.
+    :data:`STRUCTURE_FIELDS`), every value finite and within the field's valid range; returns it as
+    {field: float}.
 
     A model error is what a calibration cannot see: a parameter it never fits (e.g. ``a``, the pore
     radius) or a condition that differs where the spine runs (``T_E``, the ambient temperature)."""
     pairs = list(model_error.items() if isinstance(model_error, dict) else model_error)
     fit = {n for n in unc.names if wire_key(n) is None}
-    fit |= {wire_key(n)[1] for n in unc.names if wire_key(n) is not None}  # a per-wire value overrides the shared one
+    # a per-wire fit value (eps0) overrides the shared field of the same name
+    fit |= {wire_key(n)[1] for n in unc.names if wire_key(n) is not None}
     fixed = [f for f in field_names() if f not in fit and f not in STRUCTURE_FIELDS]
     out: dict[str, float] = {}
     for pair in pairs:
