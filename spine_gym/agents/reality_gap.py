@@ -218,7 +218,8 @@ def check_model_error(unc: ParameterUncertainty, model_error) -> dict[str, float
         name, value = pair if isinstance(pair, tuple | list) and len(pair) == 2 else (pair, None)
         if name not in fixed or name in out:
             raise ValueError(
-                f"model_error: each field once, among the parameters the fit holds fixed {fixed}, got {name!r}"
+                f"model_error: each field once, among the parameters the fit holds fixed {fixed}, "
+                f"got {name!r}"
             )
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise ValueError(f"model_error: {name} must be a finite number, got {value!r}")

@@ -427,7 +427,8 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     assert [r["kind"] for r in plant_rows[:15]] == ["fit"] * 14 + ["model_error"]
     assert load_preset(out / "real_plant_shift1.json")[0].T_E == 298.0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["n_runs"] == 4 and summary["n_control_runs"] == 2 and summary["model_error"] == {"T_E": 298.0}
+    assert summary["n_runs"] == 4 and summary["n_control_runs"] == 2
+    assert summary["model_error"] == {"T_E": 298.0}
     assert summary["plants"] == ["shift0", "shift1"]
     assert len(summary["recovered_fraction_ci95"]) == 2 and summary["verdict"]
     assert set(summary["per_plant"]) == {"shift0", "shift1"} and summary["per_plant"]["shift0"]["n_runs"] == 2
