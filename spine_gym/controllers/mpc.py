@@ -359,6 +359,14 @@ class EnvPlanner(BaseController):
             )
         return self.env
 
+    def _oracle_snapshot(self, *names: str):
+        """The bound env's ``snapshot()`` and writable copies of its arrays ``names`` (the ones the
+        rollout kernels take). A snapshot's arrays are read-only, and numba compiles a kernel once per
+        argument type, read-only arrays included: passed as they are, they would make the privileged
+        modes compile every rollout kernel a second time next to the estimated mode's writable arrays."""
+        snap = self._oracle_env().snapshot()
+        return snap, tuple(np.array(snap.arrays[name]) for name in names)
+
     def config(self) -> dict:
         return {"mode": self.mode, **vars(self.settings), "temperature_limit": self.temperature_limit}
 
@@ -558,12 +566,12 @@ class MPPIController(PlanarController, MPPIBase):
         """Start state, constants, loads and resolve flags, targets [deg] and angle offset [deg]."""
         h = self.horizon_steps
         if self.mode in PRIVILEGED_MODES:
-            snap = self._oracle_env().snapshot()
+            snap, (state0, kp) = self._oracle_snapshot("states", "kps")
             loads, resolve = self._snapshot_loads(snap, self.env_config.params.n_seg)
             targets = (
                 self._snapshot_targets(snap)[:, 0] if self.mode == "oracle" else self._planar_targets(obs)
             )
-            return snap.state, snap.kp, loads, resolve, targets, 0.0, float(snap.arrays["wvol"][0])
+            return state0, kp, loads, resolve, targets, 0.0, float(snap.arrays["wvol"][0])
         est = self.estimator
         state0 = est.update(obs)
         loads = np.broadcast_to(est.loads, (h, *est.loads.shape))

@@ -280,10 +280,10 @@ class LongHorizonMPC(PlanarController, EnvPlanner):
         )  # fmt: skip
         self._last_preview = obs[OBS_PREVIEW : OBS_PREVIEW + 1].copy()
         if self.mode == "oracle_causal":
-            snap = self._oracle_env().snapshot()
+            snap, (state0, kp) = self._oracle_snapshot("states", "kps")
             loads = np.zeros((self.env_config.params.n_seg, 2))
             loads[0] = snap.arrays["forces"][min(snap.step_index, snap.arrays["forces"].shape[0] - 1)]
-            return snap.state, snap.kp, loads, (dts, blocks), targets, 0.0, float(snap.arrays["wvol"][0])
+            return state0, kp, loads, (dts, blocks), targets, 0.0, float(snap.arrays["wvol"][0])
         est = self.estimator
         state0 = est.update(obs)
         grid = (dts, blocks)

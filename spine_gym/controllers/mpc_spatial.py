@@ -109,8 +109,8 @@ class SpatialReadings:
             rows,
             rec,
             self.record_cols,
-            np.ascontiguousarray(np.broadcast_to(ohm, (m, ohm.shape[0]))),
-            np.ascontiguousarray(np.broadcast_to(wvol, (m, wvol.shape[0]))),
+            np.repeat(ohm[None, :], m, axis=0),  # fresh writable rows (a broadcast of one row is read-only,
+            np.repeat(wvol[None, :], m, axis=0),  # and numba compiles another specialisation for it)
             self.probe_cols,
             probe,
         )
@@ -237,23 +237,12 @@ class SpatialMPPIController(MPPIBase):
         """(state0, kp, kw, km, loads, resolve, targets (H, d), offset (d,), ohm, wvol)."""
         h = self.horizon_steps
         if self.mode in PRIVILEGED_MODES:
-            snap = self._oracle_env().snapshot()
+            snap, (state0, kp, kw, km) = self._oracle_snapshot("states", "kps", "kws", "kms")
             a = snap.arrays
             loads, resolve = self._snapshot_loads(snap, self._shape[2])
             targets = self._snapshot_targets(snap) if self.mode == "oracle" else self._observed_targets(obs)
             offset = np.zeros(targets.shape[1])
-            return (
-                snap.state,
-                snap.kp,
-                a["kws"],
-                a["kms"],
-                loads,
-                resolve,
-                targets,
-                offset,
-                a["ohm"],
-                a["wvol"],
-            )
+            return state0, kp, kw, km, loads, resolve, targets, offset, a["ohm"], a["wvol"]
         est = self.estimator
         state0 = est.update(obs)
         loads = np.zeros((h, self._shape[2], 3))

@@ -52,7 +52,7 @@ COMMON_ARRAYS = (
     "last_row",  # the table row of the last step or reset (true values)
     *ro.Memory._fields,
 )
-_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))  # action dtypes the kernels take as they are
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))  # action dtypes taken without validate_actions
 # entries of a plant tuple that come from the configuration (the others are batch attributes)
 _CFG_PLANT = ("physics_dt", "n_sub")
 
@@ -348,14 +348,20 @@ class TableBatch:
 
     # ------------------------------------------------------------------ step
     def check_actions(self, actions) -> np.ndarray:
-        """``actions`` (of :attr:`action_shape`) as a (B, W) float32 or float64 array, a view if it is
-        one already; ValueError (:func:`.config.validate_actions`) on a wrong shape or a non-number
-        (not finite actions are left to :meth:`advance`)."""
+        """``actions`` (of :attr:`action_shape`) as a (B, W) C-contiguous, writable float64 array, a
+        view if it is one already; ValueError (:func:`.config.validate_actions`) on a wrong shape or a
+        non-number (not finite actions are left to :meth:`advance`). One array type for every caller
+        (a policy's float32, a controller's float64, a read-only or strided view): numba compiles
+        the step kernel once per argument type, and the step converts each action to float64 anyway
+        (exactly, from float32)."""
         if not (
             isinstance(actions, np.ndarray) and actions.dtype in _FLOATS and actions.shape == self.action_shape
         ):
             actions = validate_actions(actions, self.action_shape)
-        return actions.reshape(self.num_envs, -1)
+        actions = actions.reshape(self.num_envs, -1)
+        if actions.dtype != np.float64 or not (actions.flags.c_contiguous and actions.flags.writeable):
+            actions = np.array(actions, dtype=np.float64, order="C")
+        return actions
 
     def advance(
         self, actions, rngs: Sequence[np.random.Generator], rows: np.ndarray | None = None
@@ -368,7 +374,7 @@ class TableBatch:
         temporaries (with sensor noise, the noise is drawn first, per environment).
 
         Args:
-            actions: (B, W) float32 or float64 from :meth:`check_actions`; clipped to [-1, 1]
+            actions: (B, W) float64 from :meth:`check_actions`; clipped to [-1, 1]
                 (ValueError if not finite).
             rngs: per-environment generators (only used for sensor noise).
             rows: (n,) int64 environments to step, ascending (default all).

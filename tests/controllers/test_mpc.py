@@ -126,8 +126,8 @@ def test_rollout_batch_equals_single_env_rollouts_with_the_same_voltages(kernel)
     status = np.empty(n, dtype=np.int64)
     cfg = env.config
     kernel(
-        snap.state,
-        snap.kp,
+        np.array(snap.state),  # writable copies, as the MPC passes them (read-only: another compile)
+        np.array(snap.kp),
         cfg.solver.to_kernel(),
         np.ascontiguousarray(volts[:, :, 0]),
         np.ascontiguousarray(volts[:, :, 1]),
@@ -288,8 +288,8 @@ def _predict_pulse(env, settings: MPPIConfig, volts: np.ndarray) -> np.ndarray:
     angle, temp, joule = np.empty((1, h)), np.empty((1, h, 2)), np.empty((1, h, 2))
     status = np.empty(1, dtype=np.int64)
     rollout_many_serial(
-        snap.state,
-        snap.kp,
+        np.array(snap.state),  # writable copies, as the MPC passes them (read-only: another compile)
+        np.array(snap.kp),
         settings.plan_solver(env.config.solver).to_kernel(),
         np.ascontiguousarray(volts[None, :, 0]),
         np.ascontiguousarray(volts[None, :, 1]),

@@ -187,6 +187,7 @@ def test_graded_rollout_is_the_env_step_loop_on_equal_steps_and_close_on_long_on
     for _ in range(20):
         env.step(np.array([0.6, -1.0], dtype=np.float32))
     snap = env.snapshot()
+    state0, kp = np.array(snap.state), np.array(snap.kp)  # writable, as the MPC passes them (one compile)
     n_seg, ks = env.config.params.n_seg, env.config.solver.to_kernel()
     rng = np.random.default_rng(1)
     blocks = rng.uniform(0.0, 5.0, (4, 5, 2))  # 5 one-second blocks
@@ -200,16 +201,16 @@ def test_graded_rollout_is_the_env_step_loop_on_equal_steps_and_close_on_long_on
     resolve = np.zeros(50, dtype=np.bool_)
     resolve[0] = True
     loads = np.zeros((n_seg, 2))
-    rollout_many_serial(snap.state, snap.kp, ks, np.ascontiguousarray(fine[:, :, 0]),
+    rollout_many_serial(state0, kp, ks, np.ascontiguousarray(fine[:, :, 0]),
                         np.ascontiguousarray(fine[:, :, 1]), np.zeros((50, n_seg, 2)), resolve,
                         0.1, 1, *ref)  # fmt: skip
     same = out(4, 50)
-    rollout_graded(snap.state, snap.kp, ks, np.ascontiguousarray(fine[:, :, 0]),
+    rollout_graded(state0, kp, ks, np.ascontiguousarray(fine[:, :, 0]),
                    np.ascontiguousarray(fine[:, :, 1]), loads, np.full(50, 0.1), *same)  # fmt: skip
     for a, b in zip(ref[1:], same[1:], strict=True):
         assert np.array_equal(a, b)
     coarse = out(4, 5)
-    rollout_graded(snap.state, snap.kp, ks, np.ascontiguousarray(blocks[:, :, 0]),
+    rollout_graded(state0, kp, ks, np.ascontiguousarray(blocks[:, :, 0]),
                    np.ascontiguousarray(blocks[:, :, 1]), loads, np.full(5, 1.0), *coarse)  # fmt: skip
     assert np.all(coarse[4] == 0)
     assert np.degrees(np.abs(coarse[1] - ref[1][:, 9::10])).max() < 1.0

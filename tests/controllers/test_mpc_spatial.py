@@ -62,8 +62,10 @@ def test_spatial_rollout_batch_equals_single_env_rollouts_with_the_same_voltages
     rec = np.empty((n, h, readings.record_size))
     status = np.empty(n, dtype=np.int64)
     cfg = env.config
+    # writable copies, as the MPC passes them (read-only arrays would compile the kernels once more)
+    state0, kp, kw, km = (np.array(a[name]) for name in ("states", "kps", "kws", "kms"))
     kernel(
-        snap.state, snap.kp, cfg.solver.to_kernel(), a["kws"], a["kms"], volts, lv, resolve,
+        state0, kp, cfg.solver.to_kernel(), kw, km, volts, lv, resolve,
         cfg.physics_dt, cfg.n_sub, work, rec, status,
     )  # fmt: skip
     assert (status == L.OK).all()
