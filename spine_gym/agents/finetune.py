@@ -4,7 +4,8 @@ plant by what the calibration leaves uncertain (several plants), fine-tune on ea
 The library is :mod:`spine_gym.agents.reality_gap`; this is its command line. Writes into ``-o``:
 ``scores.csv`` (the evaluation set's means per plant, row and group), ``finetune_seeds.csv`` (each
 fine-tuning run's rows), ``scenarios.csv`` (every controller's metrics per plant and scenario),
-``plant.csv`` and ``real_plant_shift<seed>.json`` (the shifted plants), ``selection.csv`` (the
+``plant.csv`` and ``real_plant_shift<seed>.json`` (the shifted plants, with ``--model-error`` the
+parameters the fit holds fixed that they set to other values), ``selection.csv`` (the
 learners on the tuning shifts), ``reality_gap.png``, ``summary.json`` (the recovered fraction pooled
 and per plant, the control arm, their bootstrap intervals, the target's verdict), ``command.txt``
 and the run folders ``pretrained/``, ``finetuned_shift<seed>_<training seed>/`` and
@@ -44,6 +45,7 @@ EXAMPLES = """
 spine-gym finetune --preset results/calibration/fit.json --quick -o rg_quick   # tiny budgets
 spine-gym finetune --preset results/calibration/fit.json -o rg
 spine-gym finetune --preset results/calibration/fit.json --pretrained rg/pretrained --pretrain-steps 0 -o rg2
+spine-gym finetune --preset results/calibration/fit.json --model-error T_E=303 a=0.0135 -o rg_warm
 """
 
 #: the budgets of ``--quick`` (a pipeline check in about a minute)
@@ -78,6 +80,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     add("--k", type=float, default=3.0, help="shift of every fit parameter [standard errors]")
     add("--shift-seeds", type=int, nargs="+", default=list(SHIFT_SEEDS),
         help="seeds of the shifts' signs, a 'real' plant each (not 101, 102: the tuning plants)")  # fmt: skip
+    add("--model-error", nargs="+", default=[], metavar="FIELD=VALUE",
+        help="parameters the fit holds fixed, set to VALUE on every shifted plant (a model error a "
+             "calibration cannot see, e.g. T_E=303 a=0.0135: a warmer room, a pore radius off by "
+             "0.5 mm); default: none")  # fmt: skip
     learners = ", ".join(LEARNERS)
     add("--learners", nargs="+", default=[DEFAULT_LEARNER],
         help=f"fine-tuning settings among {learners} (several: chosen on tuning plants)")  # fmt: skip
@@ -118,6 +124,7 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
             pretrained=args.pretrained,
             k=args.k,
             shift_seeds=tuple(args.shift_seeds),
+            model_error=parse_model_error(args.model_error),
             learners=tuple(args.learners),
             seed=args.seed,
             command=shlex.join(["spine-gym", "finetune", *argv]),
@@ -131,6 +138,21 @@ def main(argv: list[str] | None = None, prog: str = PROG) -> int:
         f"({summary['hardware_minutes']:.1f} min of hardware): {outcome_line(summary)}; wrote {args.out}/"
     )
     return 0
+
+
+def parse_model_error(items: list[str]) -> tuple[tuple[str, float], ...]:
+    """``FIELD=VALUE`` strings as (field, value) pairs (the fields and values are checked by the
+    study's config)."""
+    pairs = []
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            pairs.append((name.strip(), float(value)))
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ValueError(f"model_error: expected FIELD=VALUE (e.g. T_E=303), got {item!r}")
+    return tuple(pairs)
 
 
 def outcome_line(summary: dict) -> str:

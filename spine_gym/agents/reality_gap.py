@@ -6,8 +6,10 @@ The steps, each a function:
 * :func:`shift_plant` — the "real" plant: the fitted preset (shared parameters and per-wire values)
   with every fit parameter moved by ``k`` of its standard errors (default 3 σ), the sign of each
   move drawn from ``seed`` (:class:`PlantShift`; an unidentified parameter moves by ``k`` × the
-  standard deviation of its uniform draw). :func:`shift_plants`: the scored plants, one per sign
-  seed (default four). :func:`write_plant` saves one as a preset file.
+  standard deviation of its uniform draw), and optionally a *model error*: parameters the fit holds
+  fixed set to other values (:func:`check_model_error`; e.g. the ambient temperature of the room the
+  spine runs in, which a bench calibration cannot see). :func:`shift_plants`: the scored plants, one
+  per sign seed (default four). :func:`write_plant` saves one as a preset file.
 * :func:`pretrain` — PPO on the env id with ``domain_randomization=<preset>`` (every episode a
   plant drawn from the fit's covariance, per-wire values included), the plain ``-v1`` entry of
   ``hyperparams/ppo.yml`` (:func:`plain_entry`: no energy budget, no observation wrappers).
@@ -42,7 +44,8 @@ import numpy as np
 
 from spine_gym.csv_numbers import csv_row
 from spine_gym.envs import ENV_SPECS, config_of
-from spine_gym.layout import SpineLayout
+from spine_gym.layout import SpineLayout, wire_key
+from spine_gym.params import field_names
 from spine_gym.uncertainty import ParameterUncertainty, apply_offsets
 
 from .evaluation import evaluate
@@ -72,6 +75,7 @@ __all__ = [
     "StudyConfig",
     "shift_plant",
     "shift_plants",
+    "check_model_error",
     "write_plant",
     "plant_env_kwargs",
     "nominal_env_kwargs",
@@ -125,6 +129,9 @@ class PlantShift:
         k, seed: the size of the shift in standard errors and the seed of its signs.
         layout: the shifted spine (shared params and per-wire values).
         source: the preset file.
+        model_error: the parameters the fit holds fixed that this plant sets to other values
+            (:func:`check_model_error`), each with its preset value ({ModelParams field: the
+            preset's value}; the plant's value is in ``layout.params``); empty: none.
     """
 
     names: tuple[str, ...]
@@ -135,16 +142,20 @@ class PlantShift:
     seed: int
     layout: SpineLayout
     source: str = ""
+    model_error: dict = field(default_factory=dict)
 
     @property
     def shifted(self) -> np.ndarray:
         return self.fitted + self.offsets
 
     def rows(self) -> list[dict]:
-        """One row per parameter: name, fitted, sigma, shifted, offset in sigmas."""
-        return [
+        """One row per parameter: name, fitted, sigma, shifted, offset in sigmas, and ``kind``
+        (``fit``: a fit parameter; ``model_error``: a parameter the fit holds fixed, its preset value
+        as ``fitted``, no sigma: None)."""
+        fit = [
             {
                 "parameter": n,
+                "kind": "fit",
                 "fitted": float(f),
                 "sigma": float(s),
                 "shifted": float(f + o),
@@ -152,6 +163,18 @@ class PlantShift:
             }
             for n, f, s, o in zip(self.names, self.fitted, self.sigma, self.offsets, strict=True)
         ]
+        errors = [
+            {
+                "parameter": n,
+                "kind": "model_error",
+                "fitted": float(fitted),
+                "sigma": None,
+                "shifted": float(getattr(self.layout.params, n)),
+                "offset_sigma": None,
+            }
+            for n, fitted in self.model_error.items()
+        ]
+        return fit + errors
 
 
 def _sigmas(unc: ParameterUncertainty) -> np.ndarray:
@@ -173,8 +196,44 @@ def fitted_layout(unc: ParameterUncertainty) -> SpineLayout:
     return SpineLayout.seed(unc.params).with_wire_values([dict(v) for v in unc.wire_values])
 
 
-def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0) -> PlantShift:
-    """The fit's plant with every parameter moved by ``k`` standard errors, signs drawn from ``seed``.
+#: ModelParams fields that are the spine's structure, not a value a plant can have wrong
+STRUCTURE_FIELDS = ("n_w", "n_seg")
+
+
+def check_model_error(unc: ParameterUncertainty, model_error) -> dict[str, float]:
+    """``model_error`` ({ModelParams field: value}, or (field, value) pairs) validated against the fit:
+    every field one the fit holds fixed (not a fit parameter, shared or per wire, not
+    :data:`STRUCTURE_FIELDS`), every value finite and within the field's valid range; returns it as
+    {field: float}.
+
+    A model error is what a calibration cannot see: a parameter it never fits (e.g. ``a``, the pore
+    radius) or a condition that differs where the spine runs (``T_E``, the ambient temperature)."""
+    pairs = list(model_error.items() if isinstance(model_error, dict) else model_error)
+    fit = {n for n in unc.names if wire_key(n) is None}
+    # a per-wire fit value (eps0) overrides the shared field of the same name
+    fit |= {wire_key(n)[1] for n in unc.names if wire_key(n) is not None}
+    fixed = [f for f in field_names() if f not in fit and f not in STRUCTURE_FIELDS]
+    out: dict[str, float] = {}
+    for pair in pairs:
+        name, value = pair if isinstance(pair, tuple | list) and len(pair) == 2 else (pair, None)
+        if name not in fixed or name in out:
+            raise ValueError(
+                f"model_error: each field once, among the parameters the fit holds fixed {fixed}, "
+                f"got {name!r}"
+            )
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise ValueError(f"model_error: {name} must be a finite number, got {value!r}")
+        out[name] = float(value)
+    try:
+        unc.params.replace(**out)
+    except ValueError as e:
+        raise ValueError(f"model_error: {e}") from None
+    return out
+
+
+def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0, model_error=()) -> PlantShift:
+    """The fit's plant with every parameter moved by ``k`` standard errors, signs drawn from ``seed``,
+    and the parameters of ``model_error`` (:func:`check_model_error`) set to their values.
 
     The moves are clipped to the fit bounds; a shift that leaves the model's valid range raises
     ValueError (choose a smaller ``k``)."""
@@ -182,6 +241,7 @@ def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0) -> Pla
         raise ValueError(f"k (the shift in standard errors) must be in [0, 10], got {k!r}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    errors = check_model_error(unc, model_error)
     base = fitted_layout(unc)
     sigma = _sigmas(unc)
     signs = np.random.default_rng(int(seed)).choice([-1.0, 1.0], size=len(unc.names))
@@ -190,6 +250,8 @@ def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0) -> Pla
         layout = apply_offsets(base, unc.directions, offsets)
     except ValueError as e:
         raise ValueError(f"k: a {k:g}-sigma shift leaves the model's valid range ({e})") from None
+    if errors:  # rebuilt from the params: the wire groups take a changed pore radius too
+        layout = SpineLayout.seed(layout.params.replace(**errors)).with_wire_values(layout.wire_values)
     return PlantShift(
         names=tuple(unc.names),
         fitted=np.asarray(unc.values, dtype=float),
@@ -199,11 +261,15 @@ def shift_plant(unc: ParameterUncertainty, k: float = 3.0, seed: int = 0) -> Pla
         seed=int(seed),
         layout=layout,
         source=unc.source,
+        model_error={n: float(getattr(unc.params, n)) for n in errors},
     )
 
 
-def shift_plants(unc: ParameterUncertainty, k: float = 3.0, seeds=SHIFT_SEEDS) -> dict[str, PlantShift]:
-    """The scored plants: one :func:`shift_plant` per sign seed, named ``shift<seed>``, in the order given.
+def shift_plants(
+    unc: ParameterUncertainty, k: float = 3.0, seeds=SHIFT_SEEDS, model_error=()
+) -> dict[str, PlantShift]:
+    """The scored plants: one :func:`shift_plant` per sign seed, named ``shift<seed>``, in the order
+    given, each with the same ``model_error``.
 
     The seeds are fixed before anything is scored (never chosen by the size of their cost); they must
     be distinct and differ from the tuning plants' seeds (:data:`TUNING_SHIFT_SEEDS`)."""
@@ -218,7 +284,7 @@ def shift_plants(unc: ParameterUncertainty, k: float = 3.0, seeds=SHIFT_SEEDS) -
         raise ValueError(
             f"shift_seeds must not include the tuning plants' seeds {list(TUNING_SHIFT_SEEDS)}, got {tuning}"
         )
-    return {f"shift{s}": shift_plant(unc, k, s) for s in seeds}
+    return {f"shift{s}": shift_plant(unc, k, s, model_error) for s in seeds}
 
 
 def write_plant(shift: PlantShift, path: str | Path) -> Path:
@@ -227,7 +293,13 @@ def write_plant(shift: PlantShift, path: str | Path) -> Path:
     provenance = {
         "source": "spine_gym.agents.reality_gap",
         "layout": {"wire_values": shift.layout.wire_values},
-        "shift": {"preset": shift.source, "k": shift.k, "seed": shift.seed, "parameters": shift.rows()},
+        "shift": {
+            "preset": shift.source,
+            "k": shift.k,
+            "seed": shift.seed,
+            "model_error": {n: float(getattr(shift.layout.params, n)) for n in shift.model_error},
+            "parameters": shift.rows(),
+        },
     }
     return shift.layout.params.to_file(path, provenance=provenance)
 
@@ -439,11 +511,14 @@ def _validation_rmse(policy_dir: Path, plant: SpineLayout, env_id: str, n_episod
     return float(np.mean([r["rmse_deg"] for r in rows]))
 
 
-def tuning_plants(unc: ParameterUncertainty, k: float, seeds: tuple[int, ...] = TUNING_SHIFT_SEEDS) -> dict:
+def tuning_plants(
+    unc: ParameterUncertainty, k: float, seeds: tuple[int, ...] = TUNING_SHIFT_SEEDS, model_error=()
+) -> dict:
     """The plants a learner is chosen on: ``k``-sigma shifts with the seeds ``seeds`` (never the
-    scored plant's) and the fitted plant itself (a fine-tuning must not spoil a plant without a gap);
-    name -> :class:`SpineLayout`."""
-    return {**{f"shift{s}": shift_plant(unc, k, s).layout for s in seeds}, "fitted": fitted_layout(unc)}
+    scored plant's) and the scored plants' ``model_error``, and the fitted plant itself (a
+    fine-tuning must not spoil a plant without a gap); name -> :class:`SpineLayout`."""
+    shifted = {f"shift{s}": shift_plant(unc, k, s, model_error).layout for s in seeds}
+    return {**shifted, "fitted": fitted_layout(unc)}
 
 
 def select_learner(
@@ -790,6 +865,8 @@ class StudyConfig:
             fitted plant (``finetuned@nominal``).
         k, shift_seeds: the shift of the "real" plants in standard errors, and the seeds of their
             signs (one plant each, :func:`shift_plants`).
+        model_error: (field, value) pairs of parameters the fit holds fixed, set to ``value`` on
+            every shifted plant (:func:`check_model_error`); empty: the fit's uncertainty only.
         learners: candidate names of :data:`LEARNERS` (one: no selection; several: chosen by
             :func:`select_learner` on :func:`tuning_plants`).
         selection_episodes: validation episodes per tuning plant in the selection.
@@ -807,6 +884,7 @@ class StudyConfig:
     finetune_seeds: int = 4
     k: float = 3.0
     shift_seeds: tuple[int, ...] = SHIFT_SEEDS
+    model_error: tuple[tuple[str, float], ...] = ()
     learners: tuple[str, ...] = (DEFAULT_LEARNER,)
     selection_episodes: int = 10
     suite: str = "full"
@@ -838,7 +916,8 @@ class StudyConfig:
             raise ValueError(f"suite must be 'full' or 'quick', got {self.suite!r}")
         unc = ParameterUncertainty.from_file(self.preset)
         config_of(self.env_id, domain_randomization=unc)  # the preset fits the env's module
-        shift_plants(unc, self.k, self.shift_seeds)  # k, the seeds and the shifts within the model's range
+        # k, the seeds, the model error and the shifts within the model's range
+        shift_plants(unc, self.k, self.shift_seeds, self.model_error)
 
 
 def _write_csv(path: Path, rows: list[dict]) -> None:
@@ -858,7 +937,7 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     say = print if progress else (lambda *a, **k: None)
     unc = ParameterUncertainty.from_file(cfg.preset)
-    shifts = shift_plants(unc, cfg.k, cfg.shift_seeds)
+    shifts = shift_plants(unc, cfg.k, cfg.shift_seeds, cfg.model_error)
     plant_files = {name: str(write_plant(sh, out / f"real_plant_{name}.json")) for name, sh in shifts.items()}
     _write_csv(out / "plant.csv", [{"plant": name} | r for name, sh in shifts.items() for r in sh.rows()])
     pre = Path(cfg.pretrained) if cfg.pretrained else out / "pretrained"
@@ -871,7 +950,7 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     candidates = {n: LEARNERS[n] for n in cfg.learners}
     chosen, sel_rows = cfg.learners[0], []
     if len(candidates) > 1:
-        plants = tuning_plants(unc, cfg.k)
+        plants = tuning_plants(unc, cfg.k, model_error=cfg.model_error)
         say(f"choosing the learner among {list(candidates)} on the tuning plants {list(plants)}")
         chosen, sel_rows = select_learner(
             pre, plants, out / "selection", candidates=candidates,
@@ -915,6 +994,7 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
         "learner": chosen,
         "k": cfg.k,
         "shift_seeds": list(cfg.shift_seeds),
+        "model_error": dict(cfg.model_error),
         "suite": cfg.suite,
         "eval_episodes": cfg.eval_episodes,
         "finetune_steps": cfg.finetune_steps,
@@ -926,8 +1006,9 @@ def run_study(cfg: StudyConfig, *, progress: bool = False) -> dict:
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "command.txt").write_text(cfg.command + "\n")
+    error = "".join(f", {n} = {v:g}" for n, v in cfg.model_error)
     title = (
-        f"{cfg.env_id}: {len(shifts)} plants shifted by {cfg.k:g} sigma, "
+        f"{cfg.env_id}: {len(shifts)} plants shifted by {cfg.k:g} sigma{error}, "
         f"{cfg.finetune_steps} fine-tuning steps, {cfg.finetune_seeds} seeds per arm"
     )
     plot_scores(scores, summary, out / "reality_gap.png", title=title, runs=runs)

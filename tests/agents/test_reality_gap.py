@@ -4,6 +4,7 @@ end on a tiny budget; bad arguments are one-line errors naming the parameter."""
 
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from spine_gym.agents.reality_gap import (
     LEARNERS,
     Learner,
     StudyConfig,
+    check_model_error,
     fitted_layout,
     paired_gains,
     pooled_gains,
@@ -99,6 +101,52 @@ def test_the_scored_plants_are_one_k_sigma_shift_per_seed_reproducible_and_withi
     signs = {tuple(np.sign(s.offsets)) for s in plants.values()}
     assert len(signs) == 4  # four directions, none the same
     assert plants["shift0"].layout.wire_values != fitted_layout(unc).wire_values
+
+
+def test_a_model_error_sets_the_fixed_parameters_on_top_of_the_same_fit_shift(unc):
+    error = {"T_E": 303.0, "a": 0.0135}
+    plain, warm = shift_plants(unc, 3.0, (0, 1)), shift_plants(unc, 3.0, (0, 1), error)
+    for name, shift in warm.items():
+        np.testing.assert_array_equal(shift.offsets, plain[name].offsets)  # the fit's part unchanged
+        assert shift.layout.wire_values == plain[name].layout.wire_values
+        assert shift.layout.params == plain[name].layout.params.replace(**error)
+        assert {w.a for m in shift.layout.modules for w in m.wires} == {0.0135}  # the wires' lever arm too
+        assert shift.model_error == {"T_E": 293.0, "a": 0.014}  # the preset's values
+        rows = [r for r in shift.rows() if r["kind"] == "model_error"]
+        assert [(r["parameter"], r["fitted"], r["shifted"]) for r in rows] == [
+            ("T_E", 293.0, 303.0), ("a", 0.014, 0.0135)
+        ]
+        assert all(r["sigma"] is None for r in rows)
+    tuning = tuning_plants(unc, 3.0, model_error=error)
+    assert tuning["shift101"].params.T_E == 303.0 and tuning["fitted"].params.T_E == 293.0
+
+
+def test_the_written_plant_with_a_model_error_reads_back_with_it(unc, tmp_path):
+    shift = shift_plant(unc, 3.0, 0, [("T_E", 303.0)])
+    params, provenance = load_preset(write_plant(shift, tmp_path / "plant.json"))
+    assert params.T_E == 303.0 and params == shift.layout.params
+    assert provenance["shift"]["model_error"] == {"T_E": 303.0}
+
+
+@pytest.mark.parametrize(
+    "error, message",
+    [
+        ({"E_t": 3e7}, "model_error: each field once, among the parameters the fit holds fixed"),
+        ({"eps0": 0.05}, "model_error: each field once"),  # fitted per wire
+        ({"n_seg": 10}, "model_error: each field once"),  # the structure, not a value
+        ({"T_ambient": 300.0}, "model_error: each field once"),
+        ([("T_E", 300.0), ("T_E", 301.0)], "model_error: each field once"),
+        ({"T_E": float("nan")}, "model_error: T_E must be a finite number"),
+        ({"T_E": "warm"}, "model_error: T_E must be a finite number"),
+        ({"T_E": 1000.0}, "model_error: T_E must be in"),
+    ],
+    ids=["fit parameter", "per-wire fit value", "structure", "unknown", "repeated", "nan", "text", "range"],
+)
+def test_a_bad_model_error_names_the_parameter(unc, error, message):
+    with pytest.raises(ValueError, match="^" + re.escape(message)):
+        check_model_error(unc, error)
+    with pytest.raises(ValueError, match="^model_error"):
+        shift_plant(unc, 3.0, 0, error)
 
 
 @pytest.mark.parametrize(
@@ -303,6 +351,9 @@ BAD = {
     "repeated plant": (["--shift-seeds", "3", "3"], "shift_seeds must be 1 to 16 distinct integers"),
     "pretrained": (["--pretrain-steps", "0"], "pretrained: give a pretrained run folder"),
     "planar preset": (["--preset", str(ROOT / "docs" / "calibration" / "fit.json")], "preset: "),
+    "model error form": (["--model-error", "T_E"], "model_error: expected FIELD=VALUE"),
+    "model error value": (["--model-error", "T_E=warm"], "model_error: expected FIELD=VALUE"),
+    "model error field": (["--model-error", "E_t=3e7"], "model_error: each field once"),
 }
 
 
@@ -325,7 +376,7 @@ def test_the_study_config_refuses_what_the_command_line_would(tmp_path):
 def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     out = tmp_path / "rg"
     argv = ["finetune", "--preset", str(PRESET), "--quick", "--learners", *list(LEARNERS)[:2], "-o", str(out)]
-    assert cli.main([*argv, "--shift-seeds", "0", "1", "--no-progress"]) == 0
+    assert cli.main([*argv, "--shift-seeds", "0", "1", "--model-error", "T_E=298", "--no-progress"]) == 0
     printed = capsys.readouterr().out
     assert "fine-tuned on each shifted plant in 256 steps (0.4 min of hardware)" in printed
     assert "over 2 shifted plants the shift cost" in printed
@@ -371,9 +422,13 @@ def test_the_command_runs_end_to_end_on_a_tiny_budget(tmp_path, capsys):
     control = json.loads((out / "control_0" / "meta.json").read_text())
     assert control["plant"] == str(PRESET)  # the control arm: the fitted plant
     with open(out / "plant.csv") as f:
-        assert [r["plant"] for r in csv.DictReader(f)] == ["shift0"] * 14 + ["shift1"] * 14
+        plant_rows = list(csv.DictReader(f))
+    assert [r["plant"] for r in plant_rows] == ["shift0"] * 15 + ["shift1"] * 15  # 14 fit parameters, T_E
+    assert [r["kind"] for r in plant_rows[:15]] == ["fit"] * 14 + ["model_error"]
+    assert load_preset(out / "real_plant_shift1.json")[0].T_E == 298.0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["n_runs"] == 4 and summary["n_control_runs"] == 2
+    assert summary["model_error"] == {"T_E": 298.0}
     assert summary["plants"] == ["shift0", "shift1"]
     assert len(summary["recovered_fraction_ci95"]) == 2 and summary["verdict"]
     assert set(summary["per_plant"]) == {"shift0", "shift1"} and summary["per_plant"]["shift0"]["n_runs"] == 2
