@@ -37,6 +37,8 @@ from sbx import SAC
 from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.type_aliases import ReplayBufferSamples
 
+from .zoo_config import checked_number
+
 # bounds of the members' log-variance (soft, as in PETS/MBPO: keeps the NLL from rewarding a collapsed variance)
 MAX_LOGVAR, MIN_LOGVAR = 0.5, -10.0
 
@@ -471,15 +473,6 @@ def _checked_settings(
     rollout_horizon, rollout_batch_size, model_retain,
 ) -> dict:  # fmt: skip
     """MBPO's settings, checked (a ValueError naming the first out of range)."""
-
-    def checked_number(value, ok, message: str) -> float:
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            raise ValueError(message) from None
-        if not ok(number):
-            raise ValueError(message)
-        return number
 
     def integer(name, value, lo, hi=np.inf):
         v = checked_number(value, lambda x: x == int(x) and lo <= x <= hi, f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
